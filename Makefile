@@ -1,0 +1,29 @@
+# The two commands a user needs on a fresh machine: `make demo` and `make test`.
+# Each creates (or refreshes) .venv with Python 3.11 and installs the project into it.
+PYTHON ?= python3.11
+VENV   := .venv
+BIN    := $(VENV)/bin
+STAMP  := $(VENV)/.installed
+
+.PHONY: test demo bench venv clean
+
+$(STAMP): pyproject.toml
+	@command -v $(PYTHON) >/dev/null || { echo "error: $(PYTHON) not found; viewadapt needs Python 3.11 (bpy 5.0 requires it)"; exit 1; }
+	@test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
+	$(BIN)/python -m pip install --quiet --upgrade pip
+	$(BIN)/python -m pip install --quiet -e ".[test]"
+	@touch $(STAMP)
+
+venv: $(STAMP)
+
+test: $(STAMP)
+	$(BIN)/python -m pytest -q
+
+demo: $(STAMP)
+	$(BIN)/viewadapt demo --out demo-output
+
+bench: $(STAMP)
+	$(BIN)/python -m benchmark.perf.core
+
+clean:
+	rm -rf $(VENV) demo-output .pytest_cache

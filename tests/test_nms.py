@@ -1,0 +1,188 @@
+"""Tests for viewadapt.nms: hand cases, a plain-loop port of bbNms 'maxg', error paths."""
+
+import numpy as np
+import pytest
+
+from viewadapt.nms import non_maximum_suppression
+
+
+def _nms_maxg_loop(boxes, scores, overlap, ovr_dnm):
+    """Plain-loop port of the toolbox's nmsMaxg (greedy=1), returning original indices.
+
+    [~,ord]=sort(bbs(:,5),'descend') is stable in MATLAB; Python's sorted is stable too.
+    """
+    boxes = [list(map(float, b)) for b in boxes]
+    order = sorted(range(len(boxes)), key=lambda i: -scores[i])
+    kp = [True] * len(order)
+    for a in range(len(order)):
+        if not kp[a]:
+            continue
+        xi, yi, wi, hi = boxes[order[a]]
+        for b in range(a + 1, len(order)):
+            if not kp[b]:
+                continue
+            xj, yj, wj, hj = boxes[order[b]]
+            iw = min(xi + wi, xj + wj) - max(xi, xj)
+            if iw <= 0:
+                continue
+            ih = min(yi + hi, yj + hj) - max(yi, yj)
+            if ih <= 0:
+                continue
+            o = iw * ih
+            u = wi * hi + wj * hj - o if ovr_dnm == "union" else min(wi * hi, wj * hj)
+            if o / u > overlap:
+                kp[b] = False
+    return [order[a] for a in range(len(order)) if kp[a]]
+
+
+# ----------------------------------------------------------------------------- hand cases
+
+
+def test_identical_boxes_keep_the_best_one():
+    boxes = [[5, 5, 20, 40]] * 4
+    keep = non_maximum_suppression(boxes, [0.1, 0.7, 0.3, 0.2])
+    assert keep.tolist() == [1]
+
+
+def test_disjoint_boxes_all_kept_in_score_order():
+    boxes = [[0, 0, 10, 10], [20, 0, 10, 10], [0, 20, 10, 10], [10, 10, 5, 5]]  # touch only
+    keep = non_maximum_suppression(boxes, [0.2, 0.9, 0.5, 0.7], iou_threshold=0.0)
+    # Boxes sharing an edge have zero intersection: nothing is suppressed even at t = 0.
+    assert keep.tolist() == [1, 3, 2, 0]
+
+
+def test_empty_input_gives_empty_int_array():
+    keep = non_maximum_suppression(np.zeros((0, 4)), np.zeros(0))
+    assert keep.shape == (0,)
+    assert keep.dtype == np.intp
+    assert non_maximum_suppression([], []).dtype == np.intp
+
+
+def test_union_overlap_golden():
+    # [0,0,10,10] vs [5,0,10,10]: intersection 5*10 = 50, union 100+100-50 = 150, IoU 1/3.
+    boxes = [[0, 0, 10, 10], [5, 0, 10, 10]]
+    assert non_maximum_suppression(boxes, [1.0, 0.5], 0.5).tolist() == [0, 1]
+    assert non_maximum_suppression(boxes, [1.0, 0.5], 0.33).tolist() == [0]
+    assert non_maximum_suppression(boxes, [1.0, 0.5], 0.34).tolist() == [0, 1]
+
+
+def test_overlap_equal_to_threshold_is_kept():
+    # [0,0,10,10] vs [0,0,10,5]: intersection 50, union 100 -> IoU exactly 0.5; the toolbox
+    # suppresses only when o > overlap.
+    boxes = [[0, 0, 10, 10], [0, 0, 10, 5]]
+    assert non_maximum_suppression(boxes, [0.9, 0.8], 0.5).tolist() == [0, 1]
+    # Over the smaller area the overlap is 50 / 50 = 1.
+    assert non_maximum_suppression(boxes, [0.9, 0.8], 0.5, overlap="min").tolist() == [0]
+
+
+def test_min_overlap_suppresses_nested_box():
+    # [2,2,4,4] inside [0,0,10,10]: intersection 16, IoU 16/100 = 0.16, over min 16/16 = 1.
+    boxes = [[0, 0, 10, 10], [2, 2, 4, 4]]
+    assert non_maximum_suppression(boxes, [0.9, 0.8], 0.5).tolist() == [0, 1]
+    assert non_maximum_suppression(boxes, [0.9, 0.8], 0.65, overlap="min").tolist() == [0]
+    # The nested box scoring higher suppresses the big one too (the min is symmetric).
+    assert non_maximum_suppression(boxes, [0.1, 0.8], 0.65, overlap="min").tolist() == [1]
+
+
+def test_suppressed_box_suppresses_nothing():
+    # A=[0,0,10,10], B=[4,0,10,10], C=[8,0,10,10]; scores A > B > C.
+    # IoU(A,B) = 60/140 = 0.43 > 0.4 -> B out. IoU(B,C) = 0.43 would remove C, but B is
+    # already out; IoU(A,C) = 20/180 = 0.11 -> C stays (greedy 'maxg').
+    boxes = [[0, 0, 10, 10], [4, 0, 10, 10], [8, 0, 10, 10]]
+    assert non_maximum_suppression(boxes, [0.9, 0.8, 0.7], 0.4).tolist() == [0, 2]
+
+
+def test_tied_scores_keep_input_order():
+    boxes = [[0, 0, 10, 10], [0, 0, 10, 10], [50, 0, 10, 10]]
+    assert non_maximum_suppression(boxes, [0.5, 0.5, 0.5]).tolist() == [0, 2]
+
+
+def test_zero_area_boxes_are_never_suppressed():
+    boxes = [[0, 0, 10, 10], [3, 3, 0, 0], [3, 3, 0, 5]]
+    for overlap in ("union", "min"):
+        keep = non_maximum_suppression(boxes, [0.9, 0.8, 0.7], 0.0, overlap=overlap)
+        assert keep.tolist() == [0, 1, 2]
+
+
+# ----------------------------------------------------------------------------- properties
+
+
+def _random_boxes(rng, n):
+    # Integer coordinates on a small canvas: many overlaps, exact ties and duplicates.
+    xy = rng.integers(0, 40, size=(n, 2))
+    wh = rng.integers(0, 25, size=(n, 2))
+    boxes = np.hstack([xy, wh]).astype(np.float64)
+    scores = rng.integers(0, 8, size=n) / 8.0  # tied scores on purpose
+    return boxes, scores
+
+
+@pytest.mark.parametrize("overlap", ["union", "min"])
+@pytest.mark.parametrize("threshold", [0.0, 0.3, 0.5, 0.65, 1.0])
+def test_matches_plain_loop_on_random_boxes(overlap, threshold):
+    rng = np.random.default_rng(20170 + int(threshold * 100) + (overlap == "min"))
+    for _ in range(30):
+        n = int(rng.integers(0, 40))
+        boxes, scores = _random_boxes(rng, n)
+        fast = non_maximum_suppression(boxes, scores, threshold, overlap=overlap)
+        slow = _nms_maxg_loop(boxes, scores, threshold, overlap)
+        assert fast.tolist() == slow
+
+
+def test_kept_boxes_do_not_overlap_above_threshold_and_cover_the_rest():
+    rng = np.random.default_rng(7)
+    boxes, _ = _random_boxes(rng, 60)
+    scores = rng.permutation(60).astype(float)  # distinct scores
+    t = 0.4
+    keep = non_maximum_suppression(boxes, scores, t)
+    assert np.all(np.diff(scores[keep]) < 0)  # sorted by descending score
+
+    def iou(a, b):
+        iw = max(0.0, min(a[0] + a[2], b[0] + b[2]) - max(a[0], b[0]))
+        ih = max(0.0, min(a[1] + a[3], b[1] + b[3]) - max(a[1], b[1]))
+        u = a[2] * a[3] + b[2] * b[3] - iw * ih
+        return iw * ih / u if u > 0 else 0.0
+
+    kept = set(keep.tolist())
+    for i in kept:
+        for j in kept:
+            if i < j:
+                assert iou(boxes[i], boxes[j]) <= t
+    # Every removed box is suppressed by a kept box with a higher score.
+    for j in set(range(60)) - kept:
+        assert any(scores[i] > scores[j] and iou(boxes[i], boxes[j]) > t for i in kept)
+
+
+def test_permuting_inputs_permutes_indices():
+    rng = np.random.default_rng(3)
+    boxes, _ = _random_boxes(rng, 30)
+    scores = rng.random(30)
+    perm = rng.permutation(30)
+    keep = non_maximum_suppression(boxes, scores)
+    keep_p = non_maximum_suppression(boxes[perm], scores[perm])
+    assert perm[keep_p].tolist() == keep.tolist()
+
+
+def test_threshold_one_keeps_everything():
+    rng = np.random.default_rng(11)
+    boxes, scores = _random_boxes(rng, 25)
+    assert sorted(non_maximum_suppression(boxes, scores, 1.0).tolist()) == list(range(25))
+
+
+# ----------------------------------------------------------------------------- errors
+
+
+@pytest.mark.parametrize(
+    "boxes, scores, kwargs, match",
+    [
+        ([[0, 0, 1]], [1.0], {}, r"shape \(N, 4\)"),
+        ([[0, 0, -1, 2]], [1.0], {}, "negative box sizes"),
+        ([[0, 0, 1, np.nan]], [1.0], {}, "NaN or infinite"),
+        ([[0, 0, 1, 1]], [np.nan], {}, "scores contains NaN"),
+        ([[0, 0, 1, 1]], [1.0, 2.0], {}, r"different lengths \(2 != 1\)"),
+        ([[0, 0, 1, 1]], [1.0], {"iou_threshold": 1.5}, r"iou_threshold must lie in \[0, 1\]"),
+        ([[0, 0, 1, 1]], [1.0], {"overlap": "iou"}, "overlap must be one of"),
+    ],
+)
+def test_errors(boxes, scores, kwargs, match):
+    with pytest.raises(ValueError, match=match):
+        non_maximum_suppression(boxes, scores, **kwargs)
