@@ -275,9 +275,9 @@ def map_angles(theta, jacobian, rule: str = "covariant") -> np.ndarray:
 
     Parameters
     ----------
-    theta : (..., T) array_like
+    theta : (...) array_like
         Input-view angles, radians.
-    jacobian : (..., 2, 2) array_like
+    jacobian : (..., 2, 2) array_like, its leading axes broadcast against ``theta``
         ``J = d(input coords) / d(output coords)`` at the point (the Jacobian of
         ``H_out_to_in``).
     rule : {"covariant", "paper", "none"}
@@ -288,7 +288,7 @@ def map_angles(theta, jacobian, rule: str = "covariant") -> np.ndarray:
 
     Returns
     -------
-    (..., T) ndarray of output-view angles in ``[0, pi)``.
+    ndarray of output-view angles in ``[0, pi)``, the broadcast shape.
     """
     theta = np.asarray(theta, dtype=np.float64)
     if rule == "none":
@@ -300,8 +300,8 @@ def map_angles(theta, jacobian, rule: str = "covariant") -> np.ndarray:
         M = np.linalg.inv(J)
     else:
         raise ValueError(f"rule must be one of {ANGLE_RULES}, got {rule!r}")
-    u = np.stack([np.cos(theta), np.sin(theta)], axis=-1)             # (..., T, 2)
-    v = np.einsum("...ij,...tj->...ti", M, u)
+    u = np.stack([np.cos(theta), np.sin(theta)], axis=-1)[..., None]  # (..., 2, 1)
+    v = (M @ u)[..., 0]
     return np.mod(np.arctan2(v[..., 1], v[..., 0]), np.pi)
 
 
@@ -355,7 +355,7 @@ def orientation_remap_matrix(jacobian, n_bins: int = 9, rule: str = "covariant")
         A = np.broadcast_to(np.eye(n_bins), (len(J), n_bins, n_bins)).copy()
         return A[0] if single else A
     edges = np.arange(n_bins + 1) * (np.pi / n_bins)
-    mapped = map_angles(np.broadcast_to(edges, (len(J), n_bins + 1)), J, rule)  # (K, B+1)
+    mapped = map_angles(np.broadcast_to(edges, (len(J), n_bins + 1)), J[:, None], rule)  # (K, B+1)
     # An orientation-preserving linear map moves angles monotonically (mod pi), so the
     # mapped bin j is the interval from mapped[j] going forward to mapped[j+1].
     scale = n_bins / np.pi
