@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Sequence
+from collections.abc import Sequence
 
 import numpy as np
 
@@ -339,8 +339,11 @@ def match_detections(dt_boxes, dt_scores, gt_boxes, gt_ignore=None, iou_threshol
 
     (the detection matches some sub-window of the region); if that overlap reaches the
     threshold the detection is ignored (neither TP nor FP). An ignore region can absorb any
-    number of detections. Anything else is a false positive. Among equal overlaps the
-    ground truth listed last wins, as in the toolbox's ``if(oa<bstOa) continue`` loop.
+    number of detections. Anything else is a false positive. Among regular ground truths
+    with equal overlaps the one listed last wins (the toolbox's loop replaces its best match
+    when ``oa >= bstOa``); among ignore regions the first one listed that reaches the
+    threshold takes the detection (the loop stops there). Only ``dt_gt_index`` and
+    ``gt_matched`` depend on these tie rules, never the labels.
 
     Unlike ``dbEval`` we do not filter boxes by height or resize them to a fixed aspect
     ratio: set ``gt_ignore`` and filter detections before calling.
@@ -373,23 +376,24 @@ def match_detections(dt_boxes, dt_scores, gt_boxes, gt_ignore=None, iou_threshol
         ignored = np.flatnonzero(ignore)
         oa_reg = oa[:, regular]
         oa_ign = oa[:, ignored]
-        # Reversed columns so that argmax (first maximum) picks the last gt among ties.
         taken = np.zeros(regular.size, dtype=bool)
         for d in np.argsort(-scores, kind="stable"):
             if regular.size:
                 cand = np.where(taken, -1.0, oa_reg[d])
+                # argmax over reversed columns: the last gt among equal overlaps, as the
+                # toolbox updates its best match on oa >= bstOa.
                 k = regular.size - 1 - int(np.argmax(cand[::-1]))
                 if cand[k] >= thr:
                     taken[k] = True
                     labels[d] = 1
                     gt_index[d] = regular[k]
                     continue
-            if ignored.size:
-                row = oa_ign[d]
-                k = ignored.size - 1 - int(np.argmax(row[::-1]))
-                if row[k] >= thr:
-                    labels[d] = -1
-                    gt_index[d] = ignored[k]
+            # No regular match: the first ignore region reaching the threshold absorbs the
+            # detection (the toolbox loop breaks as soon as bstm ~= 0 on an ignore gt).
+            hits = np.flatnonzero(oa_ign[d] >= thr)
+            if hits.size:
+                labels[d] = -1
+                gt_index[d] = ignored[hits[0]]
         matched[regular[taken]] = True
         hit = gt_index[labels == -1]
         matched[hit] = True
