@@ -197,3 +197,26 @@ def test_errors():
         CellGrid.for_window(60, 128, 8)
     with pytest.raises(ValueError, match="preserve"):
         cell_remap_matrix(np.eye(3), G8, G8, preserve="max")
+
+
+def test_bin_offset_shifts_bins():
+    # a rotation by exactly one bin width moves bin j to bin j+1 whatever the offset
+    t = np.pi / 6
+    R = np.array([[np.cos(t), -np.sin(t)], [np.sin(t), np.cos(t)]])
+    for off in (0.0, -0.5):
+        A = orientation_remap_matrix(R, 6, "covariant", bin_offset=off)
+        # covariant with J = R maps angle a to a - t (J^T = R^-1): bin j -> bin j-1
+        assert np.allclose(A, np.roll(np.eye(6), -1, axis=0), atol=1e-9)
+    # a half-bin rotation splits each bin in two equally, for either offset
+    R2 = np.array([[np.cos(t / 2), -np.sin(t / 2)], [np.sin(t / 2), np.cos(t / 2)]])
+    assert np.allclose(orientation_remap_matrix(R2, 6, bin_offset=-0.5).max(), 0.5)
+
+
+def test_bin_offset_by_hand():
+    # J = diag(1, 0.5), covariant: tan(out) = 0.5 tan(in). ACF bins centred on k*30 deg:
+    # input bin 1 = [15, 45] deg -> [atan(.5 tan 15), atan(.5)] = [7.63, 26.57] deg, of
+    # which 15 - 7.63 falls in output bin 0 = [-15, 15]
+    A = orientation_remap_matrix(np.diag([1.0, 0.5]), 6, bin_offset=-0.5)
+    lo, hi = np.rad2deg(np.arctan(0.5 * np.tan(np.deg2rad([15.0, 45.0]))))
+    assert np.isclose(A[0, 1], (15 - lo) / (hi - lo))
+    assert np.isclose(A[0, 0], 1.0)  # [-15, 15] shrinks towards 0, stays in bin 0

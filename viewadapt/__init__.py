@@ -1,2 +1,50 @@
-"""viewadapt: viewpoint adaptation for rigid object detectors (Wang et al. 2017)."""
+"""viewadapt: viewpoint adaptation for rigid object detectors (Wang et al. 2017).
+
+A person seen from an elevated camera is approximately a plane warped by a homography.
+Instead of warping every candidate window into the training view (Li et al. 2008), remap
+the features with ``G = S (x) A`` -- cell resampling by exact area overlaps, orientation
+resampling by mapped bin intervals -- and, for a linear classifier, fold it into the
+weights: ``w' = G^T w``.
+
+Modules (public names are re-exported here):
+
+* :mod:`viewadapt.geometry` -- cameras, the planar person model, homographies, Jacobians.
+* :mod:`viewadapt.hog`, :mod:`viewadapt.acf` -- features with their linear part exposed.
+* :mod:`viewadapt.featuremap` -- dense per-frame feature maps.
+* :mod:`viewadapt.remap` -- ``S``, ``A``, ``G``.
+* :mod:`viewadapt.adapt` -- classifier adaptation and the adapted-classifier wrapper.
+* :mod:`viewadapt.warp` -- the image-warping baseline.
+* :mod:`viewadapt.classifiers`, :mod:`viewadapt.boosting` -- linear SVM, boosted trees.
+* :mod:`viewadapt.metrics`, :mod:`viewadapt.nms` -- evaluation.
+
+``import viewadapt`` never imports Blender (bpy), torch or anny.
+"""
+
 __version__ = "0.1.0"
+
+from .acf import *  # noqa: F401,F403
+from .acf import __all__ as _acf_all
+from .adapt import *  # noqa: F401,F403
+from .adapt import __all__ as _adapt_all
+from .boosting import *  # noqa: F401,F403
+from .boosting import __all__ as _boosting_all
+from .classifiers import *  # noqa: F401,F403
+from .classifiers import __all__ as _classifiers_all
+from .featuremap import *  # noqa: F401,F403
+from .featuremap import __all__ as _featuremap_all
+from .geometry import *  # noqa: F401,F403
+from .geometry import __all__ as _geometry_all
+from .hog import *  # noqa: F401,F403
+from .hog import __all__ as _hog_all
+from .metrics import *  # noqa: F401,F403
+from .metrics import __all__ as _metrics_all
+from .nms import *  # noqa: F401,F403
+from .nms import __all__ as _nms_all
+from .remap import *  # noqa: F401,F403
+from .remap import __all__ as _remap_all
+from .warp import *  # noqa: F401,F403
+from .warp import __all__ as _warp_all
+
+__all__ = sorted(set(_acf_all + _adapt_all + _boosting_all + _classifiers_all
+                     + _featuremap_all + _geometry_all + _hog_all + _metrics_all + _nms_all
+                     + _remap_all + _warp_all))

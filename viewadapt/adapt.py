@@ -109,8 +109,9 @@ def acf_remap_matrix(H_st, *, shrink: int = 4, window=(WINDOW_WIDTH, WINDOW_HEIG
     grid = CellGrid.for_window(w, h, shrink)
     n = grid.n_cells
     S = feature_remap_matrix(H_st, grid, grid, n_bins=1, preserve="mean")
+    # ACF orientation bin k is centred on k pi / n_orients (viewadapt.acf)
     GO = feature_remap_matrix(H_st, grid, grid, n_bins=n_orients, rule=rule,
-                              per_cell=per_cell, preserve="mean")
+                              per_cell=per_cell, preserve="mean", bin_offset=-0.5)
     P = _bin_major_permutation(n, n_orients)
     GO = P @ GO @ P.T                                  # -> (bin, cell) layout
     return sp.block_diag([S] * n_color + [GO], format="csr")

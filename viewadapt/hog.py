@@ -123,8 +123,9 @@ def _orientation_channels_from_gradients(dx, dy, n_bins):
     M, N = mag.shape
     O = np.zeros((M, N, n_bins))
     rows, cols = np.indices((M, N))
-    np.add.at(O, (rows, cols, lo), mag * (1.0 - frac))
-    np.add.at(O, (rows, cols, hi), mag * frac)
+    # lo != hi for every pixel, so neither fancy assignment repeats an index
+    O[rows, cols, lo] = mag * (1.0 - frac)
+    O[rows, cols, hi] += mag * frac
     return O
 
 

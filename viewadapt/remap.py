@@ -319,7 +319,8 @@ def _bin_overlaps(start, length, n_bins):
     return out
 
 
-def orientation_remap_matrix(jacobian, n_bins: int = 9, rule: str = "covariant") -> np.ndarray:
+def orientation_remap_matrix(jacobian, n_bins: int = 9, rule: str = "covariant", *,
+                             bin_offset: float = 0.0) -> np.ndarray:
     """Orientation-bin resampling ``A`` (Wang et al. 2017, eq. (3)-(4)).
 
     The edges of each input bin ``j``, ``[j pi/B, (j+1) pi/B)``, are mapped into the output
@@ -336,6 +337,9 @@ def orientation_remap_matrix(jacobian, n_bins: int = 9, rule: str = "covariant")
         Jacobian(s) of ``H_out_to_in`` (one per output cell for the per-cell form).
     n_bins : int
     rule : {"covariant", "paper", "none"}
+    bin_offset : float
+        Bin ``j`` covers ``[(j + bin_offset) pi/B, (j + 1 + bin_offset) pi/B)``: 0 for
+        HOG (OpenCV's centres at ``(j + 1/2) pi/B``), -0.5 for ACF (centres at ``j pi/B``).
 
     Returns
     -------
@@ -354,12 +358,12 @@ def orientation_remap_matrix(jacobian, n_bins: int = 9, rule: str = "covariant")
     if rule == "none":
         A = np.broadcast_to(np.eye(n_bins), (len(J), n_bins, n_bins)).copy()
         return A[0] if single else A
-    edges = np.arange(n_bins + 1) * (np.pi / n_bins)
+    edges = (np.arange(n_bins + 1) + bin_offset) * (np.pi / n_bins)
     mapped = map_angles(np.broadcast_to(edges, (len(J), n_bins + 1)), J[:, None], rule)  # (K, B+1)
     # An orientation-preserving linear map moves angles monotonically (mod pi), so the
     # mapped bin j is the interval from mapped[j] going forward to mapped[j+1].
     scale = n_bins / np.pi
-    start = mapped[:, :-1] * scale
+    start = mapped[:, :-1] * scale - bin_offset
     length = np.mod(mapped[:, 1:] - mapped[:, :-1], np.pi) * scale
     length = np.where(length <= 0, 1e-12, length)
     ov = _bin_overlaps(start, length, n_bins)                    # (K, in_bin, out_bin)
@@ -372,7 +376,8 @@ def orientation_remap_matrix(jacobian, n_bins: int = 9, rule: str = "covariant")
 
 def feature_remap_matrix(H_out_to_in, out_grid: CellGrid, in_grid: CellGrid, *,
                          n_bins: int = 9, rule: str = "covariant", per_cell: bool = True,
-                         anchor=None, preserve: str = "sum") -> sp.csr_matrix:
+                         anchor=None, preserve: str = "sum",
+                         bin_offset: float = 0.0) -> sp.csr_matrix:
     """HOG-like feature remapping ``G = S (x) A`` (eq. (5)), or its per-cell refinement.
 
     Parameters
@@ -392,6 +397,8 @@ def feature_remap_matrix(H_out_to_in, out_grid: CellGrid, in_grid: CellGrid, *,
         Output-view point for the single ``A``; default the centre of ``out_grid``.
     preserve : {"sum", "mean"}
         See :func:`cell_remap_matrix`.
+    bin_offset : float
+        See :func:`orientation_remap_matrix`.
 
     Returns
     -------
@@ -407,9 +414,10 @@ def feature_remap_matrix(H_out_to_in, out_grid: CellGrid, in_grid: CellGrid, *,
             x0, y0, x1, y1 = out_grid.bounds()
             anchor = ((x0 + x1) / 2, (y0 + y1) / 2)
         A = orientation_remap_matrix(homography_jacobian(H, np.asarray(anchor, float)),
-                                     n_bins, rule)
+                                     n_bins, rule, bin_offset=bin_offset)
         return sp.kron(S, sp.csr_matrix(A), format="csr")
-    A = orientation_remap_matrix(homography_jacobian(H, out_grid.centers()), n_bins, rule)
+    A = orientation_remap_matrix(homography_jacobian(H, out_grid.centers()), n_bins, rule,
+                                 bin_offset=bin_offset)
     B = n_bins
     # entries (k, l, i, j) -> value S_kl * A_k[i, j]
     vals = S.data[:, None, None] * A[S.row]                           # (nnz, B, B)

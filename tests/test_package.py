@@ -1,0 +1,60 @@
+import subprocess
+import sys
+
+import pytest
+
+import viewadapt
+from viewadapt.cli import main
+
+
+def test_import_never_pulls_blender_or_torch():
+    code = ("import sys, viewadapt; bad = [m for m in ('bpy', 'torch', 'anny', 'benchmark') "
+            "if m in sys.modules]; print(bad); sys.exit(1 if bad else 0)")
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert r.returncode == 0, r.stdout + r.stderr
+
+
+def test_public_names_exist():
+    for name in viewadapt.__all__:
+        assert hasattr(viewadapt, name), name
+    for name in ("feature_remap_matrix", "adapt_linear_weights", "hog_descriptor",
+                 "acf_channels", "log_average_miss_rate", "ViewpointAdaptedClassifier"):
+        assert name in viewadapt.__all__
+
+
+def test_cli_help_and_version(capsys):
+    with pytest.raises(SystemExit) as e:
+        main(["--help"])
+    assert e.value.code == 0
+    assert "fidelity" in capsys.readouterr().out
+    with pytest.raises(SystemExit):
+        main(["--version"])
+    assert "viewadapt" in capsys.readouterr().out
+    assert main([]) == 2
+
+
+def test_cli_bad_input_is_one_line_error(tmp_path, capsys):
+    f = tmp_path / "file"
+    f.write_text("x")
+    assert main(["fidelity", "--out", str(f), "--windows", "1"]) == 2
+    err = capsys.readouterr().err
+    assert "not a directory" in err and "Traceback" not in err
+    assert main(["fidelity", "--out", str(tmp_path / "o"), "--windows", "0"]) == 2
+    assert not (tmp_path / "o").exists()
+
+
+def test_cli_fidelity_writes_everything(tmp_path):
+    out = tmp_path / "fid"
+    assert main(["fidelity", "--out", str(out), "--windows", "1", "--synthetic", "1"]) == 0
+    names = {p.name for p in out.iterdir()}
+    for want in ("fidelity_summary.csv", "fidelity_summary.md", "fidelity_windows.csv",
+                 "fidelity_8px.png", "fidelity_8px.pdf", "remap_illustration.png",
+                 "metadata.json"):
+        assert want in names
+    assert not [p for p in tmp_path.iterdir() if p.name.startswith(".fid.partial")]
+    import json
+    import pandas as pd
+    assert json.loads((out / "metadata.json").read_text())["seed"] == 0
+    s = pd.read_csv(out / "fidelity_summary.csv")
+    assert {"feature", "rule", "form", "median", "p10"} <= set(s.columns)
+    assert set(s["rule"]) == {"unadapted", "covariant", "paper", "none"}
