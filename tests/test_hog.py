@@ -10,14 +10,12 @@ from viewadapt.hog import (
     orientation_channels,
 )
 
-# Parity tolerances against OpenCV, measured (see README "HOG parity"): on grayscale windows
-# our "opencv" method matches to float32 rounding; on colour windows OpenCV's SIMD code
-# breaks exact magnitude ties between channels differently after rounding and uses a fast
-# atan2 (~0.3 deg), which moves a few descriptor values by up to ~0.1.
-GRAY_DESC_ATOL = 2e-3
-COLOR_DESC_P99 = 0.02
-COLOR_DESC_MAX = 0.15
-SCORE_ATOL = 0.05
+# Parity tolerances against OpenCV, measured on 300 windows each of three sample images,
+# grey and colour (README, "HOG parity"): descriptor max |diff| 6.7e-4, people-detector score
+# max |diff| 1.5e-3. What remains is OpenCV's fast atan2 (about 0.01 degrees here), which
+# moves orientation-bin weights slightly; magnitudes and channel choice match exactly.
+DESC_ATOL = 2e-3
+SCORE_ATOL = 5e-3
 
 
 def _windows(n, rng, gray=False):
@@ -46,6 +44,17 @@ def test_orientation_channels_bins_by_hand():
     # a 90-degree rotation moves that energy to bins 4 (90 deg) only
     O90 = orientation_channels(img.T.copy())
     assert np.allclose(O90[3, 3, 4], 40) and np.allclose(O90[3, 3].sum(), 40)
+
+
+def test_colour_channel_ties_go_to_the_first_channel():
+    # OpenCV keeps the first channel of largest magnitude: here all three tie exactly
+    img = np.zeros((3, 3, 3), np.uint8)
+    img[1, 2] = (4, 0, 4)      # channel 0 and 2: dx = 2 (after sqrt gamma), dy = 0
+    img[1, 0] = (0, 0, 0)
+    img[2, 1, 1] = 4           # channel 1: dx = 0, dy = 2 -> same magnitude
+    img[1, 2, 1] = 0
+    dx, dy = image_gradients(img, gamma=True, dtype=np.float32)
+    assert dx[1, 1] == 2 and dy[1, 1] == 0
 
 
 def test_orientation_channels_sum_to_magnitude():
@@ -94,7 +103,7 @@ def test_opencv_parity_gray():
     for win in _windows(10, np.random.default_rng(3), gray=True):
         ours = hog_descriptor(win, method="opencv")
         theirs = hog.compute(win).ravel()
-        assert np.abs(ours - theirs).max() < GRAY_DESC_ATOL
+        assert np.abs(ours - theirs).max() < DESC_ATOL
 
 
 def test_opencv_parity_color_and_people_detector_scores():
@@ -107,9 +116,7 @@ def test_opencv_parity_color_and_people_detector_scores():
         theirs = hog.compute(win).ravel()
         diffs.append(np.abs(ours - theirs))
         score_diffs.append(abs((w @ ours + b) - (w @ theirs + b)))
-    diffs = np.concatenate(diffs)
-    assert np.percentile(diffs, 99) < COLOR_DESC_P99
-    assert diffs.max() < COLOR_DESC_MAX
+    assert np.concatenate(diffs).max() < DESC_ATOL
     assert max(score_diffs) < SCORE_ATOL
 
 

@@ -77,10 +77,9 @@ def image_gradients(image, *, gamma: bool = False,
     if img.shape[2] == 1:
         return dx[:, :, 0], dy[:, :, 0]
     mag2 = dx * dx + dy * dy
-    # OpenCV scans channels last-to-first and switches only on a strictly larger
-    # magnitude, so ties go to the last channel: argmax over the reversed channels.
-    n_ch = img.shape[2]
-    best = (n_ch - 1 - np.argmax(mag2[:, :, ::-1], axis=2))[:, :, None]
+    # OpenCV keeps the first channel with the largest float32 magnitude (a later channel
+    # must be strictly larger to win), which is what argmax does.
+    best = np.argmax(mag2, axis=2)[:, :, None]
     return (np.take_along_axis(dx, best, axis=2)[:, :, 0],
             np.take_along_axis(dy, best, axis=2)[:, :, 0])
 
