@@ -20,7 +20,7 @@ Two levels are provided, as in :mod:`viewadapt.hog`:
 * **Aggregation** (:func:`aggregate_channels`): a block mean over ``shrink`` x ``shrink``
   pixels followed by a triangle smoothing -- both linear in the pixel channels. An
   aggregated channel value is therefore a weighted sum of pixel-channel values over a
-  rectangle (a Haar-like feature in the sense of Wang et al. 2017, Sec. 3.1), and the
+  rectangle (a Haar-like feature in the sense of Wang et al. 2017, Sec. 3.2), and the
   orientation channels are HOG-like; that is what lets a viewpoint remapping
   ``G = S (x) A`` act on ACF features.
 
@@ -44,7 +44,7 @@ Departures from the toolbox:
   linearly between the two nearest orientation bins (``gradQuantize`` with
   ``interpolate = softBin >= 0``); hard nearest-bin assignment is its ``softBin = -2``.
   Here the default is hard assignment (``interpolate_orientation=False``), because the
-  paper's angle remapping (Wang et al. 2017, Sec. 3.1, Fig. 3 right) treats each bin as
+  paper's angle remapping (Wang et al. 2017, Sec. 3.2, Fig. 3 right) treats each bin as
   an interval of angles; pass ``interpolate_orientation=True`` for the toolbox default.
 * **L channel.** The toolbox reads ``L`` from a 1025-entry lookup table indexed by
   ``floor(1024 * Y)``; we evaluate the CIE formula exactly. The difference is below
@@ -62,7 +62,7 @@ References
 .. [2] P. Dollár, "Piotr's Computer Vision Matlab Toolbox", version 3.x:
    ``chnsCompute.m``, ``rgbConvertMex.cpp``, ``gradientMex.cpp``, ``convTri.m``.
 .. [3] P. Wang, K. Morton, P. Torrione, L. Collins, "Viewpoint Adaptation for Rigid
-   Object Detection", arXiv:1702.07451, 2017.
+   Object Detection", arXiv preprint, 2017.
 """
 
 from __future__ import annotations
@@ -290,7 +290,7 @@ def acf_pixel_channels(image, *, shrink: int = 4, n_orients: int = 6,
         \\tilde M = \\frac{M}{\\mathrm{convTri}(M, r_{norm}) + \\epsilon}, \\qquad
         O_k = \\tilde M \\, [\\mathrm{round}(\\theta\\, n/\\pi) \\bmod n = k]
 
-    (Dollár et al. 2014, Sec. 2; toolbox ``gradientMag`` / ``gradientHist``).
+    (Dollár et al. 2014; toolbox ``gradientMag`` / ``gradientHist``).
     Derivatives are central differences ``(I[i+1] - I[i-1]) / 2`` and one-sided
     differences on the first and last row / column (toolbox ``grad1``).
 
@@ -420,7 +420,7 @@ def aggregate_channels(pixel_channels, shrink: int = 4, smooth_channels: float =
     Notes
     -----
     Block means and the triangle filter are sums of pixel values over rectangles with
-    fixed weights (Haar-like features, Wang et al. 2017, Sec. 3.1), so a viewpoint
+    fixed weights (Haar-like features, Wang et al. 2017, Sec. 3.2), so a viewpoint
     remapping of the aggregated channels is a linear map of the pixel channels. The one
     non-linear step of ACF that is not a pure per-pixel function of the image, the
     magnitude normalisation ``M / (convTri(M, 5) + 0.005)``, is applied per pixel in

@@ -6,7 +6,7 @@ decision trees on quantised features, class-balanced initial weights, and at run
 *soft cascade* that stops summing trees for a window as soon as its running score drops to
 the cascade threshold.
 
-For viewpoint adaptation (Wang et al. 2017, Sec. 3.2) a non-linear classifier cannot absorb
+For viewpoint adaptation (Wang et al. 2017, Sec. 4) a non-linear classifier cannot absorb
 the feature remapping ``x_source ~= G x_target`` into its parameters, so the remapping is
 applied at run time -- but only to the features the trees actually read:
 :attr:`AdaBoostTrees.used_features_` lists them and
@@ -22,7 +22,7 @@ References
    view of boosting", Annals of Statistics 28(2), 2000 (Real AdaBoost).
 .. [4] L. Bourdev, J. Brandt, "Robust Object Detection via Soft Cascade", CVPR 2005.
 .. [5] P. Wang, K. Morton, P. Torrione, L. Collins, "Viewpoint Adaptation for Rigid
-   Object Detection", arXiv:1702.07451, 2017.
+   Object Detection", arXiv preprint, 2017.
 """
 
 from __future__ import annotations
@@ -137,9 +137,11 @@ class AdaBoostTrees(ClassifierMixin, BaseEstimator):
       precision; the chosen split's gain and the leaf outputs are recomputed in float64.
 
     Training cost is dominated by one pass over the ``n_samples x n_features`` quantised
-    matrix per tree level (sparse one-hot histograms); memory is about 8 bytes per
-    ``n_samples x n_features`` entry. About 0.1 s per depth-2 tree for 2000 samples x 5000
-    features on one core.
+    matrix per tree level (sparse one-hot histograms, the smaller child's only; its
+    sibling's is the parent's minus it); besides ``X``, memory is about 9 bytes per
+    ``n_samples x n_features`` entry. Measured on one core: 2000 samples x 5000 features x
+    64 depth-2 trees in about 8 s (1.5 s of it quantisation and set-up), 2 s with
+    ``max_features=1/16``.
 
     Examples
     --------
@@ -282,8 +284,10 @@ class AdaBoostTrees(ClassifierMixin, BaseEstimator):
             n_trained = t + 1
             log_w = log_w0 - margin
             top = log_w.max()
-            losses[t] = np.exp(top) * np.exp(log_w - top).sum()
-            if losses[t] < _MIN_LOSS:
+            log_loss = top + np.log(np.exp(log_w - top).sum())
+            with np.errstate(over="ignore", under="ignore"):
+                losses[t] = np.exp(log_loss)
+            if log_loss < np.log(_MIN_LOSS):
                 break
         if n_trained == 0:
             raise ValueError("the first tree's weighted error is 1/2 or more; discrete "
@@ -336,7 +340,8 @@ class AdaBoostTrees(ClassifierMixin, BaseEstimator):
         -------
         labels : (n_samples,) ndarray
         """
-        return self.classes_[(self.decision_function(X) > 0).astype(np.intp)]
+        scores = self.decision_function(X)
+        return self.classes_[(scores > 0).astype(np.intp)]
 
     def staged_decision_function(self, X):
         """Scores after each of ``stages`` trees (as if the model stopped there).
@@ -361,7 +366,7 @@ class AdaBoostTrees(ClassifierMixin, BaseEstimator):
         """Scores of target-view features through a source-from-target remapping.
 
         Computes ``decision_function((G @ X_target.T).T)`` while evaluating only the rows
-        of ``G`` that the trees read (Wang et al. 2017, Sec. 3.2, Algorithm 2: the
+        of ``G`` that the trees read (Wang et al. 2017, Sec. 4, Algorithm 2: the
         features are remapped, :math:`f(w) \\to G f(w)`, then classified):
 
         .. math:: H(G x) = \\sum_t h_t\\big((G_{U} x)\\big), \\qquad
@@ -396,8 +401,7 @@ class AdaBoostTrees(ClassifierMixin, BaseEstimator):
         if X_target.shape[1] != G.shape[1]:
             raise ValueError(f"X_target has {X_target.shape[1]} features but G maps "
                              f"{G.shape[1]} target features")
-        if sp.issparse(G) and not np.all(np.isfinite(G.data)) or \
-                not sp.issparse(G) and not np.all(np.isfinite(G)):
+        if not np.all(np.isfinite(G.data if sp.issparse(G) else G)):
             raise ValueError("G contains NaN or infinite values")
         Gu = G[used]
         Xs = np.asarray(Gu @ X_target.T, dtype=np.float64).T     # (n_samples, n_used)
@@ -505,9 +509,11 @@ def _one_hot_by_bin(Xq, n_bins):
     the samples whose feature ``f`` falls in bin ``b``. ``op @ w`` is every feature's
     weighted histogram at once."""
     m, d = Xq.shape
-    cols = (np.arange(d, dtype=np.int64) * n_bins)[None, :] + Xq
+    # int32 indices where they fit: 8 bytes per entry (float32 one + index) instead of 12
+    idx = np.int32 if max(m * d, d * n_bins) < np.iinfo(np.int32).max else np.int64
+    cols = (np.arange(d, dtype=idx) * idx(n_bins))[None, :] + Xq.astype(idx)
     one_hot = sp.csr_array(
-        (np.ones(m * d, dtype=np.float32), cols.ravel(), np.arange(0, m * d + 1, d)),
+        (np.ones(m * d, dtype=np.float32), cols.ravel(), np.arange(0, m * d + 1, d, dtype=idx)),
         shape=(m, d * n_bins))
     return one_hot.T.tocsr()
 

@@ -1,0 +1,281 @@
+"""Nine-fold person/scene-disjoint cross-validation of viewpoint adaptation methods.
+
+For each source elevation ``s`` and the target elevation ``t`` (Wang et al. 2017, Fig. 5),
+each detector is trained on source-view crops (negatives: windows of the training scenes'
+backgrounds at ``s``, with hard-negative mining) and tested on target-view crops of the
+test persons in the test scenes, against target-view background windows of the test
+scenes. Methods:
+
+``unadapted``      the source detector as it is;
+``adapted``        classifier adaptation through ``G = S (x) A`` (covariant angle rule,
+                   per-cell ``A``, 4 px target cells by default) -- ``w' = G^T w`` for linear
+                   models on cells, ``N(G x)`` for block-normalised HOG, ``G[used] x`` for trees;
+``adapted[...]``   ablations: ``S only`` (no angle remapping), ``paper eq.3`` (literal rule),
+                   ``single A`` (one ``A`` for the window, as in the paper);
+``image warping``  every test window warped into the source view (Li et al. 2008);
+``synthesised``    source training crops and negatives warped into the target view, retrained
+                   (needs no target data either);
+``oracle``         trained on the target view (the ``s == t`` row).
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, field
+
+import numpy as np
+import pandas as pd
+
+from viewadapt.adapt import (
+    acf_remap_matrix, adapt_linear_weights, cells_to_descriptor, hog_remap_matrix,
+)
+from viewadapt.geometry import elevation_homography
+
+from .data import Dataset
+from .features import FeatureCache, background_windows, person_windows
+from .folds import Fold, make_folds
+
+__all__ = ["CrossvalConfig", "DETECTORS", "ADAPT_VARIANTS", "run_crossval"]
+
+#: detector -> (source representation, fine target representation, kind)
+DETECTORS = {
+    "hog": ("cells8", "cells4", "blocks"),          # Dalal-Triggs descriptor, linear SVM
+    "hog_local": ("local8", "local4", "linear"),    # locally normalised cells, linear SVM
+    "acf": ("acf", "acf", "trees"),                 # ACF channels, boosted trees
+    "opencv": ("gamma_cells8", "gamma_cells4", "pretrained"),  # OpenCV's people detector
+}
+#: method name -> (angle rule, per-cell A)
+ADAPT_VARIANTS = {
+    "adapted": ("covariant", True),
+    "adapted[S only]": ("none", True),
+    "adapted[paper eq.3]": ("paper", True),
+    "adapted[single A]": ("covariant", False),
+}
+
+
+@dataclass
+class CrossvalConfig:
+    sources: tuple = (0.0, np.pi / 8, np.pi / 4)
+    target: float = np.pi / 4
+    detectors: tuple = ("hog", "hog_local", "acf", "opencv")
+    ablations: bool = True
+    synthesised: bool = True
+    target_cell_size: int = 4
+    C: float = 0.01
+    mining_rounds: int = 1
+    initial_negatives: int = 5000
+    max_hard_negatives: int = 5000
+    acf_estimators: int = 256
+    acf_stages: tuple = (32, 128, 256)
+    bg_stride: int = 16
+    distance: float = 10.0
+    seed: int = 0
+    n_jobs: int = 1
+    extra: dict = field(default_factory=dict)
+
+
+def _features(det, X):
+    """Classifier input from a representation's features (descriptor for ``hog``)."""
+    if DETECTORS[det][2] in ("blocks", "pretrained"):
+        return cells_to_descriptor(X.astype(np.float64))
+    return X
+
+
+def _make_classifier(det, cfg: CrossvalConfig, seed):
+    if DETECTORS[det][2] == "trees":
+        from viewadapt.boosting import AdaBoostTrees
+        return AdaBoostTrees(n_estimators=cfg.acf_estimators, stages=cfg.acf_stages,
+                             random_state=seed)
+    from viewadapt.classifiers import LinearSVMDetector
+    return LinearSVMDetector(C=cfg.C, initial_negatives=cfg.initial_negatives,
+                             mining_rounds=cfg.mining_rounds,
+                             max_hard_negatives=cfg.max_hard_negatives, random_state=seed)
+
+
+def _fit(det, cfg, Xpos, Xneg, seed):
+    X = np.vstack([Xpos, Xneg])
+    y = np.r_[np.ones(len(Xpos), int), np.zeros(len(Xneg), int)]
+    clf = _make_classifier(det, cfg, seed)
+    if DETECTORS[det][2] == "trees":
+        # the ACF toolbox bootstraps hard negatives between stages; we mine once with a
+        # first model on a random subset, as the SVM does
+        rng = np.random.default_rng(seed)
+        n0 = min(len(Xneg), cfg.initial_negatives)
+        first = rng.choice(len(Xneg), n0, replace=False)
+        clf.fit(np.vstack([Xpos, Xneg[first]]), np.r_[np.ones(len(Xpos), int), np.zeros(n0, int)])
+        if cfg.mining_rounds > 0 and len(Xneg) > n0:
+            rest = np.setdiff1d(np.arange(len(Xneg)), first)
+            s = clf.decision_function(Xneg[rest])
+            hard = rest[np.argsort(-s)[: cfg.max_hard_negatives]]
+            hard = hard[clf.decision_function(Xneg[hard]) > -1.0]
+            keep = np.r_[first, hard]
+            clf = _make_classifier(det, cfg, seed).fit(
+                np.vstack([Xpos, Xneg[keep]]),
+                np.r_[np.ones(len(Xpos), int), np.zeros(len(keep), int)])
+        return clf
+    return clf.fit(X, y)
+
+
+def _opencv_weights():
+    from viewadapt.hog import opencv_people_detector
+    return opencv_people_detector()
+
+
+class _Scorer:
+    """Scores with a trained (or pretrained) source-view model, in every method's way."""
+
+    def __init__(self, det, clf=None):
+        self.det, self.kind = det, DETECTORS[det][2]
+        self.clf = clf
+        if self.kind == "pretrained":
+            self.w, self.b = _opencv_weights()
+
+    def plain(self, X):
+        Z = _features(self.det, X)
+        if self.kind == "pretrained":
+            return Z @ self.w + self.b
+        return self.clf.decision_function(Z)
+
+    def adapted(self, Xfine, G):
+        if self.kind == "linear":
+            w = adapt_linear_weights(self.clf.coef_[0], G)     # offline, eq. (7)
+            return Xfine.astype(np.float64) @ w + self.clf.intercept_[0]
+        if self.kind == "trees":
+            return self.clf.decision_function_remapped(Xfine.astype(np.float64), G)
+        src = np.asarray((G @ Xfine.T.astype(np.float64)).T)     # remap, then normalise
+        Z = cells_to_descriptor(src)
+        if self.kind == "pretrained":
+            return Z @ self.w + self.b
+        return self.clf.decision_function(Z)
+
+
+def _remap(det, H, variant, cfg):
+    rule, per_cell = ADAPT_VARIANTS[variant]
+    if DETECTORS[det][2] == "trees":
+        return acf_remap_matrix(H, rule=rule, per_cell=per_cell)
+    return hog_remap_matrix(H, target_cell_size=cfg.target_cell_size, rule=rule,
+                            per_cell=per_cell)
+
+
+def _fold_masks(meta, fold: Fold, train: bool):
+    persons = fold.train_persons if train else fold.test_persons
+    scenes = fold.train_scenes if train else fold.test_scenes
+    in_scene = meta["scene_id"].isin(scenes).to_numpy()
+    if (meta["label"] == 1).all():
+        return in_scene & meta["person_id"].isin(persons).to_numpy()
+    return in_scene
+
+
+def _task(det, s, t, fold, cfg, data, seed):
+    """All methods for one detector, source elevation and fold -> DataFrame of scores."""
+    src_rep, fine_rep, kind = DETECTORS[det]
+    es, et = data["index"][s], data["index"][t]
+    pos_t, neg_t = data["meta"][("person", et)], data["meta"][("background", et)]
+    mp, mn = _fold_masks(pos_t, fold, False), _fold_masks(neg_t, fold, False)
+    test_meta = pd.concat([pos_t[mp], neg_t[mn]], ignore_index=True)
+    F = data["feat"]
+
+    def test_feats(rep, key=""):
+        return np.vstack([F[(rep, "person", et, key)][mp], F[(rep, "background", et, key)][mn]])
+
+    def train_feats(rep, e, key=""):
+        pm = _fold_masks(data["meta"][("person", e)], fold, True)
+        nm = _fold_masks(data["meta"][("background", e)], fold, True)
+        return F[(rep, "person", e, key)][pm], F[(rep, "background", e, key)][nm]
+
+    results = {}
+    if kind == "pretrained":
+        scorer = _Scorer(det)
+    else:
+        Xp, Xn = train_feats(src_rep, es)
+        if len(Xp) == 0 or len(Xn) == 0:
+            raise ValueError(f"fold {fold.name}: no training {'positives' if len(Xp) == 0 else 'negatives'}"
+                             f" at elevation {s:.3f}")
+        scorer = _Scorer(det, _fit(det, cfg, _features(det, Xp), _features(det, Xn), seed))
+    X_plain = test_feats(src_rep)
+    results["oracle" if es == et else "unadapted"] = scorer.plain(X_plain)
+    if es != et:
+        H = elevation_homography(s, t, distance=cfg.distance)
+        Xfine = test_feats(fine_rep)
+        variants = ADAPT_VARIANTS if (cfg.ablations and kind in ("blocks", "linear")) else ["adapted"]
+        for v in variants:
+            results[v] = scorer.adapted(Xfine, data["G"][(det, s, t, v)])
+        results["image warping"] = scorer.plain(test_feats(src_rep, f"warp{s:.6f}"))
+        if cfg.synthesised and kind != "pretrained":
+            Xp, Xn = train_feats(src_rep, es, f"synth{t:.6f}")
+            clf = _fit(det, cfg, _features(det, Xp), _features(det, Xn), seed)
+            results["synthesised"] = _Scorer(det, clf).plain(X_plain)
+    frames = []
+    for method, sc in results.items():
+        frames.append(test_meta.assign(detector=det, method=method, source_elevation=s,
+                                       target_elevation=t, fold=fold.name,
+                                       score=np.asarray(sc, np.float64)))
+    return pd.concat(frames, ignore_index=True)
+
+
+def prepare(ds: Dataset, cfg: CrossvalConfig, cache: FeatureCache, elevations=None) -> dict:
+    """Compute (or load) every feature matrix and remapping matrix the runs need."""
+    sources = list(cfg.sources) if elevations is None else list(elevations)
+    idx = {e: ds.elevation_index(e) for e in set(sources) | {cfg.target}}
+    meta, feat, G = {}, {}, {}
+    et = idx[cfg.target]
+    pw = {e: person_windows(ds, i) for e, i in idx.items()}
+    bw = {e: background_windows(ds, i, stride=cfg.bg_stride) for e, i in idx.items()}
+    for e, i in idx.items():
+        meta[("person", i)] = pw[e].meta
+        meta[("background", i)] = bw[e].meta
+        if len(bw[e]) == 0:
+            raise ValueError(f"{ds.root}: no background windows at elevation {e:.3f}; "
+                             "the dataset needs person-free background images")
+    for det in cfg.detectors:
+        src_rep, fine_rep, kind = DETECTORS[det]
+        for e, i in idx.items():
+            for ws in (pw[e], bw[e]):
+                feat[(src_rep, ws.key.split("|")[0], i, "")] = cache.get(ws, src_rep)
+        for ws in (pw[cfg.target], bw[cfg.target]):
+            feat[(fine_rep, ws.key.split("|")[0], et, "")] = cache.get(ws, fine_rep)
+        for s in sources:
+            if idx[s] == et:
+                continue
+            H = elevation_homography(s, cfg.target, distance=cfg.distance)
+            for ws in (pw[cfg.target], bw[cfg.target]):
+                w = ws.warped(H, f"warp{s:.6f}")
+                feat[(src_rep, ws.key.split("|")[0], et, f"warp{s:.6f}")] = cache.get(w, src_rep)
+            if cfg.synthesised and kind != "pretrained":
+                Hinv = np.linalg.inv(H)
+                for ws in (pw[s], bw[s]):
+                    w = ws.warped(Hinv, f"synth{cfg.target:.6f}")
+                    feat[(src_rep, ws.key.split("|")[0], idx[s], f"synth{cfg.target:.6f}")] = \
+                        cache.get(w, src_rep)
+            variants = ADAPT_VARIANTS if (cfg.ablations and kind in ("blocks", "linear")) \
+                else ["adapted"]
+            for v in variants:
+                G[(det, s, cfg.target, v)] = _remap(det, H, v, cfg)
+    return {"index": idx, "meta": meta, "feat": feat, "G": G}
+
+
+def run_crossval(ds: Dataset, cfg: CrossvalConfig, cache: FeatureCache, *,
+                 progress: bool = True) -> tuple[pd.DataFrame, list]:
+    """Run all folds; returns (per-window scores, folds)."""
+    from joblib import Parallel, delayed
+    from tqdm.auto import tqdm
+
+    rng = np.random.default_rng(cfg.seed)
+    p = ds.persons
+    folds = make_folds(p["person_id"], p["scene_id"], rng=rng)
+    data = prepare(ds, cfg, cache)
+    tasks = [(det, s, fold) for det in cfg.detectors for s in cfg.sources for fold in folds]
+    seeds = rng.integers(2**31 - 1, size=len(tasks))
+    it = tqdm(list(zip(tasks, seeds)), desc="cross-validation", disable=not progress)
+    if cfg.n_jobs == 1:
+        parts = [_task(d, s, cfg.target, f, cfg, data, int(sd)) for (d, s, f), sd in it]
+    else:
+        parts = Parallel(n_jobs=cfg.n_jobs)(
+            delayed(_task)(d, s, cfg.target, f, cfg, data, int(sd)) for (d, s, f), sd in it)
+    scores = pd.concat(parts, ignore_index=True)
+    return scores, folds
+
+
+def config_dict(cfg: CrossvalConfig) -> dict:
+    d = asdict(cfg)
+    d["sources"] = [float(s) for s in cfg.sources]
+    return d
