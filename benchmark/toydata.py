@@ -143,7 +143,8 @@ def _composite(background, cam, figure, mask, scale):
 
 def make_toy_dataset(out, *, n_persons=9, n_scenes=3, n_instances=1,
                      elevations=(0.0, np.pi / 8, np.pi / 4), n_backgrounds=2,
-                     background_size=(192, 192), distance=10.0, seed=0) -> Path:
+                     background_size=(192, 192), distance=10.0, noise=20.0, contrast=0.35,
+                     seed=0) -> Path:
     """Write a planar toy dataset to ``out`` and return its path."""
     import cv2
 
@@ -151,13 +152,18 @@ def make_toy_dataset(out, *, n_persons=9, n_scenes=3, n_instances=1,
     rng = np.random.default_rng(seed)
     scenes = {f"scene{j:02d}": _scene_textures(np.random.default_rng([seed, 1, j]))
               for j in range(n_scenes)}
-    persons = {f"person{i:03d}": _person_figure(np.random.default_rng([seed, 2, i]))
-               for i in range(n_persons)}
+    persons = {}
+    for i in range(n_persons):
+        fig, mask = _person_figure(np.random.default_rng([seed, 2, i]))
+        # low contrast: pull the figure's colours towards mid-grey
+        persons[f"person{i:03d}"] = (128 + contrast * (fig - 128), mask)
     rows = []
 
-    def save(rel, img, **kw):
+    def save(rel, img, noise_seed, **kw):
         p = out / rel
         p.parent.mkdir(parents=True, exist_ok=True)
+        # sensor noise makes the toy task less trivially separable
+        img = img + np.random.default_rng(noise_seed).normal(0, noise, img.shape)
         cv2.imwrite(str(p), np.clip(img, 0, 255).astype(np.uint8)[..., ::-1])
         rows.append(dict(path=rel, **kw))
 
@@ -176,7 +182,8 @@ def make_toy_dataset(out, *, n_persons=9, n_scenes=3, n_instances=1,
                     box = [int(xs.min()), int(ys.min()), int(xs.max() - xs.min() + 1),
                            int(ys.max() - ys.min() + 1)] if len(xs) else ""
                     Hw = window_to_image_homography(cam, (0, 0))
-                    save(f"person/{sid}/{pid}_i{inst}_e{ei}.png", img, kind="person",
+                    save(f"person/{sid}/{pid}_i{inst}_e{ei}.png", img, [seed, 5, len(rows)],
+                         kind="person",
                          person_id=pid, scene_id=sid, instance=inst, elevation=float(e),
                          elevation_index=ei, azimuth=azim, rotation=0.0,
                          K=json.dumps(cam.K.tolist()), R=json.dumps(cam.R.tolist()),
@@ -196,7 +203,8 @@ def make_toy_dataset(out, *, n_persons=9, n_scenes=3, n_instances=1,
                 cam = Camera(K, c0.R, c0.t, (w, h))
                 img = _render_scene(cam, (w, h), g2, wall)
                 Hw = window_to_image_homography(cam, (0, 0))
-                save(f"background/{sid}/bg_i{k}_e{ei}.png", img, kind="background", person_id="",
+                save(f"background/{sid}/bg_i{k}_e{ei}.png", img, [seed, 6, len(rows)],
+                     kind="background", person_id="",
                      scene_id=sid, instance=k, elevation=float(e), elevation_index=ei,
                      azimuth=azim, rotation=0.0, K=json.dumps(K.tolist()),
                      R=json.dumps(cam.R.tolist()), t=json.dumps(cam.t.tolist()),

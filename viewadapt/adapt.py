@@ -158,8 +158,12 @@ def cells_to_descriptor(cells, cell_shape=(16, 8, 9)) -> np.ndarray:
     if X.shape[1] != int(np.prod(cell_shape)):
         raise ValueError(f"cells have {X.shape[1]} values, cell_shape {cell_shape} needs "
                          f"{int(np.prod(cell_shape))}")
-    out = np.stack([normalize_blocks_l2hys(cells_to_blocks(x.reshape(cell_shape))).ravel()
-                    for x in X])
+    ny, nx, B = cell_shape
+    C = X.reshape(-1, ny, nx, B)
+    # blocks [n, block_x, block_y, cell (2 cx + cy), bin], as viewadapt.hog.cells_to_blocks
+    blocks = np.stack([C[:, :-1, :-1], C[:, 1:, :-1], C[:, :-1, 1:], C[:, 1:, 1:]], axis=3)
+    blocks = blocks.transpose(0, 2, 1, 3, 4)
+    out = normalize_blocks_l2hys(blocks).reshape(len(X), -1)
     return out[0] if single else out
 
 

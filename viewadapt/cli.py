@@ -180,6 +180,19 @@ def build_parser() -> argparse.ArgumentParser:
                    help="synthetic pattern images added to the natural ones (default 3)")
     p.set_defaults(func=_cmd_fidelity)
 
+    try:
+        from benchmark.cli import register as register_bench
+    except ImportError:  # pragma: no cover - benchmark ships with the distribution
+        register_bench = None
+    if register_bench is not None:
+        register_bench(sub, common)
+    try:
+        from generator.cli import register as register_generator
+    except ImportError:
+        register_generator = None
+    if register_generator is not None:
+        register_generator(sub, common)
+
     p = sub.add_parser("demo", parents=[common], help="run the end-to-end demo on built-in data",
                        description="The small embedded-default run behind `make demo`.")
     p.add_argument("--windows", type=int, default=0, help=argparse.SUPPRESS)

@@ -1,0 +1,270 @@
+"""``viewadapt bench ...``, ``viewadapt report`` and ``viewadapt reproduce``."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["register", "check_results_dir"]
+
+
+def _elevations(text: str) -> tuple:
+    """Parse '0,pi/8,pi/4' or radians '0,0.39' into floats."""
+    out = []
+    for tok in text.split(","):
+        tok = tok.strip().lower().replace("π", "pi")
+        try:
+            if "pi" in tok:
+                num, _, den = tok.partition("/")
+                k = num.replace("pi", "").replace("*", "").strip()
+                val = (float(k) if k else 1.0) * np.pi / (float(den) if den else 1.0)
+            else:
+                val = float(tok)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"cannot read elevation {tok!r} "
+                                             "(use radians or forms like pi/8, 3pi/8)") from None
+        out.append(val)
+    return tuple(out)
+
+
+def check_results_dir(out: Path, fingerprint: str) -> None:
+    """Refuse to mix results of two datasets in one directory."""
+    run = Path(out) / "run.json"
+    if run.is_file():
+        try:
+            old = json.loads(run.read_text())
+        except json.JSONDecodeError:
+            raise ValueError(f"{run} is corrupt; remove it or use another --out") from None
+        if old.get("fingerprint") != fingerprint:
+            raise ValueError(f"{out} holds results of another dataset ({old.get('data')}, "
+                             f"fingerprint {old.get('fingerprint')}); use another --out")
+
+
+def _run_json(ds, args, extra=None) -> dict:
+    from viewadapt import __version__
+
+    return {"data": str(ds.root), "fingerprint": ds.fingerprint,
+            "renderer": ds.config.get("renderer"), "framing": ds.config.get("framing", "plane"),
+            "seed": args.seed, "viewadapt": __version__,
+            "created": time.strftime("%Y-%m-%dT%H:%M:%S")} | (extra or {})
+
+
+def _config(args, ds):
+    from .crossval import CrossvalConfig
+
+    cfg = CrossvalConfig(seed=args.seed, n_jobs=args.jobs,
+                         distance=float(ds.config.get("distance", 10.0)))
+    if getattr(args, "sources", None):
+        cfg.sources = args.sources
+    if getattr(args, "target", None) is not None:
+        cfg.target = args.target
+    if getattr(args, "detectors", None):
+        cfg.detectors = tuple(args.detectors)
+    if getattr(args, "quick", False):
+        cfg.acf_estimators, cfg.acf_stages = 32, (16, 32)
+        cfg.acf_max_bins, cfg.acf_max_features = 32, 0.25
+        cfg.initial_negatives = 2000
+    return cfg
+
+
+def _scheduler(args):
+    """A joblib backend context: Dask when --scheduler is given, else a no-op."""
+    import contextlib
+
+    if not getattr(args, "scheduler", None):
+        return contextlib.nullcontext()
+    try:
+        from dask.distributed import Client
+    except ImportError:
+        raise ValueError("--scheduler needs dask.distributed: pip install 'viewadapt[scale]'") from None
+    import joblib
+
+    client = Client(args.scheduler)
+    stack = contextlib.ExitStack()
+    stack.callback(client.close)
+    stack.enter_context(joblib.parallel_backend("dask"))
+    return stack
+
+
+def cmd_crossval(args) -> int:
+    import matplotlib.pyplot as plt
+
+    from viewadapt.cli import _check_out, atomic_output_dir
+
+    from .crossval import config_dict, run_crossval
+    from .data import load_dataset
+    from .features import FeatureCache
+    from .figures import save_figure
+    from .report import plot_det, plot_score_shift, write_report
+    from .summarize import paired_differences, summarize
+
+    _check_out(args.out)
+    ds = load_dataset(args.data)
+    check_results_dir(args.out, ds.fingerprint)
+    cfg = _config(args, ds)
+    cache = FeatureCache(ds, args.cache or (args.out / "cache"), n_jobs=args.jobs)
+    t0 = time.perf_counter()
+    with _scheduler(args):
+        scores, folds = run_crossval(ds, cfg, cache)
+    rng = np.random.default_rng(args.seed)
+    summary = summarize(scores, rng=rng)
+    pairs = paired_differences(scores, rng=rng)
+    with atomic_output_dir(args.out) as tmp:
+        scores.to_parquet(tmp / "scores.parquet", index=False)
+        summary.to_csv(tmp / "summary.csv", index=False)
+        (tmp / "summary.md").write_text(_markdown(summary))
+        pairs.to_csv(tmp / "paired_differences.csv", index=False)
+        (tmp / "folds.json").write_text(json.dumps(
+            [{"fold": f.name, "train_persons": sorted(f.train_persons),
+              "train_scenes": sorted(f.train_scenes), "test_persons": sorted(f.test_persons),
+              "test_scenes": sorted(f.test_scenes)} for f in folds], indent=1))
+        for det in cfg.detectors:
+            fig = plot_det(scores, summary, det)
+            save_figure(fig, tmp / f"det_{det}")
+            plt.close(fig)
+        if "hog" in cfg.detectors and 0.0 in cfg.sources:
+            fig = plot_score_shift(scores, "hog", 0.0)
+            save_figure(fig, tmp / "score_shift")
+            plt.close(fig)
+        _remap_figure(tmp, ds, cfg)
+        (tmp / "run.json").write_text(json.dumps(_run_json(ds, args, {
+            "crossval": config_dict(cfg), "crossval_seconds": round(time.perf_counter() - t0, 1)}),
+            indent=2, default=str))
+    write_report(args.out)
+    print(_markdown(summary))
+    print(f"\nwrote {args.out}/ (summary.csv, scores.parquet, det_*.png, report.md)")
+    return 0
+
+
+def _remap_figure(tmp, ds, cfg):
+    """Fig. 4 on a real target crop of the dataset (first person at the target elevation)."""
+    import matplotlib.pyplot as plt
+
+    from viewadapt.geometry import elevation_homography
+
+    from .data import read_image
+    from .figures import plot_remap_illustration, save_figure
+
+    p = ds.persons
+    row = p[p["elevation_index"] == ds.elevation_index(cfg.target)].iloc[0]
+    img = read_image(ds.root / row["path"])
+    pad = np.pad(img, ((40, 40), (40, 40), (0, 0)), mode="edge")
+    fig = plot_remap_illustration(pad, 40, 40, elevation_homography(0.0, cfg.target,
+                                                                      distance=cfg.distance),
+                                  title=f"{row['person_id']} in {row['scene_id']}, 0 → π/4,")
+    save_figure(fig, tmp / "remap_illustration")
+    plt.close(fig)
+
+
+def _markdown(summary) -> str:
+    from .report import elevation_label
+
+    cols = ["detector", "pair", "method", "mr_at_fppw_0.01", "ci", "fold mean±std", "lamr", "n_pos"]
+    lines = ["| " + " | ".join(cols) + " |", "|" + "---|" * len(cols)]
+    for _, r in summary.iterrows():
+        lines.append(
+            f"| {r['detector']} | {elevation_label(r['source_elevation'])}→"
+            f"{elevation_label(r['target_elevation'])} | {r['method']} | {r['mr_at_fppw_0.01']:.3f} | "
+            f"{r['ci_low']:.2f}–{r['ci_high']:.2f} | {r['mr_at_fppw_0.01_mean']:.2f}±"
+            f"{r['mr_at_fppw_0.01_std']:.2f} | {r['lamr']:.3f} | {int(r['n_pos'])} |")
+    return "\n".join(lines) + "\n"
+
+
+def cmd_sweep(args) -> int:
+    import matplotlib.pyplot as plt
+
+    from viewadapt.cli import _check_out, atomic_output_dir
+
+    from .data import load_dataset
+    from .features import FeatureCache
+    from .figures import save_figure
+    from .report import plot_sweep, write_report
+    from .sweep import run_sweep, sweep_summary
+
+    _check_out(args.out)
+    ds = load_dataset(args.data)
+    check_results_dir(args.out, ds.fingerprint)
+    cfg = _config(args, ds)
+    if not 0 < args.step <= np.pi / 36 + 1e-12:
+        raise ValueError("--step must lie in (0, pi/36] radians")
+    cache = FeatureCache(ds, args.cache or (args.out / "cache"), n_jobs=args.jobs)
+    t0 = time.perf_counter()
+    rows = run_sweep(ds, cfg, cache, detector=args.detector, source=args.source, step=args.step,
+                     sigma=args.sigma)
+    summ = sweep_summary(rows)
+    with atomic_output_dir(args.out) as tmp:
+        rows.to_csv(tmp / "sweep_rows.csv", index=False)
+        summ.to_csv(tmp / "sweep_summary.csv", index=False)
+        fig = plot_sweep(summ, true_elevation=cfg.target,
+                         title=f"{args.detector} trained at {args.source:.3f} rad, tested at "
+                               f"{cfg.target:.3f} rad ({int(rows['n_pos'].iloc[0:9].sum())} positives)")
+        save_figure(fig, tmp / "sweep")
+        plt.close(fig)
+        run_path = Path(args.out) / "run.json"
+        run = json.loads(run_path.read_text()) if run_path.is_file() else _run_json(ds, args)
+        run["sweep"] = {"detector": args.detector, "source": args.source, "step": args.step,
+                        "sigma": args.sigma, "seconds": round(time.perf_counter() - t0, 1)}
+        (tmp / "run.json").write_text(json.dumps(run, indent=2, default=str))
+    write_report(args.out)
+    print(summ.to_string(index=False))
+    return 0
+
+
+def cmd_report(args) -> int:
+    from .report import write_report
+
+    out = Path(args.results)
+    if not out.is_dir() or not (out / "run.json").is_file():
+        raise ValueError(f"{out} is not a results directory (no run.json); run "
+                         "`viewadapt bench crossval` first")
+    print(write_report(out))
+    return 0
+
+
+def register(sub, common) -> None:
+    """Add ``bench``, ``report`` to the ``viewadapt`` parser."""
+    bench = sub.add_parser("bench", help="run benchmarks on a generated dataset",
+                           description="Benchmarks of viewpoint adaptation on a dataset "
+                                       "written by `viewadapt generate`.")
+    bsub = bench.add_subparsers(dest="bench_command", metavar="BENCH", required=True)
+    data_opts = argparse.ArgumentParser(add_help=False)
+    data_opts.add_argument("--data", type=Path, required=True, help="dataset directory")
+    data_opts.add_argument("--cache", type=Path, default=None,
+                           help="feature cache directory (default OUT/cache); reruns reuse it")
+    data_opts.add_argument("--target", type=_elevations, default=None,
+                           help="target elevation (default pi/4)")
+    data_opts.add_argument("--scheduler", default=None,
+                           help="address of a Dask scheduler to run the folds on")
+    data_opts.add_argument("--quick", action="store_true",
+                           help="smaller boosted detectors and negative sets (tests, demos)")
+
+    p = bsub.add_parser("crossval", parents=[common, data_opts],
+                        help="nine-fold cross-validation (Fig. 5 and beyond)",
+                        description=__import__("benchmark.crossval").crossval.__doc__,
+                        formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--sources", type=_elevations, default=None,
+                   help="source elevations (default 0,pi/8,pi/4)")
+    p.add_argument("--detectors", nargs="+", choices=["hog", "hog_local", "acf", "opencv"],
+                   default=None, help="detectors (default all four)")
+    p.set_defaults(func=cmd_crossval)
+
+    p = bsub.add_parser("sweep", parents=[common, data_opts],
+                        help="robustness to a wrong elevation estimate (Fig. 6)",
+                        description=__import__("benchmark.sweep").sweep.__doc__,
+                        formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--detector", default="hog", choices=["hog", "hog_local", "acf", "opencv"])
+    p.add_argument("--source", type=float, default=0.0, help="training elevation (default 0)")
+    p.add_argument("--step", type=float, default=np.pi / 72,
+                   help="grid step of estimated elevations, radians (default pi/72)")
+    p.add_argument("--sigma", type=float, default=0.1,
+                   help="std of the elevation prior for the uncertain-elevation curve "
+                        "(radians; 0 disables it; default 0.1)")
+    p.set_defaults(func=cmd_sweep)
+
+    p = sub.add_parser("report", help="(re)write report.md of a results directory")
+    p.add_argument("results", type=Path, help="results directory of `viewadapt bench`")
+    p.set_defaults(func=cmd_report)

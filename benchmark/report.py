@@ -1,0 +1,198 @@
+"""Figures and the Markdown report of a benchmark results directory."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from viewadapt.metrics import det_curve_windows
+
+from .figures import save_figure
+from .summarize import FPPW_REFERENCE, PAPER_MISS_RATES
+
+__all__ = ["plot_det", "plot_sweep", "plot_score_shift", "write_report", "elevation_label"]
+
+_STYLE = {"unadapted": "-", "oracle": "-", "image warping": "--", "adapted": ":",
+          "synthesised": "-.", "adapted[S only]": (0, (1, 1)),
+          "adapted[paper eq.3]": (0, (3, 1, 1, 1)), "adapted[single A]": (0, (5, 2))}
+_COLOURS = ["#c0392b", "#8e44ad", "#2471a3", "#117a65", "#b9770e"]
+
+
+def elevation_label(e) -> str:
+    for frac, name in ((0, "0"), (1 / 8, "π/8"), (1 / 4, "π/4"), (3 / 8, "3π/8")):
+        if abs(e - frac * np.pi) < 1e-6:
+            return name
+    return f"{e:.3f}"
+
+
+def _mpl():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    return plt
+
+
+def plot_det(scores: pd.DataFrame, summary: pd.DataFrame, detector: str,
+             methods=("unadapted", "image warping", "adapted", "synthesised", "oracle")):
+    """Miss rate vs fppw pooled over folds, one colour per source elevation (Fig. 5)."""
+    plt = _mpl()
+    d = scores[scores["detector"] == detector]
+    fig, ax = plt.subplots(figsize=(6.4, 5))
+    sources = sorted(d["source_elevation"].unique())
+    for ci, s in enumerate(sources):
+        for m in methods:
+            g = d[(d["source_elevation"] == s) & (d["method"] == m)]
+            if g.empty or g["label"].nunique() < 2:
+                continue
+            fp, miss, _ = det_curve_windows(g["label"].to_numpy(), g["score"].to_numpy())
+            row = summary[(summary["detector"] == detector) & (summary["source_elevation"] == s)
+                          & (summary["method"] == m)]
+            mr = float(row["mr_at_fppw_0.01"].iloc[0]) if len(row) else np.nan
+            t = float(g["target_elevation"].iloc[0])
+            ax.step(np.maximum(fp, 1e-4), miss, where="post", ls=_STYLE.get(m, "-"),
+                    color=_COLOURS[ci % len(_COLOURS)], lw=1.6 if m != "oracle" else 2.4,
+                    label=f"{elevation_label(s)}→{elevation_label(t)} {m} ({mr:.2f})")
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlim(1e-3, 1)
+    ax.set_ylim(0.01, 1)
+    ax.axvline(1e-2, color="0.6", lw=0.8)
+    ax.set_xlabel("false positives per window")
+    ax.set_ylabel("miss rate")
+    ax.set_title(f"{detector}: DET pooled over folds (legend: miss rate at 10⁻² fppw)", fontsize=9)
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=6.5, loc="lower left")
+    fig.tight_layout()
+    return fig
+
+
+def plot_sweep(summary: pd.DataFrame, *, true_elevation=np.pi / 4, title=""):
+    """Miss rate at 1e-2 fppw against the estimated target elevation (Fig. 6)."""
+    plt = _mpl()
+    fig, ax = plt.subplots(figsize=(6.4, 3.8))
+    un = summary[summary["method"] == "unadapted"]["mr_at_fppw_0.01"]
+    for k, (m, g) in enumerate(summary[summary["method"] != "unadapted"].groupby("method")):
+        g = g.sort_values("estimate")
+        ax.plot(g["estimate"], g["mr_at_fppw_0.01"], "-o", ms=3, lw=1.6,
+                color=["k", "#2471a3", "#c0392b"][k % 3], label=m)
+    if len(un):
+        ax.axhline(float(un.iloc[0]), color="#c0392b", ls="--", lw=1.2,
+                   label=f"unadapted ({float(un.iloc[0]):.2f})")
+    ax.axvline(true_elevation, color="0.4", ls=":", lw=1.2, label="true target elevation")
+    ax.set_xlabel("estimated target elevation (rad)")
+    ax.set_ylabel("miss rate @ fppw = 10⁻²")
+    ax.set_xlim(0, 1.6)
+    ax.set_title(title, fontsize=9)
+    ax.legend(fontsize=7)
+    ax.grid(alpha=0.3)
+    fig.tight_layout()
+    return fig
+
+
+def plot_score_shift(scores: pd.DataFrame, detector="hog", source=0.0):
+    """Positive scores and the top 1% of negatives per method: does warping also lift the
+    negatives? (A finding of our pilot: stretched clutter looks more person-like.)"""
+    plt = _mpl()
+    d = scores[(scores["detector"] == detector) & (np.isclose(scores["source_elevation"], source))]
+    methods = [m for m in ("unadapted", "image warping", "adapted", "synthesised")
+               if m in set(d["method"])]
+    fig, ax = plt.subplots(figsize=(6.4, 3.4))
+    for k, m in enumerate(methods):
+        g = d[d["method"] == m]
+        pos = g.loc[g["label"] == 1, "score"].to_numpy()
+        neg = np.sort(g.loc[g["label"] == 0, "score"].to_numpy())[::-1]
+        top = neg[: max(1, len(neg) // 100)]
+        parts = ax.violinplot([pos, top], positions=[k * 3, k * 3 + 1], showmedians=True)
+        for body, col in zip(parts["bodies"], ("#117a65", "#c0392b")):
+            body.set_facecolor(col)
+    ax.set_xticks([k * 3 + 0.5 for k in range(len(methods))])
+    ax.set_xticklabels([f"{m}\n(green: persons, red: top 1% negatives)" if k == 0 else m
+                        for k, m in enumerate(methods)], fontsize=7)
+    ax.set_ylabel("score")
+    ax.set_title(f"{detector}, {elevation_label(source)}→π/4: where the scores move", fontsize=9)
+    fig.tight_layout()
+    return fig
+
+
+def _paper(detector, source, method):
+    """The paper's HOG/SVM miss rate for this row, if it reports one."""
+    if detector != "hog":
+        return None
+    for (ps, pm), v in PAPER_MISS_RATES.items():
+        if abs(ps - source) < 1e-6 and pm == method:
+            return v
+    return None
+
+
+def _fmt(v, nd=3):
+    return "–" if v is None or (isinstance(v, float) and not np.isfinite(v)) else f"{v:.{nd}f}"
+
+
+def write_report(out: Path) -> Path:
+    """Write ``report.md`` for a results directory (crossval and/or sweep outputs)."""
+    out = Path(out)
+    run = json.loads((out / "run.json").read_text()) if (out / "run.json").is_file() else {}
+    lines = ["# viewadapt benchmark report", ""]
+    if run:
+        lines += [f"Dataset: `{run.get('data')}` (fingerprint `{run.get('fingerprint')}`, "
+                  f"renderer `{run.get('renderer')}`, framing `{run.get('framing')}`), "
+                  f"seed {run.get('seed')}.", ""]
+    if (out / "summary.csv").is_file():
+        s = pd.read_csv(out / "summary.csv")
+        lines += ["## Miss rate at 10⁻² fppw, target π/4", "",
+                  "Pooled over the nine person/scene-disjoint folds; 95% interval from a "
+                  "bootstrap over test persons; mean ± std over folds; LAMR over 10⁻³–10⁰ fppw. "
+                  "Paper: Wang et al. 2017, Fig. 5 (HOG/SVM on their SketchUp data).", "",
+                  "| detector | source→target | method | ours | 95% CI | fold mean ± std | LAMR | paper | positives |",
+                  "|---|---|---|---|---|---|---|---|---|"]
+        for _, r in s.iterrows():
+            paper = _paper(r["detector"], r["source_elevation"], r["method"])
+            lines.append(
+                f"| {r['detector']} | {elevation_label(r['source_elevation'])}→"
+                f"{elevation_label(r['target_elevation'])} | {r['method']} | "
+                f"{_fmt(r['mr_at_fppw_0.01'])} | {_fmt(r['ci_low'], 2)}–{_fmt(r['ci_high'], 2)} | "
+                f"{_fmt(r['mr_at_fppw_0.01_mean'], 2)} ± {_fmt(r['mr_at_fppw_0.01_std'], 2)} | "
+                f"{_fmt(r['lamr'])} | {_fmt(paper)} | {int(r['n_pos'])} |")
+        lines.append("")
+    if (out / "paired_differences.csv").is_file():
+        p = pd.read_csv(out / "paired_differences.csv")
+        lines += ["## Paired differences (miss rate a − b, same test windows)", "",
+                  "| detector | source | a | b | a − b | 95% CI | P(a better) |",
+                  "|---|---|---|---|---|---|---|"]
+        for _, r in p.iterrows():
+            lines.append(f"| {r['detector']} | {elevation_label(r['source_elevation'])} | "
+                         f"{r['method_a']} | {r['method_b']} | {r['diff']:+.3f} | "
+                         f"{r['ci_low']:+.3f}…{r['ci_high']:+.3f} | {r['p_a_better']:.2f} |")
+        lines.append("")
+    for f in sorted(out.glob("det_*.png")):
+        lines += [f"![{f.stem}]({f.name})", ""]
+    if (out / "score_shift.png").is_file():
+        lines += ["![score shift](score_shift.png)", ""]
+    if (out / "sweep_summary.csv").is_file():
+        sw = pd.read_csv(out / "sweep_summary.csv")
+        un = sw[sw["method"] == "unadapted"]["mr_at_fppw_0.01"]
+        ad = sw[sw["method"] == "adapted"].sort_values("estimate")
+        lines += ["## Robustness to the elevation estimate (Fig. 6)", ""]
+        if len(un) and len(ad):
+            u = float(un.iloc[0])
+            best = ad.loc[ad["mr_at_fppw_0.01"].idxmin()]
+            better = ad[ad["mr_at_fppw_0.01"] < u]["estimate"]
+            rng_txt = (f"{better.min():.2f}–{better.max():.2f} rad" if len(better) else "none")
+            over = (better.max() - np.pi / 4) if len(better) else np.nan
+            lines += [f"Unadapted: {u:.3f} (paper 0.796). Best adapted: {best['mr_at_fppw_0.01']:.3f} "
+                      f"at {best['estimate']:.2f} rad (paper ≈ 0.66 near π/4). Adaptation beats the "
+                      f"unadapted detector for estimates in {rng_txt}, i.e. up to "
+                      f"{_fmt(over, 2)} rad above the true π/4 (paper: ≈ +0.31 rad, crossing near 1.1 rad).",
+                      ""]
+        lines += ["![sweep](sweep.png)", ""]
+    if (out / "remap_illustration.png").is_file():
+        lines += ["## Remapping illustration (Fig. 4)", "", "![remap](remap_illustration.png)", ""]
+    path = out / "report.md"
+    tmp = path.with_suffix(".md.tmp")
+    tmp.write_text("\n".join(lines))
+    tmp.replace(path)
+    return path
