@@ -197,11 +197,11 @@ def cmd_sweep(args) -> int:
                      sigma=args.sigma)
     summ = sweep_summary(rows)
     with atomic_output_dir(args.out) as tmp:
-        rows.to_csv(tmp / "sweep_rows.csv", index=False)
+        rows.to_parquet(tmp / "sweep_scores.parquet", index=False)
         summ.to_csv(tmp / "sweep_summary.csv", index=False)
         fig = plot_sweep(summ, true_elevation=cfg.target,
                          title=f"{args.detector} trained at {args.source:.3f} rad, tested at "
-                               f"{cfg.target:.3f} rad ({int(rows['n_pos'].iloc[0:9].sum())} positives)")
+                               f"{cfg.target:.3f} rad ({int(summ['n_pos'].iloc[0])} positives, 9 folds pooled)")
         save_figure(fig, tmp / "sweep")
         plt.close(fig)
         run_path = Path(args.out) / "run.json"

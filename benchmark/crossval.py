@@ -120,6 +120,15 @@ def _fit(det, cfg, Xpos, Xneg, seed):
     return clf.fit(X, y)
 
 
+def task_seed(master: int, detector: str, source: float, fold: Fold) -> int:
+    """Seed of one (detector, source, fold) training: derived from the ids, so the sweep and
+    the cross-validation train identical source models."""
+    import zlib
+
+    key = zlib.crc32(f"{detector}|{source:.6f}|{fold.name}".encode())
+    return int(np.random.default_rng([master, key]).integers(2**31 - 1))
+
+
 def _opencv_weights():
     from viewadapt.hog import opencv_people_detector
     return opencv_people_detector()
@@ -271,7 +280,7 @@ def run_crossval(ds: Dataset, cfg: CrossvalConfig, cache: FeatureCache, *,
     # OpenCV's detector was trained on INRIA (level views): its source elevation is 0 only
     tasks = [(det, s, fold) for det in cfg.detectors for s in cfg.sources for fold in folds
              if not (DETECTORS[det][2] == "pretrained" and s != 0.0)]
-    seeds = rng.integers(2**31 - 1, size=len(tasks))
+    seeds = [task_seed(cfg.seed, d, s, f) for d, s, f in tasks]
     it = tqdm(list(zip(tasks, seeds)), desc="cross-validation", disable=not progress)
     if cfg.n_jobs == 1:
         parts = [_task(d, s, cfg.target, f, cfg, data, int(sd)) for (d, s, f), sd in it]

@@ -14,7 +14,9 @@ import pandas as pd
 
 from viewadapt.geometry import elevation_homography
 
-from .crossval import DETECTORS, CrossvalConfig, _fit, _fold_masks, _remap, _Scorer, _features, prepare
+from .crossval import (
+    DETECTORS, CrossvalConfig, _features, _fit, _fold_masks, _remap, _Scorer, prepare, task_seed,
+)
 from .data import Dataset
 from .features import FeatureCache
 from .folds import make_folds
@@ -45,12 +47,13 @@ def averaged_remap(det, source, estimate, sigma, cfg, n_nodes: int = 5):
 
 def run_sweep(ds: Dataset, cfg: CrossvalConfig, cache: FeatureCache, *, detector="hog",
               source=0.0, step=np.pi / 72, sigma=0.1, progress=True) -> pd.DataFrame:
-    """Per fold and estimate: pooled-ready test scores reduced to detection counts.
+    """Per fold, method and estimate: the test windows' scores.
 
     Returns
     -------
-    DataFrame with columns ``fold, estimate, method, n_pos, n_detected, threshold`` plus
-    the unadapted rows (``estimate = NaN``); :func:`sweep_summary` pools them.
+    DataFrame with columns ``fold, method, estimate, label, score, person_id`` (the
+    unadapted rows have ``estimate = NaN``); :func:`sweep_summary` pools the folds the way
+    :func:`benchmark.summarize.summarize` does, so the levels match the cross-validation.
     """
     from tqdm.auto import tqdm
 
@@ -70,7 +73,7 @@ def run_sweep(ds: Dataset, cfg: CrossvalConfig, cache: FeatureCache, *, detector
             Gs[(f"adapted, prior σ={sigma:g}", e)] = averaged_remap(detector, source, e, sigma, cfg)
     F = data["feat"]
     rows = []
-    seeds = rng.integers(2**31 - 1, size=len(folds))
+    seeds = [task_seed(cfg.seed, detector, source, f) for f in folds]
     for fold, seed in tqdm(list(zip(folds, seeds)), desc="sweep", disable=not progress):
         pm = _fold_masks(data["meta"][("person", es)], fold, True)
         nm = _fold_masks(data["meta"][("background", es)], fold, True)
@@ -88,26 +91,34 @@ def run_sweep(ds: Dataset, cfg: CrossvalConfig, cache: FeatureCache, *, detector
         X = np.vstack([Xp_fine, Xn_fine])
         n_pos = len(Xp_fine)
 
+        labels = np.r_[np.ones(n_pos, np.int8), np.zeros(len(X) - n_pos, np.int8)]
+        pids = np.r_[data["meta"][("person", et)]["person_id"].to_numpy()[tp],
+                     np.full(len(X) - n_pos, "")]
+
         def record(method, estimate, scores):
-            thr = operating_threshold(scores[n_pos:], 1e-2)
-            rows.append(dict(fold=fold.name, method=method, estimate=estimate, n_pos=n_pos,
-                             n_neg=len(scores) - n_pos,
-                             n_detected=int((scores[:n_pos] >= thr).sum())))
+            rows.append(pd.DataFrame({"fold": fold.name, "method": method, "estimate": estimate,
+                                      "label": labels, "score": np.asarray(scores, np.float32),
+                                      "person_id": pids}))
 
         Xplain = np.vstack([F[(src_rep, "person", et, "")][tp], F[(src_rep, "background", et, "")][tn]])
         record("unadapted", np.nan, scorer.plain(Xplain))
         for (method, e), G in Gs.items():
             record(method, float(e), scorer.adapted(X, G))
-    return pd.DataFrame(rows)
+    return pd.concat(rows, ignore_index=True)
 
 
-def sweep_summary(rows: pd.DataFrame) -> pd.DataFrame:
-    """Pooled miss rate at 1e-2 fppw per (method, estimate); per-fold operating points.
-
-    Each fold's detections are counted at that fold's own 1e-2 fppw threshold, then pooled:
-    ``mr = 1 - sum(detected) / sum(positives)``.
-    """
-    g = rows.groupby(["method", "estimate"], dropna=False)
-    out = g.agg(n_pos=("n_pos", "sum"), n_detected=("n_detected", "sum")).reset_index()
-    out["mr_at_fppw_0.01"] = 1 - out["n_detected"] / out["n_pos"]
-    return out
+def sweep_summary(rows: pd.DataFrame, fppw: float = 1e-2) -> pd.DataFrame:
+    """Miss rate at ``fppw`` per (method, estimate), scores pooled over folds (as in the
+    cross-validation summary), plus the mean and std of the per-fold miss rates."""
+    out = []
+    for (method, est), d in rows.groupby(["method", "estimate"], dropna=False, sort=False):
+        lab, sc = d["label"].to_numpy(), d["score"].to_numpy(np.float64)
+        thr = operating_threshold(sc[lab == 0], fppw)
+        fold_mr = []
+        for _, f in d.groupby("fold"):
+            fl, fs = f["label"].to_numpy(), f["score"].to_numpy(np.float64)
+            fold_mr.append(1 - (fs[fl == 1] >= operating_threshold(fs[fl == 0], fppw)).mean())
+        out.append({"method": method, "estimate": est, "n_pos": int((lab == 1).sum()),
+                    "mr_at_fppw_0.01": 1 - (sc[lab == 1] >= thr).mean(),
+                    "fold_mean": float(np.mean(fold_mr)), "fold_std": float(np.std(fold_mr))})
+    return pd.DataFrame(out)

@@ -81,12 +81,20 @@ def test_results_schema_and_files(results):
     assert scores["fold"].nunique() == 9
     for name in ("det_hog.png", "det_hog.pdf", "det_acf.png", "det_opencv.png", "sweep.png",
                  "sweep.pdf", "score_shift.png", "remap_illustration.png", "report.md",
-                 "paired_differences.csv", "sweep_summary.csv", "folds.json", "run.json"):
+                 "paired_differences.csv", "sweep_summary.csv", "sweep_scores.parquet", "folds.json", "run.json"):
         assert (results / name).is_file(), name
     report = (results / "report.md").read_text()
     assert "det_hog.png" in report and "sweep.png" in report and "0.787" in report
     sw = pd.read_csv(results / "sweep_summary.csv")
     assert sw["estimate"].max() < np.pi / 2 and "unadapted" in set(sw["method"])
+    # adapting to the source's own elevation is the identity: same level as unadapted,
+    # and the sweep's unadapted level is the cross-validation's (same folds, same pooling)
+    un = sw.loc[sw["method"] == "unadapted", "mr_at_fppw_0.01"].iloc[0]
+    at0 = sw.loc[(sw["method"] == "adapted") & (sw["estimate"] == 0), "mr_at_fppw_0.01"].iloc[0]
+    assert np.isclose(un, at0)
+    cv = s[(s["detector"] == "hog") & np.isclose(s["source_elevation"], 0)
+           & (s["method"] == "unadapted")]["mr_at_fppw_0.01"].iloc[0]
+    assert np.isclose(un, cv)
 
 
 def test_planar_toy_data_adaptation_helps(results):
