@@ -240,30 +240,39 @@ def prepare(ds: Dataset, cfg: CrossvalConfig, cache: FeatureCache, elevations=No
         if len(bw[e]) == 0:
             raise ValueError(f"{ds.root}: no background windows at elevation {e:.3f}; "
                              "the dataset needs person-free background images")
+    # collect every (window set, representation) request, then compute per window set in
+    # one pass (shared image reads, warps and gradients)
+    requests = {}   # ws.key -> (ws, elevation index, suffix, set of reps)
+
+    def want(ws, i, suffix, rep):
+        requests.setdefault(ws.key, (ws, i, suffix, set()))[3].add(rep)
+
     for det in cfg.detectors:
         src_rep, fine_rep, kind = DETECTORS[det]
         for e, i in idx.items():
             for ws in (pw[e], bw[e]):
-                feat[(src_rep, ws.key.split("|")[0], i, "")] = cache.get(ws, src_rep)
+                want(ws, i, "", src_rep)
         for ws in (pw[cfg.target], bw[cfg.target]):
-            feat[(fine_rep, ws.key.split("|")[0], et, "")] = cache.get(ws, fine_rep)
+            want(ws, et, "", fine_rep)
         for s in sources:
             if idx[s] == et:
                 continue
             H = elevation_homography(s, cfg.target, distance=cfg.distance)
             for ws in (pw[cfg.target], bw[cfg.target]):
-                w = ws.warped(H, f"warp{s:.6f}")
-                feat[(src_rep, ws.key.split("|")[0], et, f"warp{s:.6f}")] = cache.get(w, src_rep)
+                want(ws.warped(H, f"warp{s:.6f}"), et, f"warp{s:.6f}", src_rep)
             if cfg.synthesised and kind != "pretrained":
                 Hinv = np.linalg.inv(H)
                 for ws in (pw[s], bw[s]):
-                    w = ws.warped(Hinv, f"synth{cfg.target:.6f}")
-                    feat[(src_rep, ws.key.split("|")[0], idx[s], f"synth{cfg.target:.6f}")] = \
-                        cache.get(w, src_rep)
+                    want(ws.warped(Hinv, f"synth{cfg.target:.6f}"), idx[s],
+                         f"synth{cfg.target:.6f}", src_rep)
             variants = ADAPT_VARIANTS if (cfg.ablations and kind in ("blocks", "linear")) \
                 else ["adapted"]
             for v in variants:
                 G[(det, s, cfg.target, v)] = _remap(det, H, v, cfg)
+    for ws, i, suffix, reps in requests.values():
+        got = cache.get_many(ws, sorted(reps))
+        for rep, X in got.items():
+            feat[(rep, ws.key.split("|")[0], i, suffix)] = X
     return {"index": idx, "meta": meta, "feat": feat, "G": G}
 
 

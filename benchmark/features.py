@@ -21,40 +21,60 @@ from viewadapt.warp import translation, warp_to_source_view
 
 from .data import Dataset, read_image
 
-__all__ = ["REPRESENTATIONS", "compute_representation", "WindowSet", "person_windows",
+__all__ = ["REPRESENTATIONS", "compute_representation", "compute_representations",
+           "WindowSet", "person_windows",
            "background_windows", "FeatureCache"]
 
 
-def _hog(cell, normalize=None, gamma=False):
-    from viewadapt.hog import hog_cells
-
-    return lambda w: hog_cells(w, cell_size=cell, normalize=normalize, gamma=gamma).ravel()
-
-
-def _acf(w):
-    from viewadapt.acf import acf_channels
-
-    return acf_channels(w).ravel()
-
-
-def _ocv(w):
-    from viewadapt.hog import hog_descriptor
-
-    return hog_descriptor(w, method="opencv")
-
-
-#: name -> function(window uint8 (128, 64, 3)) -> 1-D float features
+#: representation -> (family, options); every representation of one family shares the
+#: per-window gradient computation
 REPRESENTATIONS = {
-    "cells8": _hog(8), "cells4": _hog(4),
-    "local8": _hog(8, "local"), "local4": _hog(4, "local"),
-    "gamma_cells4": _hog(4, gamma=True), "gamma_cells8": _hog(8, gamma=True),
-    "acf": _acf, "opencv": _ocv,
+    "cells8": ("hog", dict(cell=8)), "cells4": ("hog", dict(cell=4)),
+    "local8": ("hog", dict(cell=8, normalize="local")),
+    "local4": ("hog", dict(cell=4, normalize="local")),
+    "gamma_cells8": ("hog_gamma", dict(cell=8)), "gamma_cells4": ("hog_gamma", dict(cell=4)),
+    "acf": ("acf", {}), "opencv": ("opencv", {}),
 }
 
 
+def _window_features(w, reps) -> dict:
+    """Features of one window in each representation of ``reps``."""
+    from viewadapt.hog import (
+        hog_descriptor, locally_normalize_channels, orientation_channels, sum_cells,
+    )
+
+    out, O = {}, {}
+    for rep in reps:
+        family, opt = REPRESENTATIONS[rep]
+        if family in ("hog", "hog_gamma"):
+            if family not in O:
+                O[family] = orientation_channels(w, gamma=family == "hog_gamma")
+            ch = O[family]
+            if opt.get("normalize") == "local":
+                key = family + "_local"
+                if key not in O:
+                    O[key] = locally_normalize_channels(ch, cell_size=8)
+                ch = O[key]
+            out[rep] = sum_cells(ch, opt["cell"]).ravel()
+        elif family == "acf":
+            from viewadapt.acf import acf_channels
+            out[rep] = acf_channels(w).ravel()
+        else:
+            out[rep] = hog_descriptor(w, method="opencv")
+    return out
+
+
+def compute_representations(windows, reps) -> dict:
+    """``{rep: (n, d) float32}`` for an iterable of windows, one pass over the windows."""
+    rows = {r: [] for r in reps}
+    for w in windows:
+        for r, v in _window_features(w, reps).items():
+            rows[r].append(v)
+    return {r: np.stack(v).astype(np.float32) for r, v in rows.items()}
+
+
 def compute_representation(windows, rep: str) -> np.ndarray:
-    fn = REPRESENTATIONS[rep]
-    return np.stack([fn(w) for w in windows]).astype(np.float32)
+    return compute_representations(windows, [rep])[rep]
 
 
 class WindowSet:
@@ -118,6 +138,10 @@ def background_windows(ds: Dataset, elevation_index: int, *, stride: int = 16) -
     return WindowSet(f"background|e{elevation_index}|s{stride}", items, meta.assign(label=0))
 
 
+#: bump when a representation's definition changes: old cache files then stop matching
+FEATURE_VERSION = 2
+
+
 class FeatureCache:
     """Computes features of window sets once per (dataset, window set, representation)."""
 
@@ -129,7 +153,8 @@ class FeatureCache:
         self._mem = {}
 
     def _file(self, ws: WindowSet, rep: str) -> Path:
-        h = hashlib.sha256(f"{self.ds.fingerprint}|{ws.key}|{rep}|{len(ws)}".encode())
+        h = hashlib.sha256(
+            f"v{FEATURE_VERSION}|{self.ds.fingerprint}|{ws.key}|{rep}|{len(ws)}".encode())
         for rel, H in ws.items[:50]:
             h.update(rel.encode())
             h.update(np.round(H, 9).tobytes())
@@ -137,6 +162,9 @@ class FeatureCache:
 
     def get(self, ws: WindowSet, rep: str) -> np.ndarray:
         """(len(ws), d) float32 features of ``ws`` in representation ``rep``."""
+        return self.get_many(ws, [rep])[rep]
+
+    def _load(self, ws, rep):
         f = self._file(ws, rep)
         if f in self._mem:
             return self._mem[f]
@@ -148,30 +176,42 @@ class FeatureCache:
                     return X
             except (ValueError, OSError):
                 pass  # a truncated cache file: recompute it
-        X = self._compute(ws, rep)
-        self.dir.mkdir(parents=True, exist_ok=True)
-        tmp = f.with_suffix(".tmp.npy")
-        np.save(tmp, X)
-        tmp.replace(f)
-        self._mem[f] = X
-        return X
+        return None
 
-    def _compute(self, ws: WindowSet, rep: str) -> np.ndarray:
+    def get_many(self, ws: WindowSet, reps) -> dict:
+        """Features of ``ws`` in several representations, computing the missing ones in a
+        single pass over the windows (shared reads, warps and gradients)."""
+        out = {r: self._load(ws, r) for r in reps}
+        missing = [r for r, X in out.items() if X is None]
+        if missing:
+            computed = self._compute(ws, missing)
+            self.dir.mkdir(parents=True, exist_ok=True)
+            for r, X in computed.items():
+                f = self._file(ws, r)
+                tmp = f.with_suffix(".tmp.npy")
+                np.save(tmp, X)
+                tmp.replace(f)
+                self._mem[f] = X
+                out[r] = X
+        return out
+
+    def _compute(self, ws: WindowSet, reps) -> dict:
         from joblib import Parallel, delayed
         from tqdm.auto import tqdm
 
         if len(ws) == 0:
-            return np.zeros((0, 0), np.float32)
-        chunks = np.array_split(np.arange(len(ws)), max(1, min(len(ws) // 64, 64)))
+            return {r: np.zeros((0, 0), np.float32) for r in reps}
+        chunks = np.array_split(np.arange(len(ws)), max(1, min(len(ws) // 64, 256)))
         root = self.ds.root
 
         def work(idx):
             sub = WindowSet(ws.key, [ws.items[i] for i in idx], ws.meta.iloc[idx])
-            return compute_representation(list(sub.images(root)), rep)
+            return compute_representations(list(sub.images(root)), reps)
 
-        it = tqdm(chunks, desc=f"features {rep} {ws.key}", leave=False, disable=not self.progress)
+        it = tqdm(chunks, desc=f"features {'+'.join(reps)} {ws.key}", leave=False,
+                  disable=not self.progress)
         if self.n_jobs == 1:
             parts = [work(c) for c in it]
         else:
             parts = Parallel(n_jobs=self.n_jobs)(delayed(work)(c) for c in it)
-        return np.concatenate(parts)
+        return {r: np.concatenate([p[r] for p in parts]) for r in reps}

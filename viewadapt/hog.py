@@ -119,12 +119,12 @@ def _orientation_channels_from_gradients(dx, dy, n_bins):
     frac = t - lo
     lo = lo.astype(np.int64) % n_bins
     hi = (lo + 1) % n_bins
-    M, N = mag.shape
-    O = np.zeros((M, N, n_bins))
-    rows, cols = np.indices((M, N))
+    O = np.zeros(mag.shape + (n_bins,))
+    flat = O.reshape(-1, n_bins)
+    idx = np.arange(mag.size)
     # lo != hi for every pixel, so neither fancy assignment repeats an index
-    O[rows, cols, lo] = mag * (1.0 - frac)
-    O[rows, cols, hi] += mag * frac
+    flat[idx, lo.ravel()] = (mag * (1.0 - frac)).ravel()
+    flat[idx, hi.ravel()] += (mag * frac).ravel()
     return O
 
 
@@ -175,7 +175,7 @@ def _check_cell(cell_size):
 
 
 def hog_cells(image, *, cell_size: int = 8, n_bins: int = 9, gamma: bool = False,
-              normalize: str | None = None) -> np.ndarray:
+              normalize: str | None = None, norm_cell_size: int = 8) -> np.ndarray:
     """HOG cell histograms: sums of oriented magnitudes over non-overlapping cells.
 
     Parameters
@@ -188,6 +188,10 @@ def hog_cells(image, *, cell_size: int = 8, n_bins: int = 9, gamma: bool = False
     normalize : {None, "local"}
         ``"local"`` divides each pixel's channels by its local gradient energy first
         (:func:`locally_normalize_channels`); the result is still a linear cell sum.
+    norm_cell_size : int
+        The local normalisation's neighbourhood is ``2 norm_cell_size`` pixels square,
+        whatever ``cell_size`` is (8: a Dalal-Triggs block), so features on a finer target
+        grid are normalised exactly like the source features they are remapped to.
 
     Returns
     -------
@@ -201,7 +205,7 @@ def hog_cells(image, *, cell_size: int = 8, n_bins: int = 9, gamma: bool = False
         )
     O = orientation_channels(image, n_bins=n_bins, gamma=gamma)
     if normalize == "local":
-        O = locally_normalize_channels(O, cell_size=cell_size)
+        O = locally_normalize_channels(O, cell_size=norm_cell_size)
     elif normalize is not None:
         raise ValueError(f"normalize must be None or 'local', got {normalize!r}")
     return sum_cells(O, cell_size)
