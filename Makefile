@@ -11,7 +11,10 @@ $(STAMP): pyproject.toml
 	@command -v $(PYTHON) >/dev/null || { echo "error: $(PYTHON) not found; viewadapt needs Python 3.11 (bpy 5.0 requires it)"; exit 1; }
 	@test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --quiet -e ".[test]"
+	$(BIN)/python -m pip install --quiet -e ".[test,generator,raster,scale]"
+	@# anny builds its model cache on first use (~70 s, 1.7 GB RAM); do it once here and keep
+	@# only the compact file it reads afterwards (~51 MB)
+	$(BIN)/python -c "from generator.body import build_cache; build_cache(prune=True)"
 	@touch $(STAMP)
 
 venv: $(STAMP)
@@ -24,6 +27,7 @@ demo: $(STAMP)
 
 bench: $(STAMP)
 	$(BIN)/python -m benchmark.perf.core
+	$(BIN)/python -m generator.bench
 
 clean:
 	rm -rf $(VENV) demo-output .pytest_cache

@@ -1,0 +1,329 @@
+"""The dataset directory: manifest rows, atomic files, assembly and verification.
+
+Layout of a dataset directory ``DIR``::
+
+    DIR/dataset.json             config, master seed, versions, spec hashes
+    DIR/manifest.parquet         one row per image (and manifest.csv, the same rows)
+    DIR/frames_coco.json         COCO annotations of the surveillance frames
+    DIR/person/<scene>/<person>_i<instance>_e<elevation_index>.png
+    DIR/background/<scene>/bg_i<k>_e<elevation_index>.png
+    DIR/frames/<scene>/frame_<k>.png
+    DIR/.parts/<unit>.json       per work unit: its manifest rows (written after its images)
+
+Every file is written to a temporary name beside it and moved in with ``os.replace``, so a
+killed run leaves only complete files. The manifest is rebuilt from the part files at the
+end of every run, in plan order, so a resumed or sharded run gives the same manifest as an
+uninterrupted one.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import tempfile
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["MANIFEST_COLUMNS", "atomic_write_bytes", "atomic_write_text", "part_path",
+           "read_part", "write_part", "png_is_complete", "assemble_manifest",
+           "read_manifest", "VerifyReport", "verify_dataset", "json_matrix", "versions",
+           "spec_hashes"]
+
+#: Column order of manifest.parquet / manifest.csv.
+MANIFEST_COLUMNS = [
+    "path", "kind", "person_id", "scene_id", "instance", "elevation", "elevation_index",
+    "azimuth", "rotation", "ground_x", "ground_y", "pose", "gait_phase", "stature",
+    "sun_elevation", "sun_azimuth", "sun_strength", "sun_color", "sky_strength",
+    "sky_horizon", "sky_zenith", "area_light_strength", "n_area_lights", "exposure",
+    "K", "R", "t", "H_window_to_image", "H_plane_to_image", "box_silhouette", "framing",
+    "distance", "person_height", "n_persons", "width", "height", "seed", "render_seed",
+    "renderer", "samples", "supersample",
+]
+
+
+def json_matrix(a) -> str:
+    """A matrix/vector as a compact JSON string of nested lists (full float precision)."""
+    return json.dumps(np.asarray(a, dtype=np.float64).tolist(), separators=(",", ":"))
+
+
+# --------------------------------------------------------------------------- atomic files
+
+
+def atomic_write_bytes(path, data: bytes) -> None:
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            fh.write(data)
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(tmp, path)
+    finally:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+
+
+def atomic_write_text(path, text: str) -> None:
+    atomic_write_bytes(path, text.encode())
+
+
+def part_path(out, uid: str) -> Path:
+    return Path(out) / ".parts" / (uid.replace("/", "__") + ".json")
+
+
+def write_part(out, uid: str, rows: list[dict], coco: dict | None = None) -> None:
+    atomic_write_text(part_path(out, uid), json.dumps({"unit": uid, "rows": rows,
+                                                       "coco": coco}))
+
+
+def read_part(out, uid: str) -> dict | None:
+    p = part_path(out, uid)
+    if not p.is_file():
+        return None
+    try:
+        d = json.loads(p.read_text())
+    except (json.JSONDecodeError, OSError):
+        return None
+    return d if d.get("unit") == uid else None
+
+
+_PNG_SIG = b"\x89PNG\r\n\x1a\n"
+
+
+def png_is_complete(path) -> bool:
+    """Cheap check: PNG signature at the start and the IEND chunk at the end."""
+    try:
+        with open(path, "rb") as fh:
+            head = fh.read(8)
+            fh.seek(0, os.SEEK_END)
+            if fh.tell() < 57:
+                return False
+            fh.seek(-12, os.SEEK_END)
+            tail = fh.read(12)
+    except OSError:
+        return False
+    return head == _PNG_SIG and tail[4:8] == b"IEND"
+
+
+# --------------------------------------------------------------------------- metadata
+
+
+def versions() -> dict:
+    """Versions of Blender (bpy), anny, torch and viewadapt, without importing bpy/torch."""
+    from importlib import metadata
+
+    import viewadapt
+
+    out = {"viewadapt": viewadapt.__version__}
+    for dist, key in (("bpy", "blender"), ("anny", "anny"), ("torch", "torch"),
+                      ("numpy", "numpy"), ("opencv-python-headless", "opencv"),
+                      ("pyrender", "pyrender")):
+        try:
+            out[key] = metadata.version(dist)
+        except metadata.PackageNotFoundError:
+            out[key] = None
+    return out
+
+
+def spec_hashes(paths) -> dict:
+    """sha256 of each spec file (provenance in dataset.json)."""
+    out = {}
+    for p in paths:
+        p = Path(p)
+        if p.is_file():
+            out[p.name] = hashlib.sha256(p.read_bytes()).hexdigest()[:16]
+    return out
+
+
+# --------------------------------------------------------------------------- manifest
+
+
+def assemble_manifest(out, uids: list[str]):
+    """Collect the rows of every finished unit (in ``uids`` order) and write the manifest.
+
+    Writes ``manifest.parquet``, ``manifest.csv`` and ``frames_coco.json`` atomically.
+
+    Returns
+    -------
+    (DataFrame, list of unfinished uids)
+    """
+    import pandas as pd
+
+    out = Path(out)
+    rows, missing = [], []
+    coco = {"info": {"description": "viewadapt synthetic surveillance frames",
+                     "box_convention": "[x, y, w, h], pixel centres at integer coordinates "
+                                       "(the image spans [-0.5, W-0.5])"},
+            "categories": [{"id": 1, "name": "person"}], "images": [], "annotations": []}
+    for uid in uids:
+        part = read_part(out, uid)
+        if part is None:
+            missing.append(uid)
+            continue
+        rows += part["rows"]
+        if part.get("coco"):
+            for img in part["coco"]["images"]:
+                img = dict(img, id=len(coco["images"]) + 1)
+                coco["images"].append(img)
+                for ann in part["coco"]["annotations"]:
+                    if ann["file_name"] != img["file_name"]:
+                        continue
+                    a = {k: v for k, v in ann.items() if k != "file_name"}
+                    a.update(id=len(coco["annotations"]) + 1, image_id=img["id"])
+                    coco["annotations"].append(a)
+    df = pd.DataFrame(rows, columns=MANIFEST_COLUMNS)
+    df = _typed(df)
+    import io
+
+    buf = io.BytesIO()
+    df.to_parquet(buf, index=False)
+    atomic_write_bytes(out / "manifest.parquet", buf.getvalue())
+    atomic_write_text(out / "manifest.csv", df.to_csv(index=False))
+    atomic_write_text(out / "frames_coco.json", json.dumps(coco, indent=1))
+    return df, missing
+
+
+def _typed(df):
+    ints = ["instance", "elevation_index", "n_area_lights", "n_persons", "width", "height",
+            "seed", "render_seed", "samples", "supersample"]
+    floats = ["elevation", "azimuth", "rotation", "ground_x", "ground_y", "gait_phase",
+              "stature", "sun_elevation", "sun_azimuth", "sun_strength", "sky_strength",
+              "area_light_strength", "exposure", "distance", "person_height"]
+    for c in ints:
+        df[c] = df[c].astype("int64")
+    for c in floats:
+        df[c] = df[c].astype("float64")
+    for c in set(df.columns) - set(ints) - set(floats):
+        df[c] = df[c].fillna("").astype(str)
+    return df
+
+
+def read_manifest(out):
+    """The manifest of a dataset directory as a DataFrame."""
+    import pandas as pd
+
+    p = Path(out) / "manifest.parquet"
+    if not p.is_file():
+        raise FileNotFoundError(f"{out}: no manifest.parquet (generation unfinished? run "
+                                f"`viewadapt generate` again with the same --out to finish)")
+    return pd.read_parquet(p)
+
+
+# --------------------------------------------------------------------------- verify
+
+
+@dataclass
+class VerifyReport:
+    """What ``dataset verify`` found."""
+
+    directory: str
+    n_rows: int = 0
+    n_ok: int = 0
+    n_planned: int | None = None
+    problems: list = field(default_factory=list)     # (path, message)
+
+    @property
+    def ok(self) -> bool:
+        return not self.problems
+
+    def summary(self) -> str:
+        head = (f"{self.directory}: {self.n_ok}/{self.n_rows} images OK"
+                + (f", {self.n_planned} planned" if self.n_planned is not None else ""))
+        if self.ok:
+            return head + "; no problems found"
+        lines = [head + f"; {len(self.problems)} problem(s):"]
+        lines += [f"  {p}: {m}" for p, m in self.problems[:200]]
+        if len(self.problems) > 200:
+            lines.append(f"  ... and {len(self.problems) - 200} more")
+        return "\n".join(lines)
+
+
+def verify_dataset(out, *, decode: bool = True, check_plan: bool = True) -> VerifyReport:
+    """Check a dataset directory: every manifest row's image exists, is a complete PNG that
+    decodes to the recorded size; no duplicate or stray files; nothing planned is missing.
+    """
+    import cv2
+
+    out = Path(out)
+    if not out.is_dir():
+        raise FileNotFoundError(f"dataset directory not found: {out}")
+    meta_p = out / "dataset.json"
+    if not meta_p.is_file():
+        raise FileNotFoundError(f"{out}: no dataset.json; not a dataset directory")
+    rep = VerifyReport(str(out))
+    try:
+        meta = json.loads(meta_p.read_text())
+    except json.JSONDecodeError as exc:
+        rep.problems.append(("dataset.json", f"unreadable JSON: {exc}"))
+        return rep
+    try:
+        df = read_manifest(out)
+    except FileNotFoundError as exc:
+        rep.problems.append(("manifest.parquet", str(exc)))
+        df = None
+    except Exception as exc:  # noqa: BLE001 - any parquet failure is a finding
+        rep.problems.append(("manifest.parquet", f"unreadable: {exc}"))
+        df = None
+    if df is not None:
+        rep.n_rows = len(df)
+        dup = df["path"][df["path"].duplicated()]
+        for p in dup:
+            rep.problems.append((p, "listed twice in the manifest"))
+        for row in df.itertuples(index=False):
+            f = out / row.path
+            if not f.is_file():
+                rep.problems.append((row.path, "missing"))
+                continue
+            if f.stat().st_size == 0:
+                rep.problems.append((row.path, "empty file"))
+                continue
+            if not png_is_complete(f):
+                rep.problems.append((row.path, "truncated or not a PNG"))
+                continue
+            if decode:
+                img = cv2.imread(str(f), cv2.IMREAD_UNCHANGED)
+                if img is None:
+                    rep.problems.append((row.path, "unreadable (does not decode)"))
+                    continue
+                if img.shape[:2] != (row.height, row.width):
+                    rep.problems.append((row.path, f"size {img.shape[1]}x{img.shape[0]}, "
+                                                   f"manifest says {row.width}x{row.height}"))
+                    continue
+            rep.n_ok += 1
+        listed = set(df["path"])
+        for sub in ("person", "background", "frames"):
+            d = out / sub
+            if not d.is_dir():
+                continue
+            for f in d.rglob("*"):
+                if f.is_file():
+                    rel = f.relative_to(out).as_posix()
+                    if rel not in listed:
+                        what = ("leftover temporary file" if f.name.startswith(".")
+                                else "not in the manifest")
+                        rep.problems.append((rel, what))
+    if check_plan and df is not None:
+        try:
+            from .pipeline import planned_paths
+
+            planned = planned_paths(meta)
+            rep.n_planned = len(planned)
+            for p in sorted(set(planned) - set(df["path"])):
+                rep.problems.append((p, "planned but not generated"))
+        except Exception as exc:  # noqa: BLE001
+            rep.problems.append(("dataset.json", f"cannot re-plan the dataset: {exc}"))
+    coco_p = out / "frames_coco.json"
+    if df is not None and (df["kind"] == "frame").any():
+        try:
+            coco = json.loads(coco_p.read_text())
+            names = {im["file_name"] for im in coco["images"]}
+            for p in df.loc[df["kind"] == "frame", "path"]:
+                if p not in names:
+                    rep.problems.append((p, "frame missing from frames_coco.json"))
+        except (OSError, json.JSONDecodeError, KeyError) as exc:
+            rep.problems.append(("frames_coco.json", f"unreadable: {exc}"))
+    return rep

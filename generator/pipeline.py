@@ -1,0 +1,505 @@
+"""Run a dataset plan: workers render work units, the manifest is assembled from their parts.
+
+Execution engines:
+
+* a local process pool (default; ``jobs`` spawned workers, each with its own Blender and
+  anny, ``threads = cores // jobs`` Cycles threads each) -- the main process never imports
+  bpy or torch;
+* a Dask distributed cluster (``scheduler="tcp://host:port"``), the same unit function;
+* inline (``jobs=0``; in this process -- used by tests and the benchmark).
+
+``shard=(i, n)`` renders only the i-th of n contiguous blocks of units (job arrays); the
+manifest always covers every finished unit of the whole plan, so the last shard to finish
+(or a plain rerun) writes the complete manifest.
+
+Resuming: a unit whose part file exists is skipped; inside an unfinished unit every image
+already on disk (a complete PNG) is kept and only the rest is rendered.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from viewadapt.geometry import Camera, window_to_image_homography, window_to_plane
+
+from .layout import layout_scene
+from .manifest import (
+    assemble_manifest, atomic_write_text, json_matrix, png_is_complete, read_part,
+    spec_hashes, versions, write_part,
+)
+from .sampling import (
+    GeneratorConfig, Plan, WorkUnit, image_relpath, plan_dataset, select_shard,
+)
+from .specs import default_roster_path, default_scene_dir, load_roster, load_scenes
+
+__all__ = ["generate", "GenerateResult", "run_unit", "planned_paths", "dataset_metadata"]
+
+
+@dataclass
+class GenerateResult:
+    out: Path
+    n_units: int
+    n_units_run: int
+    n_images: int
+    n_rendered: int
+    n_kept: int
+    seconds: float
+    complete: bool
+
+    def summary(self) -> str:
+        rate = self.n_rendered / self.seconds if self.seconds > 0 else float("nan")
+        state = "complete" if self.complete else "INCOMPLETE (other shards or units pending)"
+        return (f"{self.out}: {self.n_images} images in plan; rendered {self.n_rendered}, "
+                f"kept {self.n_kept} in {self.seconds:.1f} s ({rate:.2f} images/s); "
+                f"dataset {state}")
+
+
+# --------------------------------------------------------------------------- metadata
+
+
+def dataset_metadata(config: GeneratorConfig, seed: int, plan: Plan, scene_dir, roster) -> dict:
+    scene_dir = Path(scene_dir)
+    return {
+        "format": "viewadapt-multiview-v1",
+        "preset": config.preset,
+        "seed": int(seed),
+        "framing": config.framing,
+        "elevations": [float(e) for e in config.elevations],
+        "distance": config.distance,
+        "person_height": config.person_height,
+        "counts": {"persons": len(plan.persons), "scenes": len(plan.scenes),
+                   "instances": config.instances,
+                   "backgrounds_per_scene": config.backgrounds_per_scene,
+                   "frames": config.frames, "images": plan.n_images},
+        "renderer": {"name": config.renderer, "samples": config.samples,
+                     "background_samples": config.background_samples,
+                     "frame_samples": config.frame_samples, "denoise": config.denoise,
+                     "supersample": config.supersample, "light_tree": config.light_tree,
+                     "fast_gi": config.fast_gi, "max_bounces": config.max_bounces},
+        "config": config.to_dict(),
+        "persons": list(plan.persons),
+        "scenes": list(plan.scenes),
+        "specs": {"scene_dir": str(scene_dir), "roster": str(roster),
+                  "hashes": spec_hashes(sorted(scene_dir.glob("*.json")) + [Path(roster)])},
+        "versions": versions(),
+        "conventions": {
+            "world": "metres, Z up, ground Z=0; person yaw 0 faces -Y",
+            "camera": "OpenCV: x_cam = R X + t, x right, y down, z forward",
+            "azimuth": "crops/backgrounds: direction from the person (aim point) to the "
+                       "camera, radians counter-clockwise from -Y (viewadapt crop_camera); "
+                       "NaN for frames",
+            "rotation": "person yaw, radians counter-clockwise about +Z; 0 faces -Y",
+            "pixels": "pixel centres at integer coordinates; boxes [x, y, w, h] in that frame",
+            "H_window_to_image": "canonical 64x128 window (person plane, 96 px tall "
+                                 "person_height) -> image; identity at elevation 0 for "
+                                 "plane framing; centre window for backgrounds",
+            "H_plane_to_image": "person-plane metres (u right, z up, origin at the feet) "
+                                "-> image",
+        },
+    }
+
+
+def _same_config(a: dict, b: dict) -> bool:
+    keys = ("seed", "config")
+    return all(json.dumps(a.get(k), sort_keys=True) == json.dumps(b.get(k), sort_keys=True)
+               for k in keys)
+
+
+def planned_paths(meta: dict) -> list[str]:
+    """Every image path a dataset's ``dataset.json`` plans (re-planned in numpy)."""
+    config = GeneratorConfig.from_dict(meta["config"])
+    specs = meta.get("specs", {})
+    scene_dir = specs.get("scene_dir") or default_scene_dir()
+    roster = specs.get("roster") or default_roster_path()
+    plan = plan_dataset(config, meta["seed"], scenes=load_scenes(scene_dir),
+                        persons=load_roster(roster))
+    return [p for u in plan.units for p in unit_paths(u)]
+
+
+def unit_paths(unit: WorkUnit) -> list[str]:
+    out = []
+    for s in unit.samples:
+        if unit.kind == "person":
+            out += [image_relpath("person", s.scene_id, person_id=s.person_id,
+                                  instance=s.instance, elevation_index=e)
+                    for e in range(len(s.cameras))]
+        elif unit.kind == "background":
+            out += [image_relpath("background", s.scene_id, index=s.index, elevation_index=e)
+                    for e in range(len(s.cameras))]
+        else:
+            out.append(image_relpath("frame", s.scene_id, index=s.index))
+    return out
+
+
+# --------------------------------------------------------------------------- worker
+
+_STATE: dict = {}
+
+
+def _worker_init(threads: int, quiet: bool = True) -> None:
+    """Per-process set-up of a pool worker: Cycles threads, silence Blender's stdout."""
+    _STATE["threads"] = threads
+    if quiet:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, 1)
+        os.close(devnull)
+
+
+def _state(config: GeneratorConfig, threads: int):
+    key = (config.renderer, threads, config.light_tree, config.fast_gi, config.max_bounces,
+           config.denoise)
+    if _STATE.get("key") != key:
+        from .body import BodyModel
+
+        if "body" not in _STATE:
+            _STATE["body"] = BodyModel()
+        n_slots = max(1, config.persons_per_frame[1])
+        if config.renderer == "pyrender":
+            from .raster import RasterRenderer, pyrender_version
+
+            # pyrender's framebuffer is already 4x multisampled
+            _STATE["renderer"] = RasterRenderer(n_slots=n_slots,
+                                                supersample=config.supersample)
+            _STATE["renderer_version"] = pyrender_version()
+        else:
+            from .blender import BlenderRenderer, blender_version
+
+            _STATE["renderer"] = BlenderRenderer(
+                threads=threads, n_slots=n_slots, light_tree=config.light_tree,
+                fast_gi=config.fast_gi, max_bounces=config.max_bounces,
+                denoise=config.denoise)
+            _STATE["renderer_version"] = blender_version()
+        _STATE["key"] = key
+        _STATE["layouts"] = {}
+    return _STATE["body"], _STATE["renderer"]
+
+
+def _layout(spec):
+    cache = _STATE.setdefault("layouts", {})
+    if spec.id not in cache:
+        cache[spec.id] = layout_scene(spec)
+    return cache[spec.id]
+
+
+def _base_row(config: GeneratorConfig, kind, path, scene_id, lighting, cam: Camera, width,
+              height, seed, render_seed, samples) -> dict:
+    row = {c: None for c in ("person_id", "pose", "box_silhouette", "H_window_to_image",
+                             "H_plane_to_image")}
+    row.update(path=path, kind=kind, scene_id=scene_id, K=json_matrix(cam.K),
+               R=json_matrix(cam.R), t=json_matrix(cam.t), width=int(width),
+               height=int(height), seed=int(seed), render_seed=int(render_seed),
+               renderer=config.renderer,
+               samples=int(samples) if config.renderer == "cycles"
+               else 4 * config.supersample ** 2,
+               supersample=int(config.supersample), framing=config.framing,
+               distance=config.distance, person_height=config.person_height,
+               person_id="", pose="", box_silhouette="", n_persons=0, stature=math.nan,
+               gait_phase=math.nan, rotation=math.nan)
+    row.update(lighting.to_columns())
+    return row
+
+
+def _remove_stale_temporaries(out: Path, unit: WorkUnit) -> None:
+    """Delete temp files a killed run left for this unit's images and part file (a unit is
+    only ever run by one worker at a time, so these cannot be in flight)."""
+    from .manifest import part_path
+
+    for rel in unit_paths(unit):
+        p = out / rel
+        if p.parent.is_dir():
+            for tmp in p.parent.glob(f".{p.stem}.*"):
+                tmp.unlink(missing_ok=True)
+    pp = part_path(out, unit.uid)
+    if pp.parent.is_dir():
+        for tmp in pp.parent.glob(f".{pp.name}.*"):
+            tmp.unlink(missing_ok=True)
+
+
+def _render_seed(seed: int, k: int) -> int:
+    return int((seed + 7919 * k) % (2 ** 31 - 1))
+
+
+def run_unit(payload: dict) -> dict:
+    """Render one work unit (all its images), write its part file, return a summary.
+
+    ``payload``: ``unit`` (WorkUnit), ``scene`` (SceneSpec), ``persons`` (id -> PersonSpec),
+    ``config`` (GeneratorConfig), ``out`` (str), ``threads`` (int).
+    """
+    t0 = time.perf_counter()
+    unit: WorkUnit = payload["unit"]
+    spec = payload["scene"]
+    persons = payload["persons"]
+    config: GeneratorConfig = payload["config"]
+    out = Path(payload["out"])
+    threads = int(payload.get("threads") or _STATE.get("threads") or 0)
+    _remove_stale_temporaries(out, unit)
+    body, renderer = _state(config, threads)
+    layout = _layout(spec)
+    renderer.load_scene(layout)
+    from .annotate import (
+        fit_silhouette_intrinsics, frame_annotations, person_to_world, silhouette_box,
+    )
+
+    rows, coco = [], None
+    n_rendered = n_kept = 0
+    plane_inv = np.linalg.inv(window_to_plane(config.person_height))
+
+    def render_to(rel, cam, width, height, samples, seed):
+        nonlocal n_rendered, n_kept
+        path = out / rel
+        if path.is_file() and png_is_complete(path):
+            n_kept += 1
+            return
+        renderer.set_camera(cam.K, cam.R, cam.t, width, height, config.supersample)
+        renderer.render(path, samples=samples, seed=seed)
+        n_rendered += 1
+
+    if unit.kind == "person":
+        person = persons[unit.samples[0].person_id]
+        w, h = config.crop_size
+        for s in unit.samples:
+            mesh = body.build(person, s.pose, s.gait_phase, s.pose_jitter)
+            pts = person_to_world(mesh.all_points(), s.ground_xy, s.rotation)
+            renderer.set_persons([(mesh, person, s.ground_xy, s.rotation)])
+            renderer.set_lighting(s.lighting)
+            for e, (cam, H) in enumerate(zip(s.cameras, s.homographies)):
+                if config.framing == "silhouette":
+                    K = fit_silhouette_intrinsics(cam, pts, w, h)
+                    A = K @ np.linalg.inv(cam.K)
+                    cam = Camera(K, cam.R, cam.t, (w, h))
+                    H = A @ H
+                rel = image_relpath("person", spec.id, person_id=person.id,
+                                    instance=s.instance, elevation_index=e)
+                rs = _render_seed(s.seed, e)
+                render_to(rel, cam, w, h, config.samples, rs)
+                row = _base_row(config, "person", rel, spec.id, s.lighting, cam, w, h,
+                                s.seed, rs, config.samples)
+                box = silhouette_box(pts, cam, w, h)
+                row.update(person_id=person.id, instance=s.instance,
+                           elevation=float(config.elevations[e]), elevation_index=e,
+                           azimuth=s.azimuth, rotation=s.rotation, ground_x=s.ground_xy[0],
+                           ground_y=s.ground_xy[1], pose=s.pose, gait_phase=s.gait_phase,
+                           stature=person.stature, n_persons=1,
+                           H_window_to_image=json_matrix(H / H[2, 2]),
+                           H_plane_to_image=json_matrix((H @ plane_inv) / H[2, 2]),
+                           box_silhouette=json.dumps(box) if box else "")
+                rows.append(row)
+    elif unit.kind == "background":
+        renderer.set_persons([])
+        w, h = config.background_size
+        for s in unit.samples:
+            renderer.set_lighting(s.lighting)
+            for e, (cam, H) in enumerate(zip(s.cameras, s.homographies)):
+                rel = image_relpath("background", spec.id, index=s.index, elevation_index=e)
+                rs = _render_seed(s.seed, e)
+                render_to(rel, cam, w, h, config.background_samples, rs)
+                row = _base_row(config, "background", rel, spec.id, s.lighting, cam, w, h,
+                                s.seed, rs, config.background_samples)
+                row.update(instance=s.index, elevation=float(config.elevations[e]),
+                           elevation_index=e, azimuth=s.azimuth, ground_x=s.ground_xy[0],
+                           ground_y=s.ground_xy[1],
+                           H_window_to_image=json_matrix(H / H[2, 2]),
+                           H_plane_to_image=json_matrix((H @ plane_inv) / H[2, 2]))
+                rows.append(row)
+    elif unit.kind == "frame":
+        w, h = config.frame_size
+        coco = {"images": [], "annotations": []}
+        for s in unit.samples:
+            placed, annot_in = [], []
+            for fp in s.persons:
+                person = persons[fp.person_id]
+                mesh = body.build(person, fp.pose, fp.gait_phase, fp.pose_jitter)
+                placed.append((mesh, person, fp.ground_xy, fp.rotation))
+                annot_in.append((person_to_world(mesh.triangles(), fp.ground_xy, fp.rotation),
+                                 person_to_world(mesh.all_points(), fp.ground_xy,
+                                                 fp.rotation), fp.ground_xy))
+            renderer.set_persons(placed)
+            renderer.set_lighting(s.lighting)
+            rel = image_relpath("frame", spec.id, index=s.index)
+            rs = _render_seed(s.seed, 0)
+            render_to(rel, s.camera, w, h, config.frame_samples, rs)
+            anns = frame_annotations(s.camera, w, h, annot_in, layout)
+            row = _base_row(config, "frame", rel, spec.id, s.lighting, s.camera, w, h, s.seed,
+                            rs, config.frame_samples)
+            fc = spec.frame_camera
+            # frames: the camera is K/R/t (and frames_coco.json); per-person placement is in
+            # the COCO annotations, so the per-crop placement columns are NaN here
+            row.update(instance=s.index, elevation=math.nan, elevation_index=-1,
+                       azimuth=math.nan, ground_x=math.nan, ground_y=math.nan,
+                       n_persons=len(s.persons))
+            rows.append(row)
+            coco["images"].append({
+                "file_name": rel, "width": w, "height": h, "scene_id": spec.id,
+                "frame_index": s.index, "seed": s.seed, "K": s.camera.K.tolist(),
+                "R": s.camera.R.tolist(), "t": s.camera.t.tolist(),
+                "camera_height": fc.height, "camera_tilt": math.radians(fc.tilt_deg),
+                "lighting": s.lighting.to_columns()})
+            for fp, a in zip(s.persons, anns):
+                Hw = window_to_image_homography(s.camera, fp.ground_xy, config.person_height)
+                coco["annotations"].append({
+                    "file_name": rel, "category_id": 1, "iscrowd": 0,
+                    "person_id": fp.person_id, "bbox": a["bbox"],
+                    "bbox_visible": a["bbox_visible"], "occlusion": a["occlusion"],
+                    "truncation": a["truncation"], "area": a["area"],
+                    "area_visible": a["area_visible"],
+                    "ground_position": [fp.ground_xy[0], fp.ground_xy[1], 0.0],
+                    "rotation": fp.rotation, "pose": fp.pose,
+                    "stature": persons[fp.person_id].stature,
+                    "H_window_to_image": (Hw / Hw[2, 2]).tolist()})
+    else:  # pragma: no cover
+        raise ValueError(f"unknown unit kind {unit.kind!r}")
+    write_part(out, unit.uid, rows, coco)
+    return {"uid": unit.uid, "n_images": unit.n_images, "rendered": n_rendered,
+            "kept": n_kept, "seconds": time.perf_counter() - t0, "pid": os.getpid()}
+
+
+# --------------------------------------------------------------------------- driver
+
+
+def _cpu_count() -> int:
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # pragma: no cover
+        return os.cpu_count() or 1
+
+
+def generate(config: GeneratorConfig, seed: int, out, *, jobs: int = 1, shard=None,
+             scheduler: str | None = None, progress: bool = True, scene_dir=None,
+             roster=None, threads: int | None = None, log=None) -> GenerateResult:
+    """Generate (or finish) a dataset in ``out``.
+
+    Parameters
+    ----------
+    config : GeneratorConfig
+    seed : int
+        Master seed.
+    out : path
+        Dataset directory (created; an existing one must hold the same config and seed).
+    jobs : int
+        Worker processes (``-1``: one per core; ``0``: render in this process).
+    shard : (int, int), optional
+        Render only block ``i`` of ``n``.
+    scheduler : str, optional
+        Dask scheduler address; ``jobs`` is then ignored.
+    """
+    t0 = time.perf_counter()
+    out = Path(out)
+    if out.exists() and not out.is_dir():
+        raise ValueError(f"--out {out} exists and is not a directory")
+    if config.renderer == "pyrender":
+        try:
+            import pyrender  # noqa: F401
+        except ImportError:
+            raise ValueError("--renderer pyrender needs pyrender (pip install pyrender) and "
+                             "an EGL or OSMesa OpenGL library; use --renderer cycles") from None
+    scene_dir = Path(scene_dir) if scene_dir is not None else default_scene_dir()
+    roster = Path(roster) if roster is not None else default_roster_path()
+    plan = plan_dataset(config, seed, scenes=load_scenes(scene_dir),
+                        persons=load_roster(roster))
+    meta = dataset_metadata(config, seed, plan, scene_dir, roster)
+    out.mkdir(parents=True, exist_ok=True)
+    meta_p = out / "dataset.json"
+    if meta_p.is_file():
+        try:
+            old = json.loads(meta_p.read_text())
+        except json.JSONDecodeError:
+            old = None
+        if old is not None and not _same_config(old, meta):
+            raise ValueError(f"{out} holds a dataset with a different config or seed "
+                             f"(preset {old.get('preset')!r}, seed {old.get('seed')}); "
+                             f"choose another --out")
+    atomic_write_text(meta_p, json.dumps(meta, indent=2))
+
+    units = select_shard(plan.units, shard)
+    pending = []
+    for u in units:
+        part = read_part(out, u.uid)
+        if part is not None and all((out / p).is_file() for p in unit_paths(u)):
+            continue
+        pending.append(u)
+    n_done_images = sum(u.n_images for u in units) - sum(u.n_images for u in pending)
+    payloads = [{"unit": u, "scene": plan.scenes[u.scene_id],
+                 "persons": {pid: plan.persons[pid] for pid in _unit_person_ids(u)},
+                 "config": config, "out": str(out)} for u in pending]
+
+    from tqdm.auto import tqdm
+
+    bar = tqdm(total=sum(u.n_images for u in units), initial=n_done_images, unit="img",
+               desc=f"generate {config.preset}", disable=not progress, dynamic_ncols=True,
+               smoothing=0.05)
+    rendered = kept = 0
+    try:
+        for res in _execute(payloads, jobs=jobs, scheduler=scheduler, threads=threads):
+            rendered += res["rendered"]
+            kept += res["kept"]
+            bar.update(res["n_images"])
+            if log is not None:
+                log(res)
+    finally:
+        bar.close()
+        # assemble whatever is finished, even after an interruption
+        df, missing = assemble_manifest(out, [u.uid for u in plan.units])
+    return GenerateResult(out, len(plan.units), len(pending), plan.n_images, rendered,
+                          kept + n_done_images, time.perf_counter() - t0, not missing)
+
+
+def _unit_person_ids(u: WorkUnit) -> list[str]:
+    if u.kind == "person":
+        return [u.samples[0].person_id]
+    if u.kind == "frame":
+        return sorted({p.person_id for s in u.samples for p in s.persons})
+    return []
+
+
+def _execute(payloads, *, jobs, scheduler, threads):
+    if not payloads:
+        return
+    if scheduler:
+        yield from _execute_dask(payloads, scheduler, threads)
+        return
+    ncpu = _cpu_count()
+    if jobs is None or jobs < 0:
+        jobs = ncpu
+    if jobs == 0:
+        _STATE.setdefault("threads", threads or ncpu)
+        for p in payloads:
+            yield run_unit(dict(p, threads=threads or ncpu))
+        return
+    per = threads or max(1, ncpu // jobs)
+    import multiprocessing as mp
+    from concurrent.futures import ProcessPoolExecutor, as_completed
+
+    ctx = mp.get_context("spawn")
+    with ProcessPoolExecutor(max_workers=jobs, mp_context=ctx, initializer=_worker_init,
+                             initargs=(per,)) as ex:
+        futs = [ex.submit(run_unit, dict(p, threads=per)) for p in payloads]
+        try:
+            for f in as_completed(futs):
+                yield f.result()
+        except BaseException:
+            for f in futs:
+                f.cancel()
+            raise
+
+
+def _execute_dask(payloads, scheduler, threads):
+    try:
+        from distributed import Client, as_completed
+    except ImportError as exc:
+        raise ValueError("--scheduler needs dask: pip install 'dask[distributed]'") from exc
+    client = Client(scheduler, set_as_default=False)
+    try:
+        futs = client.map(run_unit, [dict(p, threads=threads or 0) for p in payloads],
+                          pure=False, key=[f"unit-{p['unit'].uid}" for p in payloads])
+        for f in as_completed(futs, loop=client.loop):
+            yield f.result()
+    finally:
+        client.close()
+
