@@ -91,11 +91,19 @@ class WindowSet:
     def __len__(self):
         return len(self.items)
 
-    def warped(self, H_window, key_suffix: str) -> "WindowSet":
-        """The same windows, each resampled through ``H_window`` first (``out(p) = img(H_i H p)``)."""
+    def warped(self, H_window, key_suffix: str, *, crop_first: bool = True) -> "WindowSet":
+        """The same windows, each resampled through ``H_window``: ``out(p) = win(H p)``.
+
+        With ``crop_first`` (default) each 64x128 window is cut out first and warped on its
+        own, pixels outside it replicated from its border -- exactly what happens to a
+        person crop, which has no context beyond its 64x128 pixels. Treating background
+        windows the same way keeps positives and negatives alike, so a classifier cannot
+        learn the border artefacts as a cue. Without it the warp reads the whole image.
+        """
         H = np.asarray(H_window, float)
-        return WindowSet(f"{self.key}|{key_suffix}", [(p, Hi @ H) for p, Hi in self.items],
-                         self.meta)
+        suffix = key_suffix + ("|cropfirst" if crop_first else "")
+        items = [(p, (Hi, H) if crop_first else Hi @ H) for p, Hi in self.items]
+        return WindowSet(f"{self.key}|{suffix}", items, self.meta)
 
     def images(self, root: Path):
         cache = {}
@@ -104,6 +112,12 @@ class WindowSet:
                 cache.clear()
                 cache[rel] = read_image(root / rel)
             img = cache[rel]
+            if isinstance(H, tuple):                      # crop first, then warp
+                T, Hw = H
+                x, y = int(round(T[0, 2])), int(round(T[1, 2]))
+                win = np.ascontiguousarray(img[y:y + WINDOW_HEIGHT, x:x + WINDOW_WIDTH])
+                yield warp_to_source_view(win, Hw)
+                continue
             if np.allclose(H[2], [0, 0, 1]) and np.allclose(H[:2, :2], np.eye(2)) and \
                     float(H[0, 2]).is_integer() and float(H[1, 2]).is_integer():
                 x, y = int(H[0, 2]), int(H[1, 2])
@@ -157,7 +171,8 @@ class FeatureCache:
             f"v{FEATURE_VERSION}|{self.ds.fingerprint}|{ws.key}|{rep}|{len(ws)}".encode())
         for rel, H in ws.items[:50]:
             h.update(rel.encode())
-            h.update(np.round(H, 9).tobytes())
+            for M in (H if isinstance(H, tuple) else (H,)):
+                h.update(np.round(M, 9).tobytes())
         return self.dir / f"{rep}-{h.hexdigest()[:20]}.npy"
 
     def get(self, ws: WindowSet, rep: str) -> np.ndarray:
