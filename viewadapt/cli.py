@@ -226,6 +226,12 @@ def build_parser() -> argparse.ArgumentParser:
     if register_bench is not None:
         register_bench(sub, common)
     try:
+        from benchmark.frames_cli import register as register_frames
+    except ImportError:  # pragma: no cover
+        register_frames = None
+    if register_frames is not None:
+        register_frames(sub, common)
+    try:
         from generator.cli import register as register_generator
     except ImportError:
         register_generator = None
