@@ -16,6 +16,8 @@ Modules (public names are re-exported here):
 * :mod:`viewadapt.warp` -- the image-warping baseline.
 * :mod:`viewadapt.classifiers`, :mod:`viewadapt.boosting` -- linear SVM, boosted trees.
 * :mod:`viewadapt.metrics`, :mod:`viewadapt.nms` -- evaluation.
+* :mod:`viewadapt.windows`, :mod:`viewadapt.fullframe` -- world-space candidate windows and
+  the per-position adapted detectors of a calibrated camera, applied as one operator.
 
 ``import viewadapt`` never imports Blender (bpy), torch or anny.
 """
@@ -32,6 +34,8 @@ from .classifiers import *  # noqa: F401,F403
 from .classifiers import __all__ as _classifiers_all
 from .featuremap import *  # noqa: F401,F403
 from .featuremap import __all__ as _featuremap_all
+from .fullframe import *  # noqa: F401,F403
+from .fullframe import __all__ as _fullframe_all
 from .geometry import *  # noqa: F401,F403
 from .geometry import __all__ as _geometry_all
 from .hog import *  # noqa: F401,F403
@@ -44,7 +48,9 @@ from .remap import *  # noqa: F401,F403
 from .remap import __all__ as _remap_all
 from .warp import *  # noqa: F401,F403
 from .warp import __all__ as _warp_all
+from .windows import *  # noqa: F401,F403
+from .windows import __all__ as _windows_all
 
 __all__ = sorted(set(_acf_all + _adapt_all + _boosting_all + _classifiers_all
                      + _featuremap_all + _geometry_all + _hog_all + _metrics_all + _nms_all
-                     + _remap_all + _warp_all))
+                     + _remap_all + _warp_all + _fullframe_all + _windows_all))

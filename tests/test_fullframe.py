@@ -1,0 +1,266 @@
+"""Full-frame viewpoint-adapted detection: windows, per-window operators, cache, input errors."""
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+
+from tests.tolerances import EXACT, FLOAT32
+from viewadapt.fullframe import (
+    ACF_SHRINK, HOG_CELL, _acf_remap, build_adapted_linear_operator,
+    build_adapted_trees_operator, fast_orientation_channels, hog_frame_features,
+    hog_window_features,
+)
+from viewadapt.geometry import (
+    Camera, camera_from_pose, look_at_rotation, window_to_image_homography,
+)
+from viewadapt.hog import orientation_channels
+from viewadapt.remap import CellGrid, feature_remap_matrix
+from viewadapt.windows import (
+    GROUND_STRIDE_M, check_ground_visible, select_candidate_windows, window_homographies,
+)
+
+F, CX, CY, HEIGHT, TILT = 200.0, 95.5, 71.5, 4.0, np.radians(35)
+SIZE = (192, 144)
+
+
+@pytest.fixture(scope="module")
+def camera():
+    # looking along +X from (0, 0, 4 m), 35 degrees down
+    return camera_from_pose(focal=F, principal_point=(CX, CY), height=HEIGHT, tilt=TILT,
+                            image_size=SIZE)
+
+
+@pytest.fixture(scope="module")
+def windows(camera):
+    return select_candidate_windows(camera)
+
+
+@pytest.fixture(scope="module")
+def frame():
+    import cv2
+
+    rng = np.random.default_rng(3)
+    img = rng.integers(0, 256, (SIZE[1], SIZE[0], 3), dtype=np.uint8)
+    return cv2.GaussianBlur(img, (5, 5), 1.5)
+
+
+# ------------------------------------------------------------------------------ windows
+
+
+def test_stride_is_the_papers():
+    assert GROUND_STRIDE_M == pytest.approx(8 * 1.75 / 96)
+    assert GROUND_STRIDE_M == pytest.approx(0.1458, abs=1e-4)
+
+
+def test_windows_on_the_optical_axis_match_hand_geometry(windows):
+    # A ground point at distance d straight ahead is seen at angle atan(h / d) below the
+    # horizon, i.e. atan(h / d) - tilt below the optical axis: y = cy + f tan(that).
+    # The person's head (1.75 m) likewise; x stays on the centre column.
+    on_axis = windows.grid_index[:, 1] == 0
+    assert on_axis.sum() > 10
+    d = windows.ground_xy[on_axis, 0]
+    assert np.allclose(windows.ground_xy[on_axis, 1], 0.0, atol=1e-12)
+    assert np.allclose(d / GROUND_STRIDE_M, np.round(d / GROUND_STRIDE_M), atol=1e-9)
+    feet = windows.feet[on_axis]
+    assert np.allclose(feet[:, 0], CX, atol=1e-9)
+    assert np.allclose(feet[:, 1], CY + F * np.tan(np.arctan(HEIGHT / d) - TILT), atol=1e-9)
+    head_y = CY + F * np.tan(np.arctan((HEIGHT - 1.75) / d) - TILT)
+    assert np.allclose(windows.scale[on_axis] * 96, feet[:, 1] - head_y, atol=1e-9)
+
+
+def test_windows_inside_and_apart(windows):
+    corners = windows.window_corners()
+    w, h = SIZE
+    assert corners[..., 0].min() >= -0.5 and corners[..., 0].max() <= w - 0.5
+    assert corners[..., 1].min() >= -0.5 and corners[..., 1].max() <= h - 0.5
+    feet = windows.feet
+    d2 = ((feet[:, None] - feet[None]) ** 2).sum(-1)
+    np.fill_diagonal(d2, np.inf)
+    assert d2.min() >= 1.0                      # the paper's 1-px rule
+    assert (windows.scale * 96 >= 16).all()
+    # every ground position is a grid point of the camera-aligned grid
+    ij = windows.ground_xy / GROUND_STRIDE_M
+    assert np.allclose(ij, np.round(ij), atol=1e-9)
+
+
+def test_vectorised_homographies_match_geometry(camera, windows):
+    for k in (0, len(windows) // 2, len(windows) - 1):
+        H = window_to_image_homography(camera, windows.ground_xy[k])
+        assert np.allclose(H / H[2, 2], windows.homographies[k], **EXACT)
+    H2 = window_homographies(camera, windows.ground_xy[:3], [1.6, 1.75, 1.9])
+    assert np.allclose(H2[2], window_to_image_homography(camera, windows.ground_xy[2], 1.9)
+                       / window_to_image_homography(camera, windows.ground_xy[2], 1.9)[2, 2],
+                       **EXACT)
+
+
+def test_several_heights(camera):
+    W = select_candidate_windows(camera, person_heights=(1.6, 1.9))
+    assert set(np.unique(W.person_height)) == {1.6, 1.9}
+
+
+# ----------------------------------------------------------------------------- features
+
+
+def test_fast_orientation_channels_match_reference(frame):
+    ref = orientation_channels(frame)
+    fast = fast_orientation_channels(frame)
+    assert fast.dtype == np.float32
+    assert np.allclose(fast, ref, rtol=1e-4, atol=1e-3 * ref.max())
+
+
+def test_window_features_are_frame_features_at_8px():
+    rng = np.random.default_rng(0)
+    win = rng.integers(0, 256, (128, 64, 3), dtype=np.uint8)
+    f = hog_frame_features(win, [8], pad=0).maps[8]
+    assert np.allclose(hog_window_features(win), f, **FLOAT32)
+
+
+# ------------------------------------------------------------- per-window adapted scores
+
+
+def _explicit_hog_score(frame, H, c, w, b):
+    """w^T G(H) x + b with G built against the whole frame's cell grid at size c."""
+    x = hog_frame_features(frame, [c], pad=0).maps[c]
+    ny, nx = x.shape[:2]
+    G = feature_remap_matrix(H, CellGrid.for_window(64, 128, HOG_CELL), CellGrid(nx, ny, c),
+                             n_bins=9, preserve="mean")
+    return float(w.ravel() @ (G @ x.astype(np.float64).ravel()) + b)
+
+
+@pytest.mark.parametrize("tolerance", [0.0, 0.5])
+def test_adapted_scores_equal_explicitly_remapped_features(windows, frame, tolerance):
+    rng = np.random.default_rng(1)
+    sub = windows.subset(np.arange(0, len(windows), max(1, len(windows) // 60)))
+    w = rng.normal(size=(16, 8, 9))
+    op = build_adapted_linear_operator(sub, w, 0.3, tolerance=tolerance)
+    feats = op.frame_features(frame)
+    s = {m: op.scores(feats, method=m) for m in ("sparse", "template", "gather")}
+    for n in range(0, len(sub), 7):
+        ref = _explicit_hog_score(frame, op.snapped_homographies[n], int(op.cell_size[n]), w, 0.3)
+        for m in s:
+            assert s[m][n] == pytest.approx(ref, rel=1e-4, abs=1e-4 * np.abs(w).sum())
+    if tolerance == 0:
+        assert np.allclose(op.snapped_homographies, sub.homographies, **EXACT)
+    else:
+        assert op.n_templates < len(sub)
+    # the one-matrix form is the same operator
+    W = op.to_sparse()
+    assert W.shape[0] == len(sub)
+    assert np.allclose(W @ feats.vector(op.cell_sizes) + op.bias, s["sparse"], **FLOAT32)
+
+
+def test_adapted_trees_equal_explicit_remap(windows, frame):
+    from viewadapt.boosting import AdaBoostTrees
+
+    rng = np.random.default_rng(2)
+    X = rng.random((300, 5120))
+    y = (X[:, :40].sum(1) > 20).astype(int)
+    model = AdaBoostTrees(n_estimators=24, stages=None, max_bins=16, max_features=0.05,
+                          random_state=0).fit(X, y)
+    sub = windows.subset(np.arange(0, len(windows), max(1, len(windows) // 25)))
+    op = build_adapted_trees_operator(sub, model, tolerance=0.5, block=8)
+    feats = op.frame_features(frame)
+    cascade = op.scores(feats)
+    full = op.scores(feats, method="full")
+    assert np.allclose(cascade, full, rtol=1e-6, atol=1e-6)
+    # against G built for each snapped window over the whole frame grid
+    from viewadapt.fullframe import _Group
+
+    for n in range(0, len(sub), 5):
+        c = int(op.cell_size[n])
+        x = feats.maps[c][op.pad:-op.pad, op.pad:-op.pad]
+        g = _Group(c, n, (0, 0), x.shape[:2], np.array([n]), np.zeros((1, 2), int))
+        G = _acf_remap(op.snapped_homographies[n], g, "covariant")
+        src = G @ x.astype(np.float64).ravel()
+        assert cascade[n] == pytest.approx(model.decision_function(src[None])[0], abs=1e-5)
+    assert ACF_SHRINK == 4
+
+
+# ---------------------------------------------------------------------------- the cache
+
+
+def test_operator_cache_invalidates_on_calibration_change(tmp_path, frame):
+    from benchmark.frames import FrameDetector
+
+    class Models:  # the minimal model interface FrameDetector needs
+        hog_weights = np.random.default_rng(0).normal(size=(16, 8, 9))
+        hog_bias = 0.0
+
+        def fingerprint(self):
+            return "test-model"
+
+    cam = camera_from_pose(focal=F, principal_point=(CX, CY), height=HEIGHT, tilt=TILT,
+                           image_size=SIZE)
+    d1 = FrameDetector(cam, Models(), cache_dir=tmp_path)
+    s1 = d1.operator("hog").scores(d1.operator("hog").frame_features(frame))
+    assert d1.cache_hit["hog"] is False
+    d2 = FrameDetector(cam, Models(), cache_dir=tmp_path)
+    s2 = d2.operator("hog").scores(d2.operator("hog").frame_features(frame))
+    assert d2.cache_hit["hog"] is True
+    assert np.array_equal(s1, s2)
+    moved = camera_from_pose(focal=F, principal_point=(CX, CY), height=HEIGHT,
+                             tilt=TILT + 0.01, image_size=SIZE)
+    d3 = FrameDetector(moved, Models(), cache_dir=tmp_path)
+    d3.operator("hog")
+    assert d3.cache_hit["hog"] is False
+    assert len(list(tmp_path.glob("operator-*.pkl"))) == 2
+
+
+# ---------------------------------------------------------------------------- bad input
+
+
+def test_ground_behind_camera():
+    R = look_at_rotation([1.0, 0.0, -0.5])
+    C = np.array([0.0, 0.0, -2.0])                       # below the ground
+    cam = Camera(np.array([[F, 0, CX], [0, F, CY], [0, 0, 1.0]]), R, -R @ C, SIZE)
+    with pytest.raises(ValueError, match="behind the camera"):
+        select_candidate_windows(cam)
+
+
+def test_horizon_below_the_whole_frame():
+    R = look_at_rotation([1.0, 0.0, 1.0])                # looking 45 degrees up
+    C = np.array([0.0, 0.0, 3.0])
+    cam = Camera(np.array([[F, 0, CX], [0, F, CY], [0, 0, 1.0]]), R, -R @ C, SIZE)
+    with pytest.raises(ValueError, match="horizon"):
+        check_ground_visible(cam, SIZE)
+    with pytest.raises(ValueError, match="horizon"):
+        select_candidate_windows(cam)
+
+
+def test_no_window_fits():
+    # level camera 1 m high: the horizon crosses the middle, persons are cut by the border
+    cam = camera_from_pose(focal=60.0, principal_point=(CX, CY), height=1.0, tilt=0.0,
+                           image_size=SIZE)
+    with pytest.raises(ValueError, match="no candidate window"):
+        select_candidate_windows(cam, min_person_height_px=200)
+
+
+def test_frame_of_the_wrong_size(windows, frame):
+    op = build_adapted_linear_operator(windows.subset(np.arange(5)), np.ones((16, 8, 9)))
+    with pytest.raises(ValueError, match="calibration"):
+        op.detect(frame[:-8])
+    with pytest.raises(ValueError, match="weights"):
+        build_adapted_linear_operator(windows, np.ones(10))
+
+
+def test_acf_remap_is_s_kron_a(windows):
+    """The ACF G of one window equals S (L, U, V, magnitude) and S (x) A (orientations)
+    built by feature_remap_matrix, in the (y, x, channel) -> (channel, y, x) layouts."""
+    from viewadapt.fullframe import _Group, _patch_grid
+
+    H = windows.homographies[len(windows) // 2]
+    c = 2
+    cx0, cy0, nx, ny = _patch_grid(H, c, SIZE)          # the window's footprint only
+    g = _Group(c, 0, (cx0, cy0), (ny, nx), np.array([0]), np.zeros((1, 2), int))
+    G = _acf_remap(H, g, "covariant").toarray()
+    out = CellGrid.for_window(64, 128, ACF_SHRINK)
+    inn = CellGrid(nx, ny, c, origin=(cx0 * c - 0.5, cy0 * c - 0.5))
+    assert 0 < inn.n_cells < 2000
+    S = feature_remap_matrix(H, out, inn, n_bins=1, preserve="mean").toarray()
+    GO = feature_remap_matrix(H, out, inn, n_bins=6, preserve="mean", bin_offset=-0.5).toarray()
+    n_out, n_in = out.n_cells, inn.n_cells
+    G4 = G.reshape(10, n_out, n_in, 10)
+    for ch in range(4):
+        assert np.allclose(G4[ch, :, :, ch], S, **EXACT)
+    ref = GO.reshape(n_out, 6, n_in, 6).transpose(1, 0, 2, 3)       # (out bin, k, l, in bin)
+    assert np.allclose(G4[4:, :, :, 4:], ref, **EXACT)

@@ -1,0 +1,194 @@
+"""`viewadapt bench frames`, `viewadapt detect` and the frame evaluation, end to end on a
+tiny set of rendered toy frames (no Blender)."""
+
+import argparse
+import json
+
+import numpy as np
+import pytest
+
+from benchmark.frames import (
+    FrameRecord, evaluate_method, load_frames, read_calibration, standardize_boxes,
+)
+from benchmark.toyframes import make_toy_frame_dataset
+from viewadapt.geometry import camera_from_pose
+
+
+def _main(argv):
+    """viewadapt's main with the frames commands registered (if cli.py does not yet)."""
+    import viewadapt.cli as cli
+
+    parser = cli.build_parser()
+    sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    if "detect" not in sub.choices:
+        from benchmark.frames_cli import register
+
+        register(sub, cli.common_parser())
+    args = parser.parse_args(argv)
+    try:
+        return int(args.func(args) or 0)
+    except (cli.UserError, ValueError, FileNotFoundError) as exc:
+        print(f"error: {exc}")
+        return 2
+
+
+@pytest.fixture(scope="module")
+def toy(tmp_path_factory):
+    return make_toy_frame_dataset(tmp_path_factory.mktemp("tf") / "data", n_persons=9,
+                                  n_scenes=3, n_backgrounds=2, n_frame_scenes=1,
+                                  frames_per_scene=2, frame_size=(192, 144), seed=2)
+
+
+@pytest.fixture(scope="module")
+def bench(toy, tmp_path_factory):
+    out = tmp_path_factory.mktemp("bf") / "out"
+    rc = _main(["bench", "frames", "--data", str(toy), "--out", str(out), "--quick",
+                "--methods", "hog_adapted", "hog_warp", "acf_adapted", "opencv_native"])
+    assert rc == 0
+    return out
+
+
+def test_frames_follow_the_contract(toy):
+    frames = load_frames(toy)
+    assert len(frames) == 2
+    coco = json.loads((toy / "frames_coco.json").read_text())
+    a = coco["annotations"][0]
+    for key in ("bbox", "bbox_visible", "occlusion", "person_id", "ground_xy"):
+        assert key in a
+    # the ground-truth feet project where the calibration says
+    f = frames[0]
+    ann = [a for a in coco["annotations"] if a["image_id"] == f.image_id][0]
+    feet = f.camera.project(np.r_[ann["ground_xy"], 0.0])
+    x, y, w, h = ann["bbox"]
+    assert x - 2 <= feet[0] <= x + w + 2 and abs(feet[1] - (y + h)) < 4
+
+
+def test_bench_frames_outputs(bench):
+    summary = (bench / "frames_summary.csv").read_text().splitlines()
+    assert len(summary) == 5
+    for name in ("det_frames.png", "det_frames.pdf", "det_curves.json",
+                 "models/source_detectors.pkl", "run.json"):
+        assert (bench / name).is_file()
+    curves = json.loads((bench / "det_curves.json").read_text())
+    for m, c in curves.items():
+        assert 0 < c["lamr"] <= 1
+    assert json.loads((bench / "run.json").read_text())["seed"] == 0
+
+
+def test_detect_cli(toy, bench, tmp_path):
+    frames = load_frames(toy)
+    cam = frames[0].camera
+    calib = tmp_path / "calib.json"
+    calib.write_text(json.dumps({"image_size": list(cam.image_size), "K": cam.K.tolist(),
+                                 "R": cam.R.tolist(), "t": cam.t.tolist()}))
+    out = tmp_path / "det"
+    rc = _main(["detect", "--calibration", str(calib), "--model",
+                str(bench / "models" / "source_detectors.pkl"), "--out", str(out),
+                "--threshold", "-0.5", str(frames[0].path), str(frames[1].path)])
+    assert rc == 0
+    assert (out / "detections.csv").is_file() and (out / "detections_coco.json").is_file()
+    assert len(list((out / "annotated").glob("*.png"))) == 2
+    # a missing frame, a frame of the wrong size: one-line errors, nothing written
+    bad = tmp_path / "bad"
+    assert _main(["detect", "--calibration", str(calib), "--model",
+                  str(bench / "models" / "source_detectors.pkl"), "--out", str(bad),
+                  str(tmp_path / "nope.png")]) == 2
+    import cv2
+
+    small = tmp_path / "small.png"
+    cv2.imwrite(str(small), np.zeros((50, 60, 3), np.uint8))
+    assert _main(["detect", "--calibration", str(calib), "--model",
+                  str(bench / "models" / "source_detectors.pkl"), "--out", str(bad),
+                  str(small)]) == 2
+    assert not bad.exists()
+
+
+def test_calibration_files(tmp_path):
+    pytest.importorskip("yaml")
+    y = tmp_path / "c.yaml"
+    y.write_text("image_size: [384, 288]\nfocal: 300\nheight: 4.5\ntilt: 35\n")
+    cam = read_calibration(y)
+    ref = camera_from_pose(focal=300, principal_point=(191.5, 143.5), height=4.5,
+                           tilt=np.radians(35), image_size=(384, 288))
+    assert np.allclose(cam.P, ref.P)
+    with pytest.raises(FileNotFoundError):
+        read_calibration(tmp_path / "missing.yaml")
+    bad = tmp_path / "b.yaml"
+    bad.write_text("image_size: [384, 288]\nfocal: 300\n")
+    with pytest.raises(ValueError, match="K, R, t or focal"):
+        read_calibration(bad)
+    with pytest.raises(FileNotFoundError, match="frames_coco"):
+        load_frames(tmp_path)
+
+
+def _plain_loop_det(dets, gts, thr=0.5):
+    """Reference: for every threshold, greedy matching by descending score, frame by frame."""
+    def iou(a, b):
+        iw = min(a[0] + a[2], b[0] + b[2]) - max(a[0], b[0])
+        ih = min(a[1] + a[3], b[1] + b[3]) - max(a[1], b[1])
+        inter = max(iw, 0) * max(ih, 0)
+        return inter / (a[2] * a[3] + b[2] * b[3] - inter)
+
+    scores = sorted({d[4] for ds in dets for d in ds}, reverse=True)
+    n_pos = sum(len(g) for g in gts)
+    fppi, miss = [], []
+    for t in scores:
+        tp = fp = 0
+        for ds, gs in zip(dets, gts):
+            taken = [False] * len(gs)
+            for d in sorted([d for d in ds if d[4] >= t], key=lambda d: -d[4]):
+                best, bi = thr, -1
+                for k, g in enumerate(gs):
+                    if not taken[k] and iou(d, g) >= best:
+                        best, bi = iou(d, g), k
+                if bi >= 0:
+                    taken[bi] = True
+                    tp += 1
+                else:
+                    fp += 1
+        fppi.append(fp / len(dets))
+        miss.append(1 - tp / n_pos)
+    return np.array(fppi), np.array(miss)
+
+
+def test_fppi_evaluation_matches_a_plain_loop():
+    rng = np.random.default_rng(5)
+    cam = camera_from_pose(focal=300, principal_point=(191.5, 143.5), height=4.5,
+                           tilt=0.6, image_size=(384, 288))
+    frames, dets = [], []
+    for i in range(6):
+        n = int(rng.integers(1, 5))
+        h = rng.uniform(40, 80, n)
+        gt = np.stack([rng.uniform(10, 300, n), rng.uniform(10, 150, n), 0.41 * h, h], 1)
+        frames.append(FrameRecord(None, i, "s", cam, gt, np.zeros(n)))
+        d = []
+        for g in gt:
+            if rng.random() < 0.7:
+                d.append([*(g + rng.normal(0, 3, 4) * [1, 1, 0, 0]), rng.normal(1, 1)])
+        for _ in range(int(rng.integers(0, 4))):
+            hh = rng.uniform(40, 80)
+            d.append([rng.uniform(0, 300), rng.uniform(0, 150), 0.41 * hh, hh,
+                      rng.normal(0, 1)])
+        dets.append(np.array(d).reshape(-1, 5))
+    res = evaluate_method(dets, frames, min_height=0, max_occlusion=1.0)
+    std = [np.c_[standardize_boxes(d[:, :4]), d[:, 4]] for d in dets]
+    fppi, miss = _plain_loop_det([list(map(list, d)) for d in std],
+                                 [list(map(list, standardize_boxes(f.gt))) for f in frames])
+    assert np.allclose(res["fppi"], fppi) and np.allclose(res["miss_rate"], miss)
+
+
+def test_json_calibration_and_bad_cameras(tmp_path):
+    from viewadapt.windows import select_candidate_windows
+
+    j = tmp_path / "c.json"
+    j.write_text(json.dumps({"image_size": [384, 288], "focal": 300, "height": 4.5,
+                             "tilt": 35}))
+    cam = read_calibration(j)
+    assert len(select_candidate_windows(cam)) > 100
+    j.write_text(json.dumps({"image_size": [384, 288], "focal": 300, "height": 4.5,
+                             "tilt": -30}))
+    with pytest.raises(ValueError):
+        read_calibration(j)                       # tilt outside [0, 90) degrees
+    j.write_text("{not json")
+    with pytest.raises(ValueError, match="cannot be parsed"):
+        read_calibration(j)

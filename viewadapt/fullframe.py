@@ -1,0 +1,1091 @@
+"""Full-frame viewpoint-adapted detection: every candidate window its own adapted detector.
+
+Each world-space candidate window (:mod:`viewadapt.windows`) sees the person through its
+own homography ``H_n`` (canonical window -> frame), so it needs its own adapted detector
+(Wang et al. 2017, Sec. 5.1: "each position in the image corresponds to a unique relative
+viewpoint and associated feature mapping ... computed off-line ... looked up at run-time").
+For a linear model on cell features the adapted detector of window ``n`` is
+
+.. math:: s_n = w^T G_n x + b = (G_n^T w)^T x + b
+
+(eq. (5)-(7)), ``x`` the frame's cell features and ``G_n = S_n \\otimes A_n`` the remapping
+from frame cells to the canonical window's cells (:func:`viewadapt.remap.feature_remap_matrix`
+with ``H_out_to_in = H_n``). For boosted trees only the used rows of ``G_n`` are applied
+(:meth:`viewadapt.boosting.AdaBoostTrees.decision_function_remapped`).
+
+Frame features at native resolution
+-----------------------------------
+The frame's per-pixel channels are computed once (no image resampling). They are summed
+into square cells whose size ``c`` is chosen per window close to the size of one of the
+window's source cells in the frame (``8 s`` px for HOG, ``4 s`` for ACF, ``s`` the window's
+frame pixels per canonical pixel), so that every window reads about one frame cell per
+source cell; :class:`FrameFeatures` holds one cell map per size in use.
+
+The operator
+------------
+Neighbouring windows have nearly the same ``H_n`` up to a translation. Windows whose shapes
+(``H_n`` with its centre moved to the origin) agree within ``tolerance`` frame cells share
+one adapted template, placed at each window's position rounded to the cell grid: window
+``n`` is then scored with the *snapped* homography ``T(c \\delta_n) H_g`` (``H_g`` the group's
+prototype window, ``\\delta_n`` an integer cell shift). The scores are exactly
+``w^T G(\\tilde H_n) x`` for those snapped homographies (tested), and the snapping is the
+quantisation every sliding-window detector makes (half a cell in position; here also up to
+``tolerance`` cells in shape). ``tolerance=0`` gives one template per window at its exact
+position. Windows snapped onto the same position of the same template score the same and
+are scored once.
+
+Run-time forms, all the same operator (tested against each other and against
+``w^T G_n x``), measured on a 384x288 frame with ~30,000 windows
+(``benchmark/perf/runtime.py``):
+
+* ``"sparse"`` (default, fastest): one CSR matrix, a row per distinct scored position,
+  times the concatenated cell maps -- ~1,100 weights per row, ~14,000 rows;
+* ``"template"``: one ``cv2.matchTemplate`` cross-correlation per shared template over its
+  windows' region -- slower, because the ~700 templates each cost a call;
+* ``"gather"``: each window's patch gathered and dotted with its template.
+
+For trees the first block of the soft cascade is one CSR product for all positions, the
+later blocks run group by group on the windows the cascade keeps.
+
+References
+----------
+.. [1] P. Wang, K. Morton, P. Torrione, L. Collins, "Viewpoint Adaptation for Rigid Object
+   Detection", arXiv preprint, 2017.
+.. [2] N. Dalal, B. Triggs, "Histograms of Oriented Gradients for Human Detection", CVPR 2005.
+.. [3] P. Dollár, R. Appel, S. Belongie, P. Perona, "Fast Feature Pyramids for Object
+   Detection", IEEE TPAMI 36(8), 2014.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.sparse as sp
+
+from ._validation import check_image
+from .geometry import WINDOW_HEIGHT, WINDOW_WIDTH
+from .nms import non_maximum_suppression
+from .geometry import homography_jacobian
+from .remap import CellGrid, cell_remap_matrix, feature_remap_matrix, orientation_remap_matrix
+from .windows import CandidateWindows, _map_points, person_boxes
+
+__all__ = [
+    "HOG_CELL", "ACF_SHRINK",
+    "fast_orientation_channels",
+    "FrameFeatures",
+    "normalize_cells",
+    "hog_window_features",
+    "hog_frame_features",
+    "acf_frame_features",
+    "choose_cell_sizes",
+    "group_windows",
+    "AdaptedLinearOperator",
+    "AdaptedTreesOperator",
+    "build_adapted_linear_operator",
+    "build_adapted_trees_operator",
+    "detections_from_scores",
+]
+
+#: Source-view cell size of the HOG detectors (8 px in the 64x128 window, 16 x 8 cells).
+HOG_CELL = 8
+#: Source-view ACF aggregation block (4 px, 32 x 16 blocks).
+ACF_SHRINK = 4
+_N_HOG_BINS = 9
+_N_ACF = 10
+_N_ORIENT_ACF = 6
+_CENTRE = np.array([(WINDOW_WIDTH - 1) / 2.0, (WINDOW_HEIGHT - 1) / 2.0])
+_PROBES = np.array([[-0.5, -0.5], [WINDOW_WIDTH - 0.5, -0.5], [WINDOW_WIDTH - 0.5,
+                    WINDOW_HEIGHT - 0.5], [-0.5, WINDOW_HEIGHT - 0.5],
+                    [(WINDOW_WIDTH - 1) / 2.0, -0.5], [(WINDOW_WIDTH - 1) / 2.0,
+                                                       WINDOW_HEIGHT - 0.5]])
+
+
+# ---------------------------------------------------------------------------- features
+
+
+def fast_orientation_channels(image, *, n_bins: int = 9) -> np.ndarray:
+    """Per-pixel oriented gradient magnitudes in float32 with OpenCV kernels.
+
+    The same quantity as :func:`viewadapt.hog.orientation_channels` (``gamma=False``):
+    central differences with reflect-101 borders, the colour channel of largest magnitude,
+    the magnitude split linearly between the two nearest of ``n_bins`` unsigned bins
+    centred at ``(b + 1/2) pi / n_bins``; in single precision.
+
+    Parameters
+    ----------
+    image : (M, N[, 3]) ndarray, uint8 or float in [0, 1]
+    n_bins : int
+
+    Returns
+    -------
+    (M, N, n_bins) float32 ndarray
+    """
+    import cv2
+
+    img = check_image(image).astype(np.float32)
+    k = np.array([[-1.0, 0.0, 1.0]], np.float32)
+    dx = cv2.filter2D(img, cv2.CV_32F, k, borderType=cv2.BORDER_REFLECT_101)
+    dy = cv2.filter2D(img, cv2.CV_32F, k.T, borderType=cv2.BORDER_REFLECT_101)
+    if img.ndim == 3:
+        m2 = dx * dx + dy * dy
+        best = np.argmax(m2, axis=2)[:, :, None]
+        dx = np.take_along_axis(dx, best, 2)[:, :, 0]
+        dy = np.take_along_axis(dy, best, 2)[:, :, 0]
+    mag, ang = cv2.cartToPolar(dx, dy)            # angle in [0, 2 pi)
+    t = ang * np.float32(n_bins / np.pi) - np.float32(0.5)
+    t = np.mod(t, np.float32(n_bins))                     # in [0, n_bins)
+    out = np.empty(mag.shape + (n_bins,), np.float32)
+    for b in range(n_bins):
+        d = np.abs(t - np.float32(b))
+        d = np.minimum(d, np.float32(n_bins) - d)        # circular distance
+        np.multiply(mag, np.maximum(np.float32(1.0) - d, np.float32(0.0)), out=out[:, :, b])
+    return out
+
+
+@dataclass
+class FrameFeatures:
+    """Cell maps of one frame, one per cell size, zero-padded by ``pad`` cells.
+
+    Attributes
+    ----------
+    maps : dict int -> (ny + 2 pad, nx + 2 pad, C) float32 ndarray
+        Cell ``(i, j)`` of size ``c`` covers frame pixels ``[c (j - pad), c (j - pad + 1))``
+        horizontally (pixel centres at integers, origin ``(-0.5, -0.5)``), likewise
+        vertically; ``ny = M // c``, ``nx = N // c``.
+    pad : int
+    image_size : (width, height)
+    """
+
+    maps: dict
+    pad: int
+    image_size: tuple
+    _split: dict = field(default_factory=dict, repr=False)
+
+    def split3(self, c: int):
+        """The map of cell size ``c`` as contiguous 3-channel slices (for matchTemplate)."""
+        if c not in self._split:
+            F = self.maps[c]
+            self._split[c] = [np.ascontiguousarray(F[:, :, k:k + 3])
+                              for k in range(0, F.shape[2], 3)]
+        return self._split[c]
+
+    def vector(self, cell_sizes) -> np.ndarray:
+        """All maps of ``cell_sizes`` flattened and concatenated (the sparse operator's x)."""
+        return np.concatenate([self.maps[c].ravel() for c in cell_sizes])
+
+
+def _pad(F, pad):
+    out = np.zeros((F.shape[0] + 2 * pad, F.shape[1] + 2 * pad, F.shape[2]), np.float32)
+    out[pad:pad + F.shape[0], pad:pad + F.shape[1]] = F
+    return out
+
+
+def _cell_sums(channels, c):
+    import cv2
+
+    M, N = channels.shape[:2]
+    ny, nx = M // c, N // c
+    if c == 1:
+        return channels
+    src = np.ascontiguousarray(channels[:ny * c, :nx * c])
+    # INTER_AREA with an integer factor is the exact block mean
+    out = cv2.resize(src, (nx, ny), interpolation=cv2.INTER_AREA)
+    if out.ndim == 2:
+        out = out[:, :, None]
+    return out * np.float32(c * c)
+
+
+def _check_frame(image, image_size):
+    arr = np.asarray(image)
+    if arr.ndim < 2:
+        raise ValueError(f"frame must be an (M, N[, 3]) image, got shape {arr.shape}")
+    if image_size is not None and (arr.shape[1], arr.shape[0]) != tuple(image_size):
+        raise ValueError(f"frame is {arr.shape[1]}x{arr.shape[0]} px but the calibration "
+                         f"and the precomputed detector are for {image_size[0]}x"
+                         f"{image_size[1]} frames")
+    return arr
+
+
+def normalize_cells(cells, magnitude, *, eps: float = 1.0) -> np.ndarray:
+    """Divide HOG cell sums by the mean gradient magnitude of the 3x3 cells around them.
+
+    .. math:: F[l, b] = \\frac{X[l, b]}{\\frac19 \\sum_{l' \\in N_3(l)} M[l'] + \\epsilon c}
+
+    with ``X`` the cells' oriented-magnitude sums, ``M = sum_b X`` their magnitude sums
+    and ``c`` the cell size (``c = sqrt(pixels per cell)``). Numerator and denominator
+    both grow with the length of the edges in a cell, so ``F`` is (to first order) the
+    same at any cell size: the frame's features at ``c`` px match the canonical window's at
+    8 px, and the factor depends on the image only, never on a window, so ``G`` folds into
+    linear weights. Borders are reflected (``reflect-101``).
+
+    Parameters
+    ----------
+    cells : (ny, nx, B) ndarray
+    magnitude : (ny, nx) ndarray
+        ``cells.sum(-1)`` or the cells' magnitude sums.
+    eps : float
+        Floor, in gradient units (0..255 images) per pixel of cell side.
+
+    Returns
+    -------
+    (ny, nx, B) float32 ndarray
+    """
+    import cv2
+
+    X = np.asarray(cells, dtype=np.float32)
+    M = np.asarray(magnitude, dtype=np.float32)
+    border = cv2.BORDER_REFLECT_101 if min(M.shape) > 1 else cv2.BORDER_REPLICATE
+    local = cv2.boxFilter(M, -1, (3, 3), normalize=True, borderType=border)
+    return X / (local + np.float32(eps))[:, :, None]
+
+
+def hog_window_features(window, *, cell_size: int = HOG_CELL) -> np.ndarray:
+    """Source-view features of the adapted HOG detector: normalised 8-px cells.
+
+    :func:`normalize_cells` of the window's HOG cell sums (gamma off, 9 bins), the feature
+    the full-frame detector reads at every cell size.
+
+    Parameters
+    ----------
+    window : (128, 64[, 3]) ndarray
+
+    Returns
+    -------
+    (16, 8, 9) float32 ndarray (flatten for a classifier).
+    """
+    O = fast_orientation_channels(window)
+    X = _cell_sums(O, cell_size)
+    return normalize_cells(X, X.sum(-1), eps=cell_size * _EPS_PER_PX)
+
+
+#: Floor of :func:`normalize_cells` per pixel of cell side (gradient units of 0..255 images).
+_EPS_PER_PX = 2.0
+
+
+def hog_frame_features(image, cell_sizes, *, pad: int = 2, image_size=None) -> FrameFeatures:
+    """Normalised HOG cell maps of a frame at several cell sizes, native resolution.
+
+    The per-pixel orientation channels are computed once
+    (:func:`fast_orientation_channels`), summed into ``c x c`` cells for each ``c`` and
+    normalised by :func:`normalize_cells` -- the features :func:`hog_window_features`
+    computes on a canonical window with ``c = 8``.
+
+    Parameters
+    ----------
+    image : (M, N[, 3]) ndarray
+    cell_sizes : iterable of int
+    pad : int
+        Zero cells added on every side.
+    image_size : (width, height), optional
+        Expected frame size; a frame of another size is a ``ValueError``.
+
+    Returns
+    -------
+    FrameFeatures with (M // c + 2 pad, N // c + 2 pad, 9) maps.
+    """
+    img = _check_frame(image, image_size)
+    O = fast_orientation_channels(img)
+    M, N = O.shape[:2]
+    maps = {}
+    for c in sorted(set(int(c) for c in cell_sizes)):
+        if c < 1:
+            raise ValueError(f"cell sizes must be positive integers, got {c}")
+        X = _cell_sums(O, c)
+        maps[c] = _pad(normalize_cells(X, X.sum(-1), eps=c * _EPS_PER_PX), pad)
+    return FrameFeatures(maps, pad, (N, M))
+
+
+def acf_frame_features(image, cell_sizes, *, pad: int = 2, smooth_channels: float = 1,
+                       image_size=None, **kwargs) -> FrameFeatures:
+    """ACF cell maps of a frame: pixel channels once, aggregated at each cell size.
+
+    ``x_c = convTri(block_mean_c(P), smooth_channels)`` with ``P`` the ten full-resolution
+    channels of :func:`viewadapt.acf.acf_pixel_channels` (``kwargs`` go there) -- the ACF
+    channels the toolbox would compute with ``shrink = c``.
+
+    Returns
+    -------
+    FrameFeatures with (ny + 2 pad, nx + 2 pad, 10) maps, channel order of
+    :data:`viewadapt.acf.ACF_CHANNEL_NAMES`.
+    """
+    from .acf import acf_pixel_channels, convolve_triangle
+
+    img = _check_frame(image, image_size)
+    P = acf_pixel_channels(img, shrink=1, **kwargs).astype(np.float32)   # (10, M, N)
+    P = np.ascontiguousarray(np.moveaxis(P, 0, -1))
+    M, N = P.shape[:2]
+    maps = {}
+    for c in sorted(set(int(c) for c in cell_sizes)):
+        A = _cell_sums(P, c) / np.float32(c * c)
+        A = np.moveaxis(convolve_triangle(np.moveaxis(A, -1, 0), smooth_channels), 0, -1)
+        maps[c] = _pad(A.astype(np.float32), pad)
+    return FrameFeatures(maps, pad, (N, M))
+
+
+# ---------------------------------------------------------------------------- grouping
+
+
+def choose_cell_sizes(scale, source_cell: int, *, cells_per_source_cell: float = 1.0,
+                      allowed=(1, 2, 3, 4, 5, 6, 8, 10, 12, 16)) -> np.ndarray:
+    """Frame cell size per window: the largest allowed ``c <= source_cell * s / rho``.
+
+    Parameters
+    ----------
+    scale : (N,) array_like
+        Frame pixels per canonical-window pixel of each window.
+    source_cell : int
+        The detector's cell size in the canonical window (8 for HOG, 4 for ACF).
+    cells_per_source_cell : float
+        ``rho``: at least this many frame cells per source cell along each axis (1: frame
+        cells no larger than the source cells' image).
+    allowed : sequence of int
+
+    Returns
+    -------
+    (N,) int ndarray
+    """
+    s = np.asarray(scale, dtype=np.float64)
+    allowed = np.sort(np.asarray(allowed, dtype=np.int64))
+    target = source_cell * s / cells_per_source_cell
+    idx = np.searchsorted(allowed, target, side="right") - 1
+    return allowed[np.maximum(idx, 0)]
+
+
+def _shapes(H):
+    """(N, P, 2) probe points of each window relative to its mapped centre."""
+    probes = _map_points(H, _PROBES)
+    centre = _map_points(H, _CENTRE)
+    return probes - centre[:, None, :], centre
+
+
+def group_windows(windows: CandidateWindows, cell_size, tolerance: float):
+    """Group windows that share an adapted template up to a whole-cell shift.
+
+    A quadtree over each (person height, cell size) set's ground-grid indices splits a
+    block until every window's shape -- the probe points of its window (corners, top and
+    bottom centre) relative to its centre -- lies within ``tolerance * c`` px of the
+    block's prototype (the window nearest the block's middle).
+
+    Parameters
+    ----------
+    windows : CandidateWindows
+    cell_size : (N,) int array_like
+    tolerance : float
+        In frame cells; 0 gives one group per window.
+
+    Returns
+    -------
+    list of (prototype index, (k,) member indices) tuples.
+    """
+    H = windows.homographies
+    c = np.asarray(cell_size)
+    shapes, _ = _shapes(H)
+    groups = []
+    keys = np.stack([np.round(windows.person_height * 1e6), c], 1)
+    for key in np.unique(keys, axis=0):
+        members = np.flatnonzero(np.all(keys == key, axis=1))
+        if tolerance <= 0:
+            groups.extend((int(m), np.array([m])) for m in members)
+            continue
+        tau = tolerance * key[1]
+        stack = [members]
+        while stack:
+            m = stack.pop()
+            ij = windows.grid_index[m].astype(np.float64)
+            mid = np.median(ij, axis=0)
+            proto = m[np.argmin(np.abs(ij - mid).sum(1))]
+            dev = np.abs(shapes[m] - shapes[proto]).max(axis=(1, 2))
+            if dev.max() <= tau or len(m) == 1:
+                groups.append((int(proto), m))
+                continue
+            span = ij.max(0) - ij.min(0)
+            ax = int(np.argmax(span))
+            if span[ax] == 0:                      # same grid cell (cannot happen): split
+                half = len(m) // 2
+                stack += [m[:half], m[half:]]
+                continue
+            cut = np.median(ij[:, ax])
+            left = ij[:, ax] <= cut
+            if left.all() or not left.any():
+                left = ij[:, ax] < cut if (ij[:, ax] < cut).any() else ij[:, ax] <= ij[:, ax].min()
+            stack += [m[left], m[~left]]
+    return groups
+
+
+def _patch_grid(H, c, image_size):
+    """Frame-cell patch covering the footprint of window ``H``: (cx0, cy0, n_x, n_y)."""
+    corners = _map_points(H[None], _PROBES[:4])[0]
+    lo = np.floor((corners.min(0) + 0.5) / c).astype(int)
+    hi = np.ceil((corners.max(0) + 0.5) / c).astype(int)
+    return int(lo[0]), int(lo[1]), int(max(hi[0] - lo[0], 1)), int(max(hi[1] - lo[1], 1))
+
+
+def _translation(dx, dy):
+    return np.array([[1.0, 0.0, dx], [0.0, 1.0, dy], [0.0, 0.0, 1.0]])
+
+
+@dataclass
+class _Group:
+    cell_size: int
+    prototype: int                 # window index of the prototype
+    origin: tuple                  # (cx0, cy0): prototype patch's top-left frame cell
+    shape: tuple                   # (n_y, n_x) patch size in cells
+    members: np.ndarray            # (k,) window indices
+    shifts: np.ndarray             # (k, 2) integer cell shifts (dx, dy) per member
+    template: object = None        # linear: (n_y, n_x, C) float32; trees: sparse G rows
+
+
+class _OperatorBase:
+    """Shared geometry of the adapted operators (see :class:`AdaptedLinearOperator`)."""
+
+    source_cell: int = HOG_CELL
+
+    def _setup(self, windows, cell_size, groups, pad):
+        self.image_size = tuple(windows.image_size)
+        self.n_windows = len(windows)
+        self.groups = groups
+        self.pad = pad
+        self.cell_size = np.asarray(cell_size, dtype=np.int64)
+        self.cell_sizes = sorted(set(int(g.cell_size) for g in groups))
+        H = np.empty((self.n_windows, 3, 3))
+        for g in groups:
+            Hp = windows.homographies[g.prototype]
+            c = g.cell_size
+            T = np.zeros((len(g.members), 3, 3))
+            T[:, 0, 0] = T[:, 1, 1] = T[:, 2, 2] = 1.0
+            T[:, 0, 2] = c * g.shifts[:, 0]
+            T[:, 1, 2] = c * g.shifts[:, 1]
+            H[g.members] = T @ Hp
+        self.snapped_homographies = H
+        self.candidate_homographies = windows.homographies.copy()
+
+    @property
+    def n_templates(self) -> int:
+        return len(self.groups)
+
+    def boxes(self) -> np.ndarray:
+        """(N, 4) person boxes ``(x, y, w, h)`` of the scored (snapped) windows."""
+        return person_boxes(self.snapped_homographies)
+
+    def feature_pixels(self) -> int:
+        """Frame pixels whose channels are computed per frame (the whole frame, once)."""
+        return int(self.image_size[0] * self.image_size[1])
+
+    def _origins(self, g, features):
+        p = features.pad
+        ox = g.origin[0] + g.shifts[:, 0] + p
+        oy = g.origin[1] + g.shifts[:, 1] + p
+        return oy, ox
+
+    def _check_features(self, features: FrameFeatures):
+        if tuple(features.image_size) != self.image_size:
+            raise ValueError(f"features are of a {features.image_size[0]}x"
+                             f"{features.image_size[1]} frame, the operator is for "
+                             f"{self.image_size[0]}x{self.image_size[1]} frames")
+        if features.pad != self.pad:
+            raise ValueError(f"features are padded by {features.pad} cells, the operator "
+                             f"needs {self.pad}")
+        missing = [c for c in self.cell_sizes if c not in features.maps]
+        if missing:
+            raise ValueError(f"features lack the cell sizes {missing}")
+
+
+def _build_groups(windows, cell_size, tolerance):
+    centre = _map_points(windows.homographies, _CENTRE)
+    out = []
+    for proto, members in group_windows(windows, cell_size, tolerance):
+        c = int(cell_size[proto])
+        d = np.round((centre[members] - centre[proto]) / c).astype(np.int64)
+        if len(members) == 1:
+            d[:] = 0
+        H = windows.homographies[proto]
+        cx0, cy0, nx, ny = _patch_grid(H, c, windows.image_size)
+        out.append(_Group(c, int(proto), (cx0, cy0), (ny, nx), np.asarray(members), d))
+    return out
+
+
+def _required_pad(groups, image_size):
+    w, h = image_size
+    need = 1
+    for g in groups:
+        c = g.cell_size
+        ny_map, nx_map = h // c, w // c
+        ox = g.origin[0] + g.shifts[:, 0]
+        oy = g.origin[1] + g.shifts[:, 1]
+        need = max(need, int(-ox.min()), int(-oy.min()),
+                   int((ox + g.shape[1] - nx_map).max()), int((oy + g.shape[0] - ny_map).max()))
+    return need
+
+
+def _hog_remap(H, g, rule):
+    out_grid = CellGrid.for_window(WINDOW_WIDTH, WINDOW_HEIGHT, HOG_CELL)
+    c = g.cell_size
+    in_grid = CellGrid(g.shape[1], g.shape[0], c,
+                       origin=(g.origin[0] * c - 0.5, g.origin[1] * c - 0.5))
+    # normalised cell features are intensive (see normalize_cells): area-weighted means
+    return feature_remap_matrix(H, out_grid, in_grid, n_bins=_N_HOG_BINS, rule=rule,
+                                per_cell=True, preserve="mean")
+
+
+def _acf_remap(H, g, rule):
+    """G from a frame patch (n_y, n_x, 10) to source ACF channels (10, 32, 16)."""
+    out_grid = CellGrid.for_window(WINDOW_WIDTH, WINDOW_HEIGHT, ACF_SHRINK)
+    c = g.cell_size
+    in_grid = CellGrid(g.shape[1], g.shape[0], c,
+                       origin=(g.origin[0] * c - 0.5, g.origin[1] * c - 0.5))
+    n_out, n_in = out_grid.n_cells, in_grid.n_cells
+    # S once (eq. (1), area-weighted means), A per output cell (eq. (3)-(4)); the same
+    # G = S (x) A as feature_remap_matrix(..., per_cell=True), for the 6 orientation
+    # channels, and S alone for L, U, V and the magnitude (viewadapt.adapt.acf_remap_matrix)
+    S = cell_remap_matrix(H, out_grid, in_grid, preserve="mean").tocoo()
+    nO = _N_ORIENT_ACF
+    A = orientation_remap_matrix(homography_jacobian(H, out_grid.centers()), nO, rule,
+                                 bin_offset=-0.5)                     # (n_out, nO, nO)
+    rows, cols, vals = [], [], []
+    for ch in range(_N_ACF - nO):
+        rows.append(ch * n_out + S.row)
+        cols.append(S.col * _N_ACF + ch)
+        vals.append(S.data)
+    ii, jj = np.meshgrid(np.arange(nO), np.arange(nO), indexing="ij")
+    v = S.data[:, None, None] * A[S.row]                              # (nnz, out bin, in bin)
+    rows.append(((_N_ACF - nO + ii[None]) * n_out + S.row[:, None, None]).ravel())
+    cols.append((S.col[:, None, None] * _N_ACF + _N_ACF - nO + jj[None]).ravel())
+    vals.append(v.ravel())
+    return sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
+                         shape=(_N_ACF * n_out, n_in * _N_ACF))
+
+
+@dataclass
+class _FeatureMaker:
+    """The frame features an operator reads (picklable, so operators can be cached)."""
+
+    kind: str
+    cell_sizes: list
+    pad: int
+    image_size: tuple
+    kwargs: dict
+
+    def __call__(self, image) -> FrameFeatures:
+        if self.kind == "hog":
+            return hog_frame_features(image, self.cell_sizes, pad=self.pad,
+                                      image_size=self.image_size, **self.kwargs)
+        return acf_frame_features(image, self.cell_sizes, pad=self.pad,
+                                  image_size=self.image_size, **self.kwargs)
+
+
+def _check_windows(windows):
+    if not isinstance(windows, CandidateWindows) or len(windows) == 0:
+        raise ValueError("windows must be a non-empty CandidateWindows "
+                         "(viewadapt.windows.select_candidate_windows)")
+
+
+# ------------------------------------------------------------------------ linear models
+
+
+class AdaptedLinearOperator(_OperatorBase):
+    """Per-window adapted linear detectors of one camera, applied as one operator.
+
+    Built by :func:`build_adapted_linear_operator`. ``scores(features)`` returns
+    ``(G(\\tilde H_n)^T w)^T x + b`` for every window ``n`` (eq. (7)).
+
+    Attributes
+    ----------
+    groups : list
+        Shared templates: cell size, patch, members and their cell shifts.
+    snapped_homographies : (N, 3, 3) ndarray
+        The homography each window is scored with (its candidate homography when
+        ``tolerance == 0``).
+    cell_size : (N,) int ndarray
+    bias : float
+    """
+
+    def __init__(self, windows, cell_size, groups, pad, bias, features):
+        self._setup(windows, cell_size, groups, pad)
+        self.bias = float(bias)
+        self.features = features
+
+    def weights_per_window(self) -> np.ndarray:
+        """(N,) number of adapted weights (template entries) of each window."""
+        out = np.zeros(self.n_windows, np.int64)
+        for g in self.groups:
+            out[g.members] = g.template.size
+        return out
+
+    def scores(self, features: FrameFeatures, *, method: str = "sparse") -> np.ndarray:
+        """Scores of all windows on one frame's features.
+
+        Parameters
+        ----------
+        features : FrameFeatures
+            From :meth:`frame_features` (or :func:`hog_frame_features` with this
+            operator's cell sizes, normalisation sizes and padding).
+        method : {"sparse", "template", "gather"}
+            ``"sparse"`` (default, the fastest measured): the CSR matrix of
+            :meth:`to_sparse` (one row per distinct scored window) times the feature
+            vector; ``"template"``: one ``cv2.matchTemplate`` cross-correlation per group over the
+            region of its windows (``"gather"`` for groups whose windows are few or
+            scattered); ``"gather"``: each window's patch gathered and dotted;
+            ``"sparse"``: the CSR matrix of :meth:`to_sparse` times the feature vector.
+            All three agree up to float32 rounding.
+
+        Returns
+        -------
+        (N,) float64 ndarray
+        """
+        import cv2
+
+        self._check_features(features)
+        if method == "sparse":
+            if getattr(self, "_csr", None) is None:
+                self._csr = self.to_sparse(unique=True)
+            W, rows = self._csr
+            return np.asarray(W @ features.vector(self.cell_sizes),
+                              dtype=np.float64)[rows] + self.bias
+        if method not in ("template", "gather"):
+            raise ValueError(f"method must be 'template', 'gather' or 'sparse', got {method!r}")
+        out = np.empty(self.n_windows)
+        for g in self.groups:
+            oy, ox = self._origins(g, features)
+            ny, nx = g.shape
+            y0, x0 = int(oy.min()), int(ox.min())
+            y1, x1 = int(oy.max()) + ny, int(ox.max()) + nx
+            region = (y1 - y0 - ny + 1) * (x1 - x0 - nx + 1)
+            if method == "template" and len(g.members) >= 8 and region <= 6 * len(g.members):
+                res = None
+                for part, tpl in zip(features.split3(g.cell_size), g.template3):
+                    r = cv2.matchTemplate(part[y0:y1, x0:x1], tpl, cv2.TM_CCORR)
+                    res = r if res is None else res + r
+                out[g.members] = res[oy - y0, ox - x0]
+            else:
+                F = features.maps[g.cell_size]
+                win = np.lib.stride_tricks.sliding_window_view(F, (ny, nx), axis=(0, 1))
+                patches = win[oy, ox]                       # (k, C, ny, nx)
+                out[g.members] = np.einsum("kcyx,yxc->k", patches, g.template)
+        return out + self.bias
+
+    def frame_features(self, image) -> FrameFeatures:
+        """The frame's feature maps this operator reads."""
+        return self.features(image)
+
+    def detect(self, image, *, threshold: float = 0.0, nms_threshold: float = 0.5,
+               max_candidates: int = 2000, method: str = "sparse") -> np.ndarray:
+        """Features, scores and non-maximum suppression on one frame.
+
+        Returns
+        -------
+        (D, 5) ndarray of ``(x, y, w, h, score)`` rows, by decreasing score.
+        """
+        _check_frame(image, self.image_size)
+        s = self.scores(self.frame_features(image), method=method)
+        return detections_from_scores(self.boxes(), s, threshold=threshold,
+                                      nms_threshold=nms_threshold,
+                                      max_candidates=max_candidates)
+
+    def _layout(self):
+        w, h = self.image_size
+        p = self.pad
+        C = self.groups[0].template.shape[2]
+        offsets, dims = {}, {}
+        off = 0
+        for c in self.cell_sizes:
+            ny, nx = h // c + 2 * p, w // c + 2 * p
+            offsets[c], dims[c] = off, (ny, nx)
+            off += ny * nx * C
+        return offsets, dims, off, C
+
+    def to_sparse(self, *, unique: bool = False):
+        """The operator as one CSR matrix ``W`` with ``scores = W x + b``.
+
+        ``x`` is :meth:`FrameFeatures.vector` of the operator's cell sizes (padded maps).
+
+        Parameters
+        ----------
+        unique : bool
+            Keep one row per distinct scored window (windows snapped onto the same
+            template position score the same) and also return the (N,) row of each window.
+
+        Returns
+        -------
+        W : (N or n_unique, n_features) float32 scipy.sparse.csr_matrix
+        rows : (N,) intp ndarray, only with ``unique=True``
+        """
+        offsets, dims, n_feat, C = self._layout()
+        p = self.pad
+        row_of = np.empty(self.n_windows, np.intp)
+        parts = []                               # (template nz cols, nz vals, starts)
+        n_rows = 0
+        for g in self.groups:
+            ny, nx = g.shape
+            Ny, Nx = dims[g.cell_size]
+            yy, xx, cc = np.meshgrid(np.arange(ny), np.arange(nx), np.arange(C), indexing="ij")
+            t = g.template.ravel()
+            nz = np.flatnonzero(t)
+            base = ((yy * Nx + xx) * C + cc).ravel()[nz]
+            oy = g.origin[1] + g.shifts[:, 1] + p
+            ox = g.origin[0] + g.shifts[:, 0] + p
+            start = offsets[g.cell_size] + (oy * Nx + ox) * C
+            if unique:
+                start, inv = np.unique(start, return_inverse=True)
+                row_of[g.members] = n_rows + inv.ravel()
+            else:
+                row_of[g.members] = n_rows + np.arange(len(g.members))
+            parts.append((base, t[nz], start, n_rows))
+            n_rows += len(start)
+        counts = np.zeros(n_rows, np.int64)
+        for base, vals, start, r0 in parts:
+            counts[r0:r0 + len(start)] = base.size
+        indptr = np.zeros(n_rows + 1, np.int64)
+        np.cumsum(counts, out=indptr[1:])
+        indices = np.empty(indptr[-1], np.int32 if n_feat < 2**31 else np.int64)
+        data = np.empty(indptr[-1], np.float32)
+        for base, vals, start, r0 in parts:
+            k = base.size
+            if k == 0:
+                continue
+            s0 = indptr[r0]
+            blk = slice(s0, s0 + k * len(start))
+            indices[blk] = (start[:, None] + base[None, :]).ravel()
+            data[blk] = np.tile(vals, len(start))
+        W = sp.csr_matrix((data, indices, indptr), shape=(n_rows, n_feat))
+        if unique:
+            return W, row_of
+        return W if np.array_equal(row_of, np.arange(self.n_windows)) else W[row_of]
+
+
+def build_adapted_linear_operator(windows: CandidateWindows, weights, bias: float = 0.0, *,
+                                  features: str = "hog", tolerance: float = 0.5,
+                                  cells_per_source_cell: float = 0.7,
+                                  allowed_cell_sizes=(2, 3, 4, 6, 8, 12, 16),
+                                  rule: str = "covariant") -> AdaptedLinearOperator:
+    """Precompute the adapted linear detector of every candidate window (eq. (7)).
+
+    Parameters
+    ----------
+    windows : CandidateWindows
+    weights : (16, 8, 9) or (1152,) array_like
+        Source-view weights over the canonical window's normalised 8-px HOG cells, layout
+        row-major ``(n_y, n_x, n_bins)``: a linear model trained on
+        ``hog_window_features(window).ravel()``.
+    bias : float
+    features : {"hog"}
+    tolerance : float
+        Shape tolerance for sharing templates, frame cells (:func:`group_windows`);
+        0 = one exact template per window.
+    cells_per_source_cell : float
+        See :func:`choose_cell_sizes`.
+    allowed_cell_sizes : sequence of int
+    rule : {"covariant", "paper", "none"}
+        Angle rule of ``A`` (:func:`viewadapt.remap.map_angles`).
+
+    Returns
+    -------
+    AdaptedLinearOperator
+    """
+    _check_windows(windows)
+    if features != "hog":
+        raise ValueError(f"features must be 'hog' for linear models, got {features!r}")
+    w = np.asarray(weights, dtype=np.float64).ravel()
+    n_src = (WINDOW_HEIGHT // HOG_CELL) * (WINDOW_WIDTH // HOG_CELL) * _N_HOG_BINS
+    if w.size != n_src or not np.all(np.isfinite(w)):
+        raise ValueError(f"weights must be {n_src} finite values over (16, 8, 9) cells, "
+                         f"got {w.size}")
+    if not np.isfinite(tolerance) or tolerance < 0:
+        raise ValueError(f"tolerance must be >= 0 cells, got {tolerance!r}")
+    scale = windows.scale
+    cell = choose_cell_sizes(scale, HOG_CELL, cells_per_source_cell=cells_per_source_cell,
+                             allowed=allowed_cell_sizes)
+    groups = _build_groups(windows, cell, tolerance)
+    for g in groups:
+        G = _hog_remap(windows.homographies[g.prototype], g, rule)
+        g.template = np.asarray(G.T @ w, dtype=np.float32).reshape(g.shape[0], g.shape[1],
+                                                                     _N_HOG_BINS)
+        g.template3 = [np.ascontiguousarray(g.template[:, :, k:k + 3]) for k in range(0, 9, 3)]
+    pad = _required_pad(groups, windows.image_size)
+    make_features = _FeatureMaker("hog", sorted(set(cell.tolist())), pad,
+                                  tuple(windows.image_size), {})
+    op = AdaptedLinearOperator(windows, cell, groups, pad, bias, make_features)
+    op.tolerance = float(tolerance)
+    op._csr = op.to_sparse(unique=True)       # the run-time form, built once offline
+    return op
+
+
+# --------------------------------------------------------------------------- trees (ACF)
+
+
+class AdaptedTreesOperator(_OperatorBase):
+    """Per-window adapted boosted trees (ACF) of one camera.
+
+    Each group holds the rows of its ``G`` that the trees read (``G[used]``); at run time
+    the windows' patches are gathered and the remapped features computed tree block by
+    tree block, only for windows the soft cascade has not yet rejected (Wang et al. 2017,
+    Algorithm 2 with the toolbox's ``acfDetect`` cascade).
+    """
+
+    source_cell = ACF_SHRINK
+
+    def __init__(self, windows, cell_size, groups, pad, model, features, block=32):
+        self._setup(windows, cell_size, groups, pad)
+        self.model = model
+        self.features = features
+        self.block = int(block)
+        used = model.used_features_
+        self.used = used
+        feat = model.feature_
+        self._cols = np.where(feat >= 0, np.searchsorted(used, np.maximum(feat, 0)), -1)
+        self._thr = model.threshold_
+        self._val = model.value_
+        self._depth = (feat.shape[1] + 1).bit_length() - 2
+
+    def frame_features(self, image) -> FrameFeatures:
+        return self.features(image)
+
+    def scores(self, features: FrameFeatures, *, method: str = "cascade") -> np.ndarray:
+        """Soft-cascade scores of all windows (``method="full"`` remaps all used features
+        of every window first, as :meth:`AdaBoostTrees.decision_function_remapped`)."""
+        self._check_features(features)
+        if method not in ("cascade", "full"):
+            raise ValueError(f"method must be 'cascade' or 'full', got {method!r}")
+        out = np.empty(self.n_windows)
+        if method == "cascade":
+            return self._fast_cascade(features)
+        for g in self.groups:
+            oy, ox = self._origins(g, features)
+            ny, nx = g.shape
+            F = features.maps[g.cell_size]
+            win = np.lib.stride_tricks.sliding_window_view(F, (ny, nx), axis=(0, 1))
+            X = win[oy, ox].transpose(0, 2, 3, 1).reshape(len(oy), -1)   # (k, ny nx C)
+            if method == "full":
+                n_src = self.model.n_features_in_
+                lift = sp.csr_matrix((np.ones(len(self.used)),
+                                      (self.used, np.arange(len(self.used)))),
+                                     shape=(n_src, len(self.used)))
+                out[g.members] = self.model.decision_function_remapped(
+                    X.astype(np.float64), lift @ g.template)
+            else:
+                out[g.members] = self._cascade(X, g.template)
+        return out
+
+    def _first_block_operator(self):
+        """One CSR over the frame feature vector giving every distinct window position's
+        remapped features of the first tree block: (n_positions * n_first, n_features)."""
+        T = self._cols.shape[0]
+        cols = self._cols[:min(T, self.block)]
+        first = np.unique(cols[cols >= 0])
+        w, h = self.image_size
+        p = self.pad
+        C = _N_ACF
+        offsets, dims, off = {}, {}, 0
+        for c in self.cell_sizes:
+            ny, nx = h // c + 2 * p, w // c + 2 * p
+            offsets[c], dims[c] = off, (ny, nx)
+            off += ny * nx * C
+        pos_of = np.empty(self.n_windows, np.intp)
+        rows, colsv, vals = [], [], []
+        n_pos = 0
+        for g in self.groups:
+            ny, nx = g.shape
+            Ny, Nx = dims[g.cell_size]
+            G1 = g.template[first].tocoo()               # (n_first, ny nx C)
+            yy, rem = np.divmod(G1.col, nx * C)
+            xx, cc = np.divmod(rem, C)
+            base = (yy * Nx + xx) * C + cc
+            oy = g.origin[1] + g.shifts[:, 1] + p
+            ox = g.origin[0] + g.shifts[:, 0] + p
+            start, inv = np.unique(offsets[g.cell_size] + (oy * Nx + ox) * C,
+                                   return_inverse=True)
+            pos_of[g.members] = n_pos + inv.ravel()
+            u = n_pos + np.arange(len(start))
+            rows.append((u[:, None] * len(first) + G1.row[None, :]).ravel())
+            colsv.append((start[:, None] + base[None, :]).ravel())
+            vals.append(np.tile(G1.data, len(start)))
+            n_pos += len(start)
+        W = sp.csr_matrix((np.concatenate(vals).astype(np.float32),
+                           (np.concatenate(rows), np.concatenate(colsv))),
+                          shape=(n_pos * len(first), off))
+        return W, first, pos_of, n_pos
+
+    def _fast_cascade(self, features):
+        """First tree block for all positions through one CSR product, the remaining
+        blocks group by group for the windows the cascade keeps."""
+        if getattr(self, "_first", None) is None:
+            self._first = self._first_block_operator()
+        W, first, pos_of, n_pos = self._first
+        x = features.vector(self.cell_sizes)
+        X1 = np.zeros((n_pos, len(self.used)))
+        X1[:, first] = np.asarray(W @ x, np.float64).reshape(n_pos, len(first))
+        t1 = min(self._cols.shape[0], self.block)
+        score, alive = self._eval_block(X1, np.zeros(n_pos), np.arange(n_pos), 0, t1)
+        pos_score = score
+        out = pos_score[pos_of]
+        if t1 >= self._cols.shape[0]:
+            return out
+        alive_pos = np.zeros(n_pos, bool)
+        alive_pos[alive] = True
+        for g in self.groups:
+            m = alive_pos[pos_of[g.members]]
+            if not m.any():
+                continue
+            idx = np.flatnonzero(m)
+            members = g.members[idx]
+            oy, ox = self._origins(g, features)
+            F = features.maps[g.cell_size]
+            ny, nx = g.shape
+            win = np.lib.stride_tricks.sliding_window_view(F, (ny, nx), axis=(0, 1))
+            X = win[oy[idx], ox[idx]].transpose(0, 2, 3, 1).reshape(len(idx), -1)
+            out[members] = self._cascade(X, g.template, t_start=t1, score0=out[members])
+        return out
+
+    def _eval_block(self, Xs, score, alive, t0, t1):
+        """Trees ``t0:t1`` on rows ``alive`` of ``Xs``; returns (score, still alive)."""
+        cols = self._cols[t0:t1]
+        node = np.zeros((alive.size, t1 - t0), np.intp)
+        trees = np.arange(t1 - t0)[None, :]
+        rows = alive[:, None]
+        for _ in range(self._depth):
+            f = cols[trees, node]
+            go = Xs[rows, np.maximum(f, 0)] >= self._thr[t0:t1][trees, node]
+            node = np.where(f >= 0, 2 * node + 1 + go, node)
+        h = self._val[t0:t1][trees, node]
+        run = np.cumsum(np.concatenate([score[alive][:, None], h], axis=1), axis=1)[:, 1:]
+        thr_c = self.model.cascade_threshold
+        if thr_c is None:
+            score[alive] = run[:, -1]
+            return score, alive
+        below = run <= thr_c
+        stopped = below.any(axis=1)
+        first = np.argmax(below, axis=1)
+        score[alive] = np.where(stopped, run[np.arange(alive.size), first], run[:, -1])
+        return score, alive[~stopped]
+
+    def _cascade(self, X, Gu, *, t_start=0, score0=None):
+        """Trees in blocks; remapped features only for the windows still alive."""
+        T = self._cols.shape[0]
+        thr_c = self.model.cascade_threshold
+        n = X.shape[0]
+        score = np.zeros(n) if score0 is None else np.array(score0, dtype=np.float64)
+        alive = np.arange(n)
+        Xs = np.zeros((n, len(self.used)), np.float64)
+        have = np.zeros(len(self.used), bool)
+        XT = None
+        for t0 in range(t_start, T, self.block):
+            if alive.size == 0:
+                break
+            t1 = min(T, t0 + self.block)
+            cols = self._cols[t0:t1]
+            need = np.unique(cols[cols >= 0])
+            need = need[~have[need]]
+            if need.size:
+                # the alive set only shrinks, so features computed for an earlier (larger)
+                # alive set stay valid for the windows still alive
+                if XT is None:
+                    XT = np.ascontiguousarray(X[alive].T)
+                Xs[np.ix_(alive, need)] = np.asarray(Gu[need] @ XT).T
+                have[need] = True
+            node = np.zeros((alive.size, t1 - t0), np.intp)
+            trees = np.arange(t1 - t0)[None, :]
+            rows = alive[:, None]
+            for _ in range(self._depth):
+                f = cols[trees, node]
+                internal = f >= 0
+                go = Xs[rows, np.maximum(f, 0)] >= self._thr[t0:t1][trees, node]
+                node = np.where(internal, 2 * node + 1 + go, node)
+            h = self._val[t0:t1][trees, node]
+            run = np.cumsum(np.concatenate([score[alive][:, None], h], axis=1), axis=1)[:, 1:]
+            if thr_c is None:
+                score[alive] = run[:, -1]
+                continue
+            below = run <= thr_c
+            stopped = below.any(axis=1)
+            first = np.argmax(below, axis=1)
+            score[alive] = np.where(stopped, run[np.arange(alive.size), first], run[:, -1])
+            if stopped.any():
+                alive = alive[~stopped]
+                XT = None
+        return score
+
+    def detect(self, image, *, threshold: float = 0.0, nms_threshold: float = 0.65,
+               max_candidates: int = 2000, method: str = "cascade") -> np.ndarray:
+        """Features, cascade scores and NMS (``overlap="min"``, as ACF) on one frame."""
+        _check_frame(image, self.image_size)
+        s = self.scores(self.frame_features(image), method=method)
+        return detections_from_scores(self.boxes(), s, threshold=threshold,
+                                      nms_threshold=nms_threshold, overlap="min",
+                                      max_candidates=max_candidates)
+
+
+def build_adapted_trees_operator(windows: CandidateWindows, model, *, tolerance: float = 1.0,
+                                 cells_per_source_cell: float = 0.7,
+                                 allowed_cell_sizes=(2, 3, 4, 6, 8, 12, 16),
+                                 rule: str = "covariant", block: int = 32,
+                                 acf_kwargs=None) -> AdaptedTreesOperator:
+    """Precompute ``G[used]`` of every window for an ACF boosted-trees model.
+
+    Parameters
+    ----------
+    windows : CandidateWindows
+    model : viewadapt.boosting.AdaBoostTrees
+        Fitted on source-view ACF features ``acf_channels(window).ravel()`` (layout
+        ``(10, 32, 16)``).
+    tolerance, cells_per_source_cell, allowed_cell_sizes, rule
+        As :func:`build_adapted_linear_operator`; cells are sized on the 4-px blocks, so
+        the default tolerance of 1 cell is about the pixel tolerance of HOG's 0.5 cell.
+    block : int
+        Trees evaluated per cascade step.
+    acf_kwargs : dict, optional
+        Passed to :func:`acf_frame_features`.
+
+    Returns
+    -------
+    AdaptedTreesOperator
+    """
+    _check_windows(windows)
+    n_src = _N_ACF * (WINDOW_HEIGHT // ACF_SHRINK) * (WINDOW_WIDTH // ACF_SHRINK)
+    if getattr(model, "n_features_in_", None) != n_src:
+        raise ValueError(f"model must be fitted on {n_src} ACF features (10 x 32 x 16), got "
+                         f"{getattr(model, 'n_features_in_', None)}")
+    cell = choose_cell_sizes(windows.scale, ACF_SHRINK,
+                             cells_per_source_cell=cells_per_source_cell,
+                             allowed=allowed_cell_sizes)
+    groups = _build_groups(windows, cell, tolerance)
+    used = model.used_features_
+    for g in groups:
+        G = _acf_remap(windows.homographies[g.prototype], g, rule)
+        Gu = sp.csr_matrix(sp.csr_matrix(G)[used])
+        g.template = Gu
+    pad = _required_pad(groups, windows.image_size)
+    make_features = _FeatureMaker("acf", sorted(set(cell.tolist())), pad,
+                                  tuple(windows.image_size), dict(acf_kwargs or {}))
+    op = AdaptedTreesOperator(windows, cell, groups, pad, model, make_features, block)
+    op.tolerance = float(tolerance)
+    return op
+
+
+# ------------------------------------------------------------------------------- output
+
+
+def detections_from_scores(boxes, scores, *, threshold: float = 0.0,
+                           nms_threshold: float = 0.5, overlap: str = "union",
+                           max_candidates: int = 2000) -> np.ndarray:
+    """Threshold, keep the best ``max_candidates``, non-maximum suppression.
+
+    Parameters
+    ----------
+    boxes : (N, 4) array_like
+        ``(x, y, w, h)``.
+    scores : (N,) array_like
+
+    Returns
+    -------
+    (D, 5) ndarray of ``(x, y, w, h, score)``, decreasing score.
+    """
+    b = np.asarray(boxes, dtype=np.float64)
+    s = np.asarray(scores, dtype=np.float64)
+    keep = np.flatnonzero(s > threshold)
+    if keep.size > max_candidates:
+        keep = keep[np.argpartition(-s[keep], max_candidates - 1)[:max_candidates]]
+    if keep.size == 0:
+        return np.zeros((0, 5))
+    k = non_maximum_suppression(b[keep], s[keep], nms_threshold, overlap=overlap)
+    sel = keep[k]
+    return np.c_[b[sel], s[sel]]
