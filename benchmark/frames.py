@@ -27,6 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
+from viewadapt.boosting import cascade_step
 from viewadapt.geometry import WINDOW_HEIGHT, WINDOW_WIDTH, Camera, camera_from_pose
 from viewadapt.windows import PERSON_BOX_WINDOW
 
@@ -498,15 +499,7 @@ def _trees_dense(model, C, positions, block=32):
             v = C[ch[fi], py + ii[fi], px + jj[fi]]
             go = v >= thr_[t0:t1][trees, node]
             node = np.where(f >= 0, 2 * node + 1 + go, node)
-        h = val[t0:t1][trees, node]
-        run = np.cumsum(np.concatenate([score[alive][:, None], h], axis=1), axis=1)[:, 1:]
-        if casc is None:
-            score[alive] = run[:, -1]
-            continue
-        below = run <= casc
-        stopped = below.any(axis=1)
-        first = np.argmax(below, axis=1)
-        score[alive] = np.where(stopped, run[np.arange(alive.size), first], run[:, -1])
+        score[alive], stopped = cascade_step(score[alive], val[t0:t1][trees, node], casc)
         alive = alive[~stopped]
     return score
 

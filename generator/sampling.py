@@ -515,6 +515,25 @@ def _sample_frame(config, spec, layout, persons, index, seed) -> FrameSample:
     return FrameSample(spec.id, index, seed, cam, tuple(placed), lighting)
 
 
+def _choose(items: list, ids, n, what: str, *, spread: bool) -> list:
+    """The ``ids`` of ``items`` in that order, or ``n`` of them (evenly spread or the first
+    ``n``), or all; unknown ids or too large an ``n`` are a ValueError."""
+    if ids:
+        by_id = {x.id: x for x in items}
+        missing = [i for i in ids if i not in by_id]
+        if missing:
+            raise ValueError(f"unknown {what} id(s): {', '.join(missing)}")
+        return [by_id[i] for i in ids]
+    if n:
+        if n > len(items):
+            raise ValueError(f"config asks for {n} {what}s, only {len(items)} exist")
+        if spread and n < len(items):
+            idx = np.round(np.linspace(0, len(items) - 1, n)).astype(int)
+            return [items[i] for i in idx]
+        return items[:n]
+    return items
+
+
 def plan_dataset(config: GeneratorConfig, seed: int, *, scenes=None, persons=None) -> Plan:
     """Plan every image of a dataset (numpy only).
 
@@ -533,30 +552,9 @@ def plan_dataset(config: GeneratorConfig, seed: int, *, scenes=None, persons=Non
     config = config.validate()
     scenes = list(scenes) if scenes is not None else load_scenes()
     persons = list(persons) if persons is not None else load_roster()
-    if config.scene_ids:
-        by_id = {s.id: s for s in scenes}
-        missing = [s for s in config.scene_ids if s not in by_id]
-        if missing:
-            raise ValueError(f"unknown scene id(s): {', '.join(missing)}")
-        scenes = [by_id[s] for s in config.scene_ids]
-    elif config.n_scenes:
-        if config.n_scenes > len(scenes):
-            raise ValueError(f"config asks for {config.n_scenes} scenes, "
-                             f"only {len(scenes)} exist")
-        # spread the choice over the (id-sorted) list so small presets mix indoor/outdoor
-        idx = np.round(np.linspace(0, len(scenes) - 1, config.n_scenes)).astype(int)
-        scenes = [scenes[i] for i in idx] if config.n_scenes < len(scenes) else scenes
-    if config.person_ids:
-        by_id = {p.id: p for p in persons}
-        missing = [p for p in config.person_ids if p not in by_id]
-        if missing:
-            raise ValueError(f"unknown person id(s): {', '.join(missing)}")
-        persons = [by_id[p] for p in config.person_ids]
-    elif config.n_persons:
-        if config.n_persons > len(persons):
-            raise ValueError(f"config asks for {config.n_persons} persons, "
-                             f"only {len(persons)} exist")
-        persons = persons[:config.n_persons]
+    # spread the scene choice over the (id-sorted) list so small presets mix indoor/outdoor
+    scenes = _choose(scenes, config.scene_ids, config.n_scenes, "scene", spread=True)
+    persons = _choose(persons, config.person_ids, config.n_persons, "person", spread=False)
     plan = Plan(config, int(seed), {s.id: s for s in scenes}, {p.id: p for p in persons})
     frames_per_scene = [len(range(k, config.frames, len(scenes))) for k in range(len(scenes))]
     for si, spec in enumerate(scenes):

@@ -36,7 +36,7 @@ from sklearn.utils import check_array, check_random_state
 from sklearn.utils.multiclass import check_classification_targets, type_of_target
 from sklearn.utils.validation import check_is_fitted, validate_data
 
-__all__ = ["AdaBoostTrees"]
+__all__ = ["AdaBoostTrees", "cascade_step"]
 
 # binaryTreeTrain defaults: a node is a leaf when its (normalised) weight is below
 # minWeight or its positive fraction is outside [1e-3, 1 - 1e-3]
@@ -437,15 +437,7 @@ class AdaBoostTrees(ClassifierMixin, BaseEstimator):
                 t1 = min(t0 + _TREE_BLOCK, n_trees)
                 h = _evaluate_trees(X, rows, feature[t0:t1], self.threshold_[t0:t1],
                                     self.value_[t0:t1], depth)
-                # running score after each tree: a sequential cumulative sum
-                run = np.cumsum(np.concatenate([s[:, None], h], axis=1), axis=1)[:, 1:]
-                if thr is None:
-                    s = run[:, -1]
-                    continue
-                below = run <= thr                       # acfDetect1: if (h <= cascThr) break
-                stopped = below.any(axis=1)
-                first = np.argmax(below, axis=1)
-                s = np.where(stopped, run[np.arange(rows.size), first], run[:, -1])
+                s, stopped = cascade_step(s, h, thr)
                 scores[rows[stopped]] = s[stopped]
                 rows, s = rows[~stopped], s[~stopped]
             scores[rows] = s
@@ -453,6 +445,34 @@ class AdaBoostTrees(ClassifierMixin, BaseEstimator):
 
 
 # ---------------------------------------------------------------------- helpers
+def cascade_step(score, h, threshold):
+    """Add a block of tree outputs to running scores, with the soft cascade.
+
+    Parameters
+    ----------
+    score : (n,) ndarray, running scores before the block.
+    h : (n, t) ndarray, outputs of the block's ``t`` trees, in order.
+    threshold : float or None
+        Cascade threshold; a sample stops at the first tree whose running score is
+        ``<= threshold`` (acfDetect1: ``if (h <= cascThr) break``) and keeps that score.
+
+    Returns
+    -------
+    score : (n,) ndarray, the running scores after the block (or at the stop).
+    stopped : (n,) bool ndarray, samples that stopped inside the block.
+
+    The running score is a sequential cumulative sum, so blocked, truncated and remapped
+    evaluations agree bit for bit on the trees they share.
+    """
+    run = np.cumsum(np.concatenate([score[:, None], h], axis=1), axis=1)[:, 1:]
+    if threshold is None:
+        return run[:, -1], np.zeros(len(run), bool)
+    below = run <= threshold
+    stopped = below.any(axis=1)
+    first = np.argmax(below, axis=1)
+    return np.where(stopped, run[np.arange(len(run)), first], run[:, -1]), stopped
+
+
 def _check_int(value, name, minimum):
     if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < minimum:
         raise ValueError(f"{name} must be an integer >= {minimum}, got {value!r}")

@@ -65,6 +65,7 @@ import scipy.sparse as sp
 
 from ._validation import check_image
 from .geometry import WINDOW_HEIGHT, WINDOW_WIDTH
+from .boosting import cascade_step
 from .nms import non_maximum_suppression
 from .geometry import homography_jacobian
 from .remap import CellGrid, cell_remap_matrix, feature_remap_matrix, orientation_remap_matrix
@@ -946,22 +947,13 @@ class AdaptedTreesOperator(_OperatorBase):
             f = cols[trees, node]
             go = Xs[rows, np.maximum(f, 0)] >= self._thr[t0:t1][trees, node]
             node = np.where(f >= 0, 2 * node + 1 + go, node)
-        h = self._val[t0:t1][trees, node]
-        run = np.cumsum(np.concatenate([score[alive][:, None], h], axis=1), axis=1)[:, 1:]
-        thr_c = self.model.cascade_threshold
-        if thr_c is None:
-            score[alive] = run[:, -1]
-            return score, alive
-        below = run <= thr_c
-        stopped = below.any(axis=1)
-        first = np.argmax(below, axis=1)
-        score[alive] = np.where(stopped, run[np.arange(alive.size), first], run[:, -1])
+        score[alive], stopped = cascade_step(score[alive], self._val[t0:t1][trees, node],
+                                             self.model.cascade_threshold)
         return score, alive[~stopped]
 
     def _cascade(self, X, Gu, *, t_start=0, score0=None):
         """Trees in blocks; remapped features only for the windows still alive."""
         T = self._cols.shape[0]
-        thr_c = self.model.cascade_threshold
         n = X.shape[0]
         score = np.zeros(n) if score0 is None else np.array(score0, dtype=np.float64)
         alive = np.arange(n)
@@ -982,25 +974,9 @@ class AdaptedTreesOperator(_OperatorBase):
                     XT = np.ascontiguousarray(X[alive].T)
                 Xs[np.ix_(alive, need)] = np.asarray(Gu[need] @ XT).T
                 have[need] = True
-            node = np.zeros((alive.size, t1 - t0), np.intp)
-            trees = np.arange(t1 - t0)[None, :]
-            rows = alive[:, None]
-            for _ in range(self._depth):
-                f = cols[trees, node]
-                internal = f >= 0
-                go = Xs[rows, np.maximum(f, 0)] >= self._thr[t0:t1][trees, node]
-                node = np.where(internal, 2 * node + 1 + go, node)
-            h = self._val[t0:t1][trees, node]
-            run = np.cumsum(np.concatenate([score[alive][:, None], h], axis=1), axis=1)[:, 1:]
-            if thr_c is None:
-                score[alive] = run[:, -1]
-                continue
-            below = run <= thr_c
-            stopped = below.any(axis=1)
-            first = np.argmax(below, axis=1)
-            score[alive] = np.where(stopped, run[np.arange(alive.size), first], run[:, -1])
-            if stopped.any():
-                alive = alive[~stopped]
+            n_alive = alive.size
+            score, alive = self._eval_block(Xs, score, alive, t0, t1)
+            if alive.size != n_alive:
                 XT = None
         return score
 
