@@ -14,7 +14,7 @@ import tempfile
 import time
 from pathlib import Path
 
-__all__ = ["run_benchmark", "main"]
+__all__ = ["run_benchmark", "time_preset", "main"]
 
 
 def run_benchmark(*, persons: int = 6, scenes: int = 3, samples: int | None = None,
@@ -68,6 +68,21 @@ def run_benchmark(*, persons: int = 6, scenes: int = 3, samples: int | None = No
                       "estimated_s": est}}
 
 
+def time_preset(name: str = "tiny", *, renderer: str = "cycles", jobs: int = 1) -> dict:
+    """Render a whole preset end to end (start-up included) into a temporary directory,
+    as ``viewadapt generate --preset NAME`` does; returns its images and seconds."""
+    from . import pipeline
+    from .sampling import preset_config
+
+    with tempfile.TemporaryDirectory(prefix="viewadapt-bench-") as tmp:
+        t0 = time.perf_counter()
+        res = pipeline.generate(preset_config(name, renderer=renderer), 0, Path(tmp) / name,
+                                jobs=jobs, progress=False)
+        seconds = time.perf_counter() - t0
+    return {"preset": name, "renderer": renderer, "images": res.n_images,
+            "complete": res.complete, "seconds": seconds}
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(prog="python -m generator.bench", description=__doc__)
     ap.add_argument("--persons", type=int, default=6)
@@ -75,7 +90,16 @@ def main(argv=None) -> int:
     ap.add_argument("--samples", type=int)
     ap.add_argument("--threads", type=int)
     ap.add_argument("--renderer", choices=("cycles", "pyrender", "both"), default="both")
+    ap.add_argument("--preset", choices=("tiny", "small"),
+                    help="instead: time the whole preset end to end with Cycles "
+                         "(the tiny preset's target is <= 3 min here)")
     args = ap.parse_args(argv)
+    if args.preset:
+        r = time_preset(args.preset)
+        print(f"preset {r['preset']}: {r['images']} images with {r['renderer']} in "
+              f"{r['seconds']:.0f} s ({r['images'] / r['seconds']:.2f} images/s, "
+              f"start-up included)" + ("" if r["complete"] else "  INCOMPLETE"))
+        return 0 if r["complete"] else 1
     for renderer in (("cycles", "pyrender") if args.renderer == "both" else (args.renderer,)):
         if renderer == "pyrender":
             try:

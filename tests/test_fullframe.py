@@ -7,8 +7,8 @@ import scipy.sparse as sp
 from tests.tolerances import EXACT, FLOAT32
 from viewadapt.fullframe import (
     ACF_SHRINK, HOG_CELL, _acf_remap, build_adapted_linear_operator,
-    build_adapted_trees_operator, fast_orientation_channels, hog_frame_features,
-    hog_window_features,
+    acf_frame_features, build_adapted_trees_operator, fast_acf_pixel_channels,
+    fast_orientation_channels, hog_frame_features, hog_window_features,
 )
 from viewadapt.geometry import (
     Camera, camera_from_pose, look_at_rotation, window_to_image_homography,
@@ -108,6 +108,34 @@ def test_fast_orientation_channels_match_reference(frame):
     assert np.allclose(fast, ref, rtol=1e-4, atol=1e-3 * ref.max())
 
 
+@pytest.mark.parametrize("grey", [False, True])
+def test_fast_acf_pixel_channels_match_reference(frame, grey):
+    from viewadapt.acf import acf_pixel_channels
+
+    img = frame.mean(axis=2).astype(np.uint8) if grey else frame
+    ref = np.moveaxis(acf_pixel_channels(img, shrink=1), 0, -1)
+    fast = fast_acf_pixel_channels(img)
+    assert fast.dtype == np.float32 and fast.shape == ref.shape
+    # colour and magnitude channels: float32 rounding
+    assert np.allclose(fast[..., :4], ref[..., :4], rtol=1e-4, atol=1e-5)
+    # orientation: the same bins except for pixels on a bin boundary
+    flipped = ~np.isclose(fast[..., 4:], ref[..., 4:], rtol=1e-4, atol=1e-5).all(-1)
+    assert flipped.mean() < 2e-3
+    assert np.allclose(fast[..., 4:].sum(-1), ref[..., 3], rtol=1e-4, atol=1e-5)
+
+
+def test_acf_frame_features_match_reference_aggregation(frame):
+    from viewadapt.acf import acf_pixel_channels, aggregate_channels
+
+    maps = acf_frame_features(frame, [2, 4], pad=1).maps
+    for c in (2, 4):
+        ref = aggregate_channels(acf_pixel_channels(frame, shrink=c), shrink=c)
+        got = np.moveaxis(maps[c][1:-1, 1:-1], -1, 0)
+        assert got.shape == ref.shape
+        assert np.abs(got - ref).mean() < 1e-4 * np.abs(ref).mean()
+        assert np.allclose(got[:4], ref[:4], rtol=1e-3, atol=1e-5)
+
+
 def test_window_features_are_frame_features_at_8px():
     rng = np.random.default_rng(0)
     win = rng.integers(0, 256, (128, 64, 3), dtype=np.uint8)
@@ -158,7 +186,7 @@ def test_adapted_trees_equal_explicit_remap(windows, frame):
     model = AdaBoostTrees(n_estimators=24, stages=None, max_bins=16, max_features=0.05,
                           random_state=0).fit(X, y)
     sub = windows.subset(np.arange(0, len(windows), max(1, len(windows) // 25)))
-    op = build_adapted_trees_operator(sub, model, tolerance=0.5, block=8)
+    op = build_adapted_trees_operator(sub, model, tolerance=0.5)
     feats = op.frame_features(frame)
     cascade = op.scores(feats)
     full = op.scores(feats, method="full")

@@ -328,11 +328,9 @@ def test_dask_local_cluster_renders_a_shard(micro, tmp_path):
 
 
 @pytest.mark.slow
-def test_tiny_preset_renders_within_three_minutes(tmp_path):
-    t0 = time.perf_counter()
+def test_tiny_preset_renders_completely(tmp_path):
+    # its time (target <= 3 min) is measured by `python -m generator.bench --preset tiny`
     res = pipeline.generate(preset_config("tiny"), 0, tmp_path / "tiny", jobs=1,
                             progress=False)
-    elapsed = time.perf_counter() - t0
     assert res.complete and res.n_images == 64
     assert verify_dataset(tmp_path / "tiny").ok
-    assert elapsed < 180, f"tiny took {elapsed:.0f} s"
