@@ -149,6 +149,22 @@ class _Scorer:
             return Z @ self.w + self.b
         return self.clf.decision_function(Z)
 
+    def prepare_adapted(self, Xfine, G):
+        """The part of :meth:`adapted` that does not depend on the trained model (the
+        remapped, normalised descriptors of ``blocks`` / ``pretrained``), to share between
+        models scoring the same windows; :meth:`score_prepared` finishes it."""
+        if self.kind in ("blocks", "pretrained"):
+            return cells_to_descriptor(np.asarray((G @ Xfine.T.astype(np.float64)).T))
+        return Xfine
+
+    def score_prepared(self, prepared, rows, G):
+        """``adapted(Xfine[rows], G)`` from ``prepare_adapted(Xfine, G)``."""
+        if self.kind in ("blocks", "pretrained"):
+            Z = prepared[rows]
+            return Z @ self.w + self.b if self.kind == "pretrained" else \
+                self.clf.decision_function(Z)
+        return self.adapted(prepared[rows], G)
+
     def adapted(self, Xfine, G):
         if self.kind == "linear":
             w = adapt_linear_weights(self.clf.coef_[0], G)     # offline, eq. (7)

@@ -38,27 +38,30 @@ REPRESENTATIONS = {
 
 
 def _window_features(w, reps) -> dict:
-    """Features of one window in each representation of ``reps``."""
-    from viewadapt.hog import (
-        hog_descriptor, locally_normalize_channels, orientation_channels, sum_cells,
-    )
+    """Features of one window in each representation of ``reps``.
+
+    Oriented gradients and ACF channels come from the float32 OpenCV paths of
+    :mod:`viewadapt.fullframe` (the same quantities as :mod:`viewadapt.hog` /
+    :mod:`viewadapt.acf` up to rounding, tested there; ~3x faster per window).
+    """
+    from viewadapt.fullframe import _cell_sums, acf_window_features, fast_orientation_channels
+    from viewadapt.hog import hog_descriptor, locally_normalize_channels
 
     out, O = {}, {}
     for rep in reps:
         family, opt = REPRESENTATIONS[rep]
         if family in ("hog", "hog_gamma"):
             if family not in O:
-                O[family] = orientation_channels(w, gamma=family == "hog_gamma")
+                O[family] = fast_orientation_channels(w, gamma=family == "hog_gamma")
             ch = O[family]
             if opt.get("normalize") == "local":
                 key = family + "_local"
                 if key not in O:
-                    O[key] = locally_normalize_channels(ch, cell_size=8)
+                    O[key] = locally_normalize_channels(ch, cell_size=8).astype(np.float32)
                 ch = O[key]
-            out[rep] = sum_cells(ch, opt["cell"]).ravel()
+            out[rep] = _cell_sums(ch, opt["cell"]).ravel()
         elif family == "acf":
-            from viewadapt.acf import acf_channels
-            out[rep] = acf_channels(w).ravel()
+            out[rep] = acf_window_features(w).ravel()
         else:
             out[rep] = hog_descriptor(w, method="opencv")
     return out
@@ -153,7 +156,7 @@ def background_windows(ds: Dataset, elevation_index: int, *, stride: int = 16) -
 
 
 #: bump when a representation's definition changes: old cache files then stop matching
-FEATURE_VERSION = 2
+FEATURE_VERSION = 3
 
 
 class FeatureCache:

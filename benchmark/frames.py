@@ -260,10 +260,9 @@ def train_source_detectors(ds, *, seed: int = 0, quick: bool = False, source_ind
                            progress: bool = False) -> SourceDetectors:
     """Linear SVM on :func:`viewadapt.fullframe.hog_window_features` and ACF boosted trees,
     trained on the dataset's crops of one elevation (default the first, 0)."""
-    from viewadapt.acf import acf_channels
     from viewadapt.boosting import AdaBoostTrees
     from viewadapt.classifiers import LinearSVMDetector
-    from viewadapt.fullframe import hog_window_features
+    from viewadapt.fullframe import acf_window_features, hog_window_features
 
     from .features import background_windows, person_windows
 
@@ -278,8 +277,9 @@ def train_source_detectors(ds, *, seed: int = 0, quick: bool = False, source_ind
     # their descriptor) underfits them badly (toy crops: 0.56 vs 0.33 miss rate at 1e-2 FPPW)
     svm = LinearSVMDetector(C=1.0, initial_negatives=2000 if quick else 5000,
                             mining_rounds=1, random_state=seed).fit(np.vstack([Xp, Xn]), y)
-    Ap = np.stack([acf_channels(w).ravel() for w in pos])
-    An = np.stack([acf_channels(w).ravel() for w in neg])
+    # the channels the full-frame operator reads (float32 OpenCV path)
+    Ap = np.stack([acf_window_features(w).ravel() for w in pos])
+    An = np.stack([acf_window_features(w).ravel() for w in neg])
     n_trees = 64 if quick else 256
     trees = AdaBoostTrees(n_estimators=n_trees, stages=None, max_bins=32 if quick else 64,
                           max_features=0.25 if quick else 0.125, random_state=seed)
@@ -398,8 +398,7 @@ def _nms(boxes, scores, thr, kind):
 
 def warp_scores(image, homographies, models, kind, *, chunk: int = 512) -> np.ndarray:
     """Image warping (Li et al. 2008): every window warped to 64x128, featurised, scored."""
-    from viewadapt.acf import acf_channels
-    from viewadapt.fullframe import hog_window_features
+    from viewadapt.fullframe import acf_window_features, hog_window_features
     from viewadapt.warp import warp_to_source_view
 
     out = np.empty(len(homographies))
@@ -410,7 +409,7 @@ def warp_scores(image, homographies, models, kind, *, chunk: int = 512) -> np.nd
             X = np.stack([hog_window_features(w).ravel() for w in wins]).astype(np.float64)
             out[a:a + len(Hs)] = X @ models.hog_weights.ravel() + models.hog_bias
         else:
-            X = np.stack([acf_channels(w).ravel() for w in wins])
+            X = np.stack([acf_window_features(w).ravel() for w in wins]).astype(np.float64)
             out[a:a + len(Hs)] = models.acf.decision_function(X)
     return out
 
@@ -514,14 +513,15 @@ def acf_pyramid_detect(image, models, *, upsample: int = 4, per_octave: int = 4,
     """
     import cv2
 
-    from viewadapt.acf import acf_channels
+    from viewadapt.fullframe import ACF_SHRINK, acf_frame_features
 
     h, w = image.shape[:2]
     boxes, scores = [], []
     for s in _pyramid_scales((w, h), upsample, 2 ** (1 / per_octave)):
         W, H = int(round(w * s)) // 4 * 4, int(round(h * s)) // 4 * 4
         level = cv2.resize(image, (W, H), interpolation=cv2.INTER_LINEAR)
-        C = acf_channels(level)
+        # the channels the detector was trained on (acf_window_features), whole level
+        C = np.moveaxis(acf_frame_features(level, [ACF_SHRINK], pad=0).maps[ACF_SHRINK], -1, 0)
         ny, nx = C.shape[1] - 32 + 1, C.shape[2] - 16 + 1
         if ny < 1 or nx < 1:
             continue

@@ -72,38 +72,45 @@ def run_sweep(ds: Dataset, cfg: CrossvalConfig, cache: FeatureCache, *, detector
         for e in estimates:
             Gs[(f"adapted, prior σ={sigma:g}", e)] = averaged_remap(detector, source, e, sigma, cfg)
     F = data["feat"]
-    rows = []
     seeds = [task_seed(cfg.seed, detector, source, f) for f in folds]
-    for fold, seed in tqdm(list(zip(folds, seeds)), desc="sweep", disable=not progress):
+    meta_p, meta_n = data["meta"][("person", et)], data["meta"][("background", et)]
+    fine = np.vstack([F[(fine_rep, "person", et, "")], F[(fine_rep, "background", et, "")]])
+    plain = np.vstack([F[(src_rep, "person", et, "")], F[(src_rep, "background", et, "")]])
+    n_pos_all = len(meta_p)
+    labels_all = np.r_[np.ones(n_pos_all, np.int8), np.zeros(len(meta_n), np.int8)]
+    pids_all = np.r_[meta_p["person_id"].to_numpy(), np.full(len(meta_n), "")]
+    # per fold: the trained scorer and its test windows (rows of fine / plain)
+    tests, scorers = [], []
+    for fold, seed in tqdm(list(zip(folds, seeds)), desc="sweep: training", disable=not progress):
         pm = _fold_masks(data["meta"][("person", es)], fold, True)
         nm = _fold_masks(data["meta"][("background", es)], fold, True)
         if kind == "pretrained":
-            scorer = _Scorer(detector)
+            scorers.append(_Scorer(detector))
         else:
-            scorer = _Scorer(detector, _fit(detector, cfg,
-                                            _features(detector, F[(src_rep, "person", es, "")][pm]),
-                                            _features(detector, F[(src_rep, "background", es, "")][nm]),
-                                            int(seed)))
-        tp = _fold_masks(data["meta"][("person", et)], fold, False)
-        tn = _fold_masks(data["meta"][("background", et)], fold, False)
-        Xp_fine = F[(fine_rep, "person", et, "")][tp]
-        Xn_fine = F[(fine_rep, "background", et, "")][tn]
-        X = np.vstack([Xp_fine, Xn_fine])
-        n_pos = len(Xp_fine)
+            scorers.append(_Scorer(detector, _fit(
+                detector, cfg, _features(detector, F[(src_rep, "person", es, "")][pm]),
+                _features(detector, F[(src_rep, "background", es, "")][nm]), int(seed))))
+        tests.append(np.flatnonzero(np.r_[_fold_masks(meta_p, fold, False),
+                                          _fold_masks(meta_n, fold, False)]))
+    used = np.unique(np.concatenate(tests))       # background windows serve three folds
+    rows = []
 
-        labels = np.r_[np.ones(n_pos, np.int8), np.zeros(len(X) - n_pos, np.int8)]
-        pids = np.r_[data["meta"][("person", et)]["person_id"].to_numpy()[tp],
-                     np.full(len(X) - n_pos, "")]
+    def record(fold, method, estimate, idx, scores):
+        rows.append(pd.DataFrame({"fold": fold.name, "method": method, "estimate": estimate,
+                                  "label": labels_all[idx],
+                                  "score": np.asarray(scores, np.float32),
+                                  "person_id": pids_all[idx]}))
 
-        def record(method, estimate, scores):
-            rows.append(pd.DataFrame({"fold": fold.name, "method": method, "estimate": estimate,
-                                      "label": labels, "score": np.asarray(scores, np.float32),
-                                      "person_id": pids}))
-
-        Xplain = np.vstack([F[(src_rep, "person", et, "")][tp], F[(src_rep, "background", et, "")][tn]])
-        record("unadapted", np.nan, scorer.plain(Xplain))
-        for (method, e), G in Gs.items():
-            record(method, float(e), scorer.adapted(X, G))
+    for fold, scorer, idx in zip(folds, scorers, tests):
+        record(fold, "unadapted", np.nan, idx, scorer.plain(plain[idx]))
+    Xu = fine[used]
+    for (method, e), G in tqdm(list(Gs.items()), desc="sweep: estimates",
+                               disable=not progress):
+        # remap every test window once per estimate, then score it with each fold's model
+        prepared = scorers[0].prepare_adapted(Xu, G)
+        for fold, scorer, idx in zip(folds, scorers, tests):
+            record(fold, method, float(e), idx,
+                   scorer.score_prepared(prepared, np.searchsorted(used, idx), G))
     return pd.concat(rows, ignore_index=True)
 
 

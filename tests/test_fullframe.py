@@ -1,5 +1,6 @@
 """Full-frame viewpoint-adapted detection: windows, per-window operators, cache, input errors."""
 
+import cv2
 import numpy as np
 import pytest
 import scipy.sparse as sp
@@ -7,7 +8,8 @@ import scipy.sparse as sp
 from tests.tolerances import EXACT, FLOAT32
 from viewadapt.fullframe import (
     ACF_SHRINK, HOG_CELL, _acf_remap, build_adapted_linear_operator,
-    acf_frame_features, build_adapted_trees_operator, fast_acf_pixel_channels,
+    acf_frame_features, acf_window_features, build_adapted_trees_operator,
+    fast_acf_pixel_channels,
     fast_orientation_channels, hog_frame_features, hog_window_features,
 )
 from viewadapt.geometry import (
@@ -136,6 +138,16 @@ def test_acf_frame_features_match_reference_aggregation(frame):
         assert np.allclose(got[:4], ref[:4], rtol=1e-3, atol=1e-5)
 
 
+def test_acf_window_features_are_the_reference_channels():
+    from viewadapt.acf import acf_channels
+
+    rng = np.random.default_rng(1)
+    win = cv2.GaussianBlur(rng.integers(0, 256, (128, 64, 3), dtype=np.uint8), (5, 5), 1.5)
+    got, ref = acf_window_features(win), acf_channels(win)
+    assert got.shape == ref.shape == (10, 32, 16) and got.dtype == np.float32
+    assert np.abs(got - ref).mean() < 1e-3 * np.abs(ref).mean()
+
+
 def test_window_features_are_frame_features_at_8px():
     rng = np.random.default_rng(0)
     win = rng.integers(0, 256, (128, 64, 3), dtype=np.uint8)
@@ -200,8 +212,14 @@ def test_adapted_trees_equal_explicit_remap(windows, frame):
         g = _Group(c, n, (0, 0), x.shape[:2], np.array([n]), np.zeros((1, 2), int))
         G = _acf_remap(op.snapped_homographies[n], g, "covariant")
         src = G @ x.astype(np.float64).ravel()
+        src[3 * 512:] *= op.gradient_factor[n]       # power-law scaling of the gradients
         assert cascade[n] == pytest.approx(model.decision_function(src[None])[0], abs=1e-5)
     assert ACF_SHRINK == 4
+    # the scaling is s ** lambda of each window's group prototype; lambda = 0 turns it off
+    assert np.all((op.gradient_factor > 0) & (op.gradient_factor <= 1.2))
+    assert not np.allclose(op.gradient_factor, 1)
+    plain = build_adapted_trees_operator(sub, model, tolerance=0.5, gradient_lambda=0.0)
+    assert np.all(plain.gradient_factor == 1)
 
 
 # ---------------------------------------------------------------------------- the cache

@@ -76,6 +76,7 @@ __all__ = [
     "HOG_CELL", "ACF_SHRINK",
     "fast_orientation_channels",
     "fast_acf_pixel_channels",
+    "acf_window_features",
     "FrameFeatures",
     "normalize_cells",
     "hog_window_features",
@@ -94,6 +95,13 @@ __all__ = [
 HOG_CELL = 8
 #: Source-view ACF aggregation block (4 px, 32 x 16 blocks).
 ACF_SHRINK = 4
+#: Power-law exponent of the ACF gradient channels across scales (Dollár et al. 2014):
+#: channels computed on the frame at ``s`` frame pixels per canonical pixel are, on average,
+#: ``s ** -lambda`` times those of the same window warped to the canonical size, so the
+#: adapted operator multiplies the remapped magnitude and orientation channels by
+#: ``s ** lambda``. Measured without labels on 360 random candidate windows of the small
+#: Blender set's frames, s = 0.26..1.05: 0.365 (``python -m benchmark.perf.acf_scaling``).
+ACF_GRADIENT_LAMBDA = 0.365
 _N_HOG_BINS = 9
 _N_ACF = 10
 _N_ORIENT_ACF = 6
@@ -107,11 +115,11 @@ _PROBES = np.array([[-0.5, -0.5], [WINDOW_WIDTH - 0.5, -0.5], [WINDOW_WIDTH - 0.
 # ---------------------------------------------------------------------------- features
 
 
-def fast_orientation_channels(image, *, n_bins: int = 9) -> np.ndarray:
+def fast_orientation_channels(image, *, n_bins: int = 9, gamma: bool = False) -> np.ndarray:
     """Per-pixel oriented gradient magnitudes in float32 with OpenCV kernels.
 
-    The same quantity as :func:`viewadapt.hog.orientation_channels` (``gamma=False``):
-    central differences with reflect-101 borders, the colour channel of largest magnitude,
+    The same quantity as :func:`viewadapt.hog.orientation_channels`:
+    (optionally square-root gamma, then) central differences with reflect-101 borders, the colour channel of largest magnitude,
     the magnitude split linearly between the two nearest of ``n_bins`` unsigned bins
     centred at ``(b + 1/2) pi / n_bins``; in single precision.
 
@@ -119,6 +127,8 @@ def fast_orientation_channels(image, *, n_bins: int = 9) -> np.ndarray:
     ----------
     image : (M, N[, 3]) ndarray, uint8 or float in [0, 1]
     n_bins : int
+    gamma : bool
+        Square-root gamma first (OpenCV's default).
 
     Returns
     -------
@@ -127,6 +137,8 @@ def fast_orientation_channels(image, *, n_bins: int = 9) -> np.ndarray:
     import cv2
 
     img = check_image(image).astype(np.float32)
+    if gamma:
+        img = cv2.sqrt(img)
     k = np.array([[-1.0, 0.0, 1.0]], np.float32)
     dx = cv2.filter2D(img, cv2.CV_32F, k, borderType=cv2.BORDER_REFLECT_101)
     dy = cv2.filter2D(img, cv2.CV_32F, k.T, borderType=cv2.BORDER_REFLECT_101)
@@ -360,6 +372,25 @@ def hog_window_features(window, *, cell_size: int = HOG_CELL) -> np.ndarray:
     O = fast_orientation_channels(window)
     X = _cell_sums(O, cell_size)
     return normalize_cells(X, X.sum(-1), eps=cell_size * _EPS_PER_PX)
+
+
+def acf_window_features(window) -> np.ndarray:
+    """Source-view ACF channels of a canonical window, as the full-frame detector reads them.
+
+    :func:`acf_frame_features` of the window at the 4-px block size (the float32 OpenCV
+    path of :func:`fast_acf_pixel_channels`), in the layout of
+    :func:`viewadapt.acf.acf_channels`.
+
+    Parameters
+    ----------
+    window : (128, 64[, 3]) ndarray
+
+    Returns
+    -------
+    (10, 32, 16) float32 ndarray (flatten for a classifier).
+    """
+    F = acf_frame_features(window, [ACF_SHRINK], pad=0).maps[ACF_SHRINK]
+    return np.ascontiguousarray(np.moveaxis(F, -1, 0))
 
 
 #: Floor of :func:`normalize_cells` per pixel of cell side (gradient units of 0..255 images).
@@ -1105,6 +1136,7 @@ def build_adapted_trees_operator(windows: CandidateWindows, model, *, tolerance:
                                  cells_per_source_cell: float = 0.7,
                                  allowed_cell_sizes=(2, 3, 4, 6, 8, 12, 16),
                                  rule: str = "covariant",
+                                 gradient_lambda: float = ACF_GRADIENT_LAMBDA,
                                  acf_kwargs=None) -> AdaptedTreesOperator:
     """Precompute ``G[used]`` of every window for an ACF boosted-trees model.
 
@@ -1117,6 +1149,11 @@ def build_adapted_trees_operator(windows: CandidateWindows, model, *, tolerance:
     tolerance, cells_per_source_cell, allowed_cell_sizes, rule
         As :func:`build_adapted_linear_operator`; cells are sized on the 4-px blocks, so
         the default tolerance of 1 cell is about the pixel tolerance of HOG's 0.5 cell.
+    gradient_lambda : float
+        Power-law scaling of the gradient channels (magnitude and orientations): the rows
+        of ``G`` that produce them are multiplied by ``s ** gradient_lambda``, ``s`` the
+        window's frame pixels per canonical pixel (:data:`ACF_GRADIENT_LAMBDA`); 0 turns it
+        off. Colour channels are intensive and need no scaling.
     acf_kwargs : dict, optional
         Passed to :func:`acf_frame_features`.
 
@@ -1132,10 +1169,19 @@ def build_adapted_trees_operator(windows: CandidateWindows, model, *, tolerance:
     cell = choose_cell_sizes(windows.scale, ACF_SHRINK,
                              cells_per_source_cell=cells_per_source_cell,
                              allowed=allowed_cell_sizes)
+    if not np.isfinite(gradient_lambda):
+        raise ValueError(f"gradient_lambda must be finite, got {gradient_lambda!r}")
     groups = _build_groups(windows, cell, tolerance)
     used = model.used_features_
+    n_out = (WINDOW_HEIGHT // ACF_SHRINK) * (WINDOW_WIDTH // ACF_SHRINK)
+    gradient_row = np.arange(_N_ACF * n_out) >= (_N_ACF - _N_ORIENT_ACF - 1) * n_out
+    scale = windows.scale
+    factor = np.ones(len(windows))
     for g in groups:
         G = _acf_remap(windows.homographies[g.prototype], g, rule)
+        if gradient_lambda:
+            factor[g.members] = scale[g.prototype] ** gradient_lambda
+            G = sp.diags(np.where(gradient_row, factor[g.prototype], 1.0)) @ G
         Gu = sp.csr_matrix(sp.csr_matrix(G)[used])
         Gu.eliminate_zeros()
         g.template = Gu
@@ -1144,6 +1190,7 @@ def build_adapted_trees_operator(windows: CandidateWindows, model, *, tolerance:
                                   tuple(windows.image_size), dict(acf_kwargs or {}))
     op = AdaptedTreesOperator(windows, cell, groups, pad, model, make_features)
     op.tolerance = float(tolerance)
+    op.gradient_factor = factor               # (N,) s ** gradient_lambda of each window
     op._tables = op._gather_tables()          # the run-time form, built once offline
     return op
 
