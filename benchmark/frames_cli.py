@@ -39,7 +39,10 @@ def cmd_detect(args) -> int:
     from viewadapt.cli import _check_out, atomic_output_dir
 
     from .data import read_image
-    from .frames import FrameDetector, SourceDetectors, read_calibration
+    from .frames import (
+        FrameDetector, FrameRecord, SourceDetectors, evaluate_method, read_boxes,
+        read_calibration,
+    )
 
     _check_out(args.out)
     cam = read_calibration(args.calibration)
@@ -48,6 +51,8 @@ def cmd_detect(args) -> int:
     for p in paths:
         if not p.is_file():
             raise FileNotFoundError(f"frame {p} does not exist")
+    boxes = read_boxes(args.boxes, paths) if args.boxes else None
+    dets = []
     det = FrameDetector(cam, models, person_heights=args.heights,
                         cache_dir=args.cache or (args.out / "cache"),
                         threshold_hog=args.threshold, threshold_acf=args.threshold)
@@ -62,6 +67,7 @@ def cmd_detect(args) -> int:
                 raise ValueError(f"frame {p} is {img.shape[1]}x{img.shape[0]} px, the "
                                  f"calibration is for {cam.image_size[0]}x{cam.image_size[1]}")
             d = det.detect(method, img)
+            dets.append(d)
             coco_img.append({"id": i + 1, "file_name": str(p), "width": img.shape[1],
                              "height": img.shape[0]})
             vis = img[:, :, ::-1].copy()
@@ -80,11 +86,24 @@ def cmd_detect(args) -> int:
         (tmp / "detections_coco.json").write_text(json.dumps(
             {"images": coco_img, "annotations": coco_ann,
              "categories": [{"id": 1, "name": "person"}]}))
+        evaluation = None
+        if boxes is not None:
+            records = [FrameRecord(p, i + 1, "", cam, *boxes[p.name])
+                       for i, p in enumerate(paths)]
+            ev = evaluate_method(dets, records)
+            evaluation = {"lamr": ev["lamr"], "n_gt": int(sum(len(r.gt) for r in records)),
+                          "fppi": ev["fppi"].tolist(), "miss_rate": ev["miss_rate"].tolist()}
+            (tmp / "evaluation.json").write_text(json.dumps(evaluation))
+            plot_det_figure({method: ev}, tmp / "det",
+                            title=f"{len(paths)} frames, {evaluation['n_gt']} persons")
         (tmp / "metadata.json").write_text(json.dumps(_metadata(
             args, detector=method, windows=len(det.windows), frames=len(paths),
             seconds=round(time.perf_counter() - t0, 2), camera=cam.to_dict()), indent=2))
     print(f"{len(rows)} detections in {len(paths)} frames ({len(det.windows)} candidate "
           f"windows); wrote {args.out}/detections.csv, detections_coco.json, annotated/")
+    if evaluation is not None:
+        print(f"against {evaluation['n_gt']} boxes of {args.boxes}: log-average miss rate "
+              f"{evaluation['lamr']:.3f} over 1e-2..1e0 FPPI (evaluation.json, det.png)")
     return 0
 
 
@@ -328,6 +347,10 @@ def register(sub, common) -> None:
                    help="assumed person heights, metres, comma-separated (default 1.75)")
     p.add_argument("--cache", type=Path, default=None,
                    help="operator cache directory (default OUT/cache)")
+    p.add_argument("--boxes", type=Path, default=None,
+                   help="optional ground truth to evaluate against: CSV with frame,x,y,w,h"
+                        "[,occlusion] or COCO JSON; writes evaluation.json and det.png "
+                        "(miss rate vs FPPI, log-average miss rate)")
     p.set_defaults(func=cmd_detect)
 
     bsub = _bench_subparsers(sub, common)

@@ -143,3 +143,25 @@ def test_cli_reports_dataset_errors_without_traceback(tmp_path, capsys):
     assert "does not exist" in err and "Traceback" not in err
     assert not (tmp_path / "o").exists()
     assert main(["report", str(tmp_path)]) == 2
+
+
+def test_reproduce_runs_every_stage_in_order(tmp_path, monkeypatch):
+    import argparse
+
+    import viewadapt.cli as cli
+
+    calls = []
+    monkeypatch.setattr(cli, "main", lambda argv: calls.append(argv) or 0)
+    monkeypatch.setattr(cli, "_blender_available", lambda: True)
+    args = argparse.Namespace(out=tmp_path / "repro", seed=3, jobs=2, framing="silhouette")
+    assert cli._cmd_reproduce(args) == 0
+    assert [c[:2] for c in calls] == [["generate", "--preset"], ["bench", "crossval"],
+                                      ["bench", "sweep"], ["bench", "frames"]]
+    assert "silhouette" in calls[0] and all("3" in c for c in calls)
+    stages = json.loads((tmp_path / "repro" / "reproduce.json").read_text())["stage_seconds"]
+    assert len(stages) == 4
+    # a failing stage stops the run with its exit code
+    calls.clear()
+    monkeypatch.setattr(cli, "main", lambda argv: calls.append(argv) or (2 if argv[0] == "bench"
+                                                                      else 0))
+    assert cli._cmd_reproduce(args) == 2 and len(calls) == 2

@@ -88,6 +88,34 @@ def test_detect_cli(toy, bench, tmp_path):
     assert rc == 0
     assert (out / "detections.csv").is_file() and (out / "detections_coco.json").is_file()
     assert len(list((out / "annotated").glob("*.png"))) == 2
+    # optional ground truth: CSV (by file name) or COCO gives the same evaluation
+    csv = tmp_path / "boxes.csv"
+    csv.write_text("frame,x,y,w,h,occlusion\n" + "".join(
+        f"{f.path.name},{x},{y},{w},{h},{o}\n" for f in frames[:2]
+        for (x, y, w, h), o in zip(f.gt, f.occlusion)))
+    coco = tmp_path / "boxes.json"
+    coco.write_text(json.dumps({
+        "images": [{"id": i, "file_name": str(f.path)} for i, f in enumerate(frames[:2])],
+        "annotations": [{"image_id": i, "bbox": list(map(float, b)), "occlusion": float(o)}
+                        for i, f in enumerate(frames[:2]) for b, o in zip(f.gt, f.occlusion)]}))
+    lamr = []
+    for k, boxes in enumerate((csv, coco)):
+        ev_out = tmp_path / f"ev{k}"
+        assert _main(["detect", "--calibration", str(calib), "--model",
+                      str(bench / "models" / "source_detectors.pkl"), "--out", str(ev_out),
+                      "--threshold", "-0.5", "--boxes", str(boxes),
+                      str(frames[0].path), str(frames[1].path)]) == 0
+        ev = json.loads((ev_out / "evaluation.json").read_text())
+        assert ev["n_gt"] == sum(len(f.gt) for f in frames[:2]) > 0
+        assert 0 < ev["lamr"] <= 1 and (ev_out / "det.png").is_file()
+        lamr.append(ev["lamr"])
+    assert lamr[0] == lamr[1]
+    bad_csv = tmp_path / "bad.csv"
+    bad_csv.write_text("image,x,y\nf.png,1,2\n")
+    assert _main(["detect", "--calibration", str(calib), "--model",
+                  str(bench / "models" / "source_detectors.pkl"), "--out", str(tmp_path / "b2"),
+                  "--boxes", str(bad_csv), str(frames[0].path)]) == 2
+    assert not (tmp_path / "b2").exists()
     # a missing frame, a frame of the wrong size: one-line errors, nothing written
     bad = tmp_path / "bad"
     assert _main(["detect", "--calibration", str(calib), "--model",

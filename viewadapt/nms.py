@@ -144,18 +144,25 @@ def non_maximum_suppression(boxes, scores, iou_threshold=0.5, *, overlap="union"
         raise ValueError(f"iou_threshold must lie in [0, 1], got {iou_threshold!r}")
 
     order = np.argsort(-scores, kind="stable")
-    areas = boxes[:, 2] * boxes[:, 3]
+    # coordinates in visiting order, gathered once; each step compares the kept box with
+    # the boxes still alive (the same arithmetic as _intersection / _safe_ratio)
+    x1, y1 = boxes[order, 0], boxes[order, 1]
+    x2, y2 = x1 + boxes[order, 2], y1 + boxes[order, 3]
+    areas = boxes[order, 2] * boxes[order, 3]
+    alive = np.arange(order.size)
     keep = []
-    while order.size:
-        i = order[0]
-        keep.append(i)
-        rest = order[1:]
-        inter = _intersection(boxes[i : i + 1], boxes[rest])[0]
+    while alive.size:
+        i = alive[0]
+        keep.append(order[i])
+        rest = alive[1:]
+        iw = np.minimum(x2[i], x2[rest]) - np.maximum(x1[i], x1[rest])
+        ih = np.minimum(y2[i], y2[rest]) - np.maximum(y1[i], y1[rest])
+        inter = np.clip(iw, 0.0, None) * np.clip(ih, 0.0, None)
         if overlap == "union":
             den = areas[i] + areas[rest] - inter
         else:
             den = np.minimum(areas[i], areas[rest])
         ovr = _safe_ratio(inter, den)
         # bbNms: "if(o>overlap), kp(j)=0; end" -- strict comparison.
-        order = rest[ovr <= thr]
+        alive = rest[ovr <= thr]
     return np.asarray(keep, dtype=np.intp)
