@@ -115,6 +115,22 @@ _PROBES = np.array([[-0.5, -0.5], [WINDOW_WIDTH - 0.5, -0.5], [WINDOW_WIDTH - 0.
 # ---------------------------------------------------------------------------- features
 
 
+def _strongest_channel(dx, dy):
+    """Per pixel, the colour channel of largest gradient magnitude (ties keep the earlier
+    channel): ``(dx, dy, dx**2 + dy**2)`` of that channel, float32 planes."""
+    import cv2
+
+    xs, ys = cv2.split(dx), cv2.split(dy)
+    m2 = [cv2.add(cv2.multiply(x, x), cv2.multiply(y, y)) for x, y in zip(xs, ys)]
+    gx, gy, best = xs[0].copy(), ys[0].copy(), m2[0]
+    for c in range(1, len(xs)):
+        sel = cv2.compare(m2[c], best, cv2.CMP_GT)
+        cv2.copyTo(xs[c], sel, gx)
+        cv2.copyTo(ys[c], sel, gy)
+        best = cv2.max(best, m2[c])
+    return gx, gy, best
+
+
 def fast_orientation_channels(image, *, n_bins: int = 9, gamma: bool = False) -> np.ndarray:
     """Per-pixel oriented gradient magnitudes in float32 with OpenCV kernels.
 
@@ -145,14 +161,7 @@ def fast_orientation_channels(image, *, n_bins: int = 9, gamma: bool = False) ->
     # OpenCV element-wise calls on contiguous planes throughout: several times faster than
     # numpy on strided channel views (measured in benchmark/perf/runtime.py's feature time)
     if img.ndim == 3:
-        xs, ys = cv2.split(dx), cv2.split(dy)
-        m2 = [cv2.add(cv2.multiply(x, x), cv2.multiply(y, y)) for x, y in zip(xs, ys)]
-        dx, dy, best = xs[0].copy(), ys[0].copy(), m2[0]
-        for c in range(1, len(xs)):                    # ties keep the earlier channel
-            sel = cv2.compare(m2[c], best, cv2.CMP_GT)
-            cv2.copyTo(xs[c], sel, dx)
-            cv2.copyTo(ys[c], sel, dy)
-            best = cv2.max(best, m2[c])
+        dx, dy, _ = _strongest_channel(dx, dy)
     mag, ang = cv2.cartToPolar(dx, dy)            # angle in [0, 2 pi)
     t = cv2.subtract(cv2.multiply(ang, n_bins / np.pi), 0.5)      # in [-0.5, 2 n_bins)
     for _ in range(2):                                            # t mod n_bins
@@ -220,14 +229,7 @@ def fast_acf_pixel_channels(image) -> np.ndarray:
         gy[-1] = luv[-1] - luv[-2]
     else:
         gy[:] = 0
-    xs, ys = cv2.split(gx), cv2.split(gy)
-    m2 = [cv2.add(cv2.multiply(a, a), cv2.multiply(b, b)) for a, b in zip(xs, ys)]
-    dx, dy, best = xs[0].copy(), ys[0].copy(), m2[0]
-    for c in (1, 2):                                   # ties keep the earlier channel
-        sel = cv2.compare(m2[c], best, cv2.CMP_GT)
-        cv2.copyTo(xs[c], sel, dx)
-        cv2.copyTo(ys[c], sel, dy)
-        best = cv2.max(best, m2[c])
+    dx, dy, best = _strongest_channel(gx, gy)
     mag = cv2.sqrt(best)
     tri5 = _acf._triangle_kernel(5).astype(np.float32)
     mag = mag / (cv2.sepFilter2D(mag, -1, tri5, tri5, borderType=cv2.BORDER_REFLECT)
