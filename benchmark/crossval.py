@@ -27,6 +27,7 @@ import pandas as pd
 
 from viewadapt.adapt import (
     acf_remap_matrix, adapt_linear_weights, cells_to_descriptor, hog_remap_matrix,
+    remap_features,
 )
 from viewadapt.geometry import elevation_homography
 
@@ -154,7 +155,7 @@ class _Scorer:
         remapped, normalised descriptors of ``blocks`` / ``pretrained``), to share between
         models scoring the same windows; :meth:`score_prepared` finishes it."""
         if self.kind in ("blocks", "pretrained"):
-            return cells_to_descriptor(np.asarray((G @ Xfine.T.astype(np.float64)).T))
+            return cells_to_descriptor(remap_features(G, Xfine))
         return Xfine
 
     def score_prepared(self, prepared, rows, G):
@@ -171,8 +172,7 @@ class _Scorer:
             return Xfine.astype(np.float64) @ w + self.clf.intercept_[0]
         if self.kind == "trees":
             return self.clf.decision_function_remapped(Xfine.astype(np.float64), G)
-        src = np.asarray((G @ Xfine.T.astype(np.float64)).T)     # remap, then normalise
-        Z = cells_to_descriptor(src)
+        Z = cells_to_descriptor(remap_features(G, Xfine))     # remap, then normalise
         if self.kind == "pretrained":
             return Z @ self.w + self.b
         return self.clf.decision_function(Z)

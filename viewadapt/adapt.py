@@ -32,6 +32,7 @@ __all__ = [
     "acf_remap_matrix",
     "elevation_remap_matrix",
     "remap_cells_to_descriptor",
+    "remap_features",
     "cells_to_descriptor",
     "ViewpointAdaptedClassifier",
 ]
@@ -159,18 +160,38 @@ def cells_to_descriptor(cells, cell_shape=(16, 8, 9)) -> np.ndarray:
         raise ValueError(f"cells have {X.shape[1]} values, cell_shape {cell_shape} needs "
                          f"{int(np.prod(cell_shape))}")
     ny, nx, B = cell_shape
-    C = X.reshape(-1, ny, nx, B)
-    # blocks [n, block_x, block_y, cell (2 cx + cy), bin], as viewadapt.hog.cells_to_blocks
-    blocks = np.stack([C[:, :-1, :-1], C[:, 1:, :-1], C[:, :-1, 1:], C[:, 1:, 1:]], axis=3)
-    blocks = blocks.transpose(0, 2, 1, 3, 4)
+    C = X.reshape(-1, ny, nx, B).transpose(0, 2, 1, 3)          # [n, x, y, bin]
+    # blocks [n, block_x, block_y, cell (2 cx + cy), bin], as viewadapt.hog.cells_to_blocks,
+    # written straight into that layout, C-contiguous (the reshapes below are then free)
+    blocks = np.empty((len(C), nx - 1, ny - 1, 4, B))
+    for k, (dx, dy) in enumerate(((0, 0), (0, 1), (1, 0), (1, 1))):
+        blocks[:, :, :, k] = C[:, dx:nx - 1 + dx, dy:ny - 1 + dy]
     out = normalize_blocks_l2hys(blocks).reshape(len(X), -1)
     return out[0] if single else out
 
 
+def remap_features(G, X) -> np.ndarray:
+    """``(G @ X.T).T``: every row of ``X`` (target-view features) remapped by ``G``.
+
+    The sparse product runs on a C-contiguous float64 copy of ``X.T``: on 13,300 windows of
+    4608 cells that takes 0.14 s, the product with ``X.T``'s transposed view 2.4 s.
+
+    Parameters
+    ----------
+    G : (n_source, n_target) sparse matrix
+    X : (n, n_target) array_like
+
+    Returns
+    -------
+    (n, n_source) float64 ndarray
+    """
+    XT = np.ascontiguousarray(np.atleast_2d(np.asarray(X)).T, dtype=np.float64)
+    return np.asarray(G @ XT).T
+
+
 def remap_cells_to_descriptor(target_cells, G, source_cell_shape=(16, 8, 9)) -> np.ndarray:
     """Remap target-view cells into the source view, then block-normalise: ``N(G x_t)``."""
-    X = np.atleast_2d(np.asarray(target_cells, dtype=np.float64))
-    src = np.asarray((G @ X.T).T)
+    src = remap_features(G, target_cells)
     out = cells_to_descriptor(src, source_cell_shape)
     return out[0] if np.ndim(target_cells) == 1 else out
 

@@ -262,11 +262,11 @@ def normalize_blocks_l2hys(blocks, *, clip: float = 0.2, eps: float | None = Non
     if v.ndim >= 2 and shape[-2] == 4:
         v = v.reshape(shape[:-2] + (-1,))
     d = v.shape[-1]
-    norm = np.sqrt((v * v).sum(-1, keepdims=True))
+    norm = np.sqrt(np.einsum("...i,...i->...", v, v))[..., None]
     v = v / (norm + (0.1 * d if eps is None else eps))
-    v = np.minimum(v, clip)
-    norm = np.sqrt((v * v).sum(-1, keepdims=True))
-    v = v / (norm + 1e-3)
+    np.minimum(v, clip, out=v)
+    norm = np.sqrt(np.einsum("...i,...i->...", v, v))[..., None]
+    v /= norm + 1e-3
     return v.reshape(shape)
 
 
