@@ -57,7 +57,8 @@ def _config(args, ds):
     from .crossval import CrossvalConfig
 
     cfg = CrossvalConfig(seed=args.seed, n_jobs=args.jobs,
-                         distance=float(ds.config.get("distance", 10.0)))
+                         distance=float(ds.config.get("distance", 10.0)),
+                         framing=str(ds.config.get("framing", "plane")))
     if getattr(args, "sources", None):
         cfg.sources = args.sources
     if getattr(args, "target", None) is not None:
@@ -153,8 +154,9 @@ def _remap_figure(tmp, ds, cfg):
     row = p[p["elevation_index"] == ds.elevation_index(cfg.target)].iloc[0]
     img = read_image(ds.root / row["path"])
     pad = np.pad(img, ((40, 40), (40, 40), (0, 0)), mode="edge")
-    fig = plot_remap_illustration(pad, 40, 40, elevation_homography(0.0, cfg.target,
-                                                                      distance=cfg.distance),
+    fig = plot_remap_illustration(pad, 40, 40, elevation_homography(
+                                      0.0, cfg.target, distance=cfg.distance,
+                                      framing=cfg.framing),
                                   title=f"{row['person_id']} in {row['scene_id']}, 0 → π/4,")
     save_figure(fig, tmp / "remap_illustration")
     plt.close(fig)

@@ -73,6 +73,9 @@ class CrossvalConfig:
     acf_max_features: float = 0.125
     bg_stride: int = 16
     distance: float = 10.0
+    #: how the dataset's crops were framed ("plane" or "silhouette", from dataset.json):
+    #: the homographies between elevations follow it (viewadapt.geometry.crop_homography)
+    framing: str = "plane"
     seed: int = 0
     n_jobs: int = 1
     extra: dict = field(default_factory=dict)
@@ -224,7 +227,7 @@ def _task(det, s, t, fold, cfg, data, seed):
     X_plain = test_feats(src_rep)
     results["oracle" if es == et else "unadapted"] = scorer.plain(X_plain)
     if es != et:
-        H = elevation_homography(s, t, distance=cfg.distance)
+        H = elevation_homography(s, t, distance=cfg.distance, framing=cfg.framing)
         Xfine = test_feats(fine_rep)
         variants = ADAPT_VARIANTS if (cfg.ablations and kind in ("blocks", "linear")) else ["adapted"]
         for v in variants:
@@ -273,7 +276,8 @@ def prepare(ds: Dataset, cfg: CrossvalConfig, cache: FeatureCache, elevations=No
         for s in sources:
             if idx[s] == et:
                 continue
-            H = elevation_homography(s, cfg.target, distance=cfg.distance)
+            H = elevation_homography(s, cfg.target, distance=cfg.distance,
+                                     framing=cfg.framing)
             for ws in (pw[cfg.target], bw[cfg.target]):
                 want(ws.warped(H, f"warp{s:.6f}"), et, f"warp{s:.6f}", src_rep)
             if cfg.synthesised and kind != "pretrained":

@@ -104,7 +104,9 @@ class WindowSet:
         learn the border artefacts as a cue. Without it the warp reads the whole image.
         """
         H = np.asarray(H_window, float)
-        suffix = key_suffix + ("|cropfirst" if crop_first else "")
+        # the key names the homography too, so cached features never outlive a change of it
+        h = hashlib.sha1(np.round(H / H[2, 2], 9).tobytes()).hexdigest()[:8]
+        suffix = key_suffix + ("|cropfirst" if crop_first else "") + f"|H{h}"
         items = [(p, (Hi, H) if crop_first else Hi @ H) for p, Hi in self.items]
         return WindowSet(f"{self.key}|{suffix}", items, self.meta)
 

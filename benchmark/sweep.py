@@ -36,12 +36,14 @@ def averaged_remap(det, source, estimate, sigma, cfg, n_nodes: int = 5):
         e = estimate + sigma * xi
         if not 0 <= e < _MAX_ELEVATION:
             continue
-        G = _remap(det, elevation_homography(source, e, distance=cfg.distance), "adapted", cfg)
+        G = _remap(det, elevation_homography(source, e, distance=cfg.distance,
+                                             framing=cfg.framing), "adapted", cfg)
         acc = G * wi if acc is None else acc + G * wi
         tot += wi
     if acc is None:
         return _remap(det, elevation_homography(source, min(max(estimate, 0), _MAX_ELEVATION),
-                                                distance=cfg.distance), "adapted", cfg)
+                                                distance=cfg.distance, framing=cfg.framing),
+                      "adapted", cfg)
     return acc / tot
 
 
@@ -66,8 +68,8 @@ def run_sweep(ds: Dataset, cfg: CrossvalConfig, cache: FeatureCache, *, detector
     src_rep, fine_rep, kind = DETECTORS[detector]
     es, et = data["index"][source], data["index"][cfg.target]
     estimates = np.arange(0.0, _MAX_ELEVATION, step)
-    Gs = {("adapted", e): _remap(detector, elevation_homography(source, e, distance=cfg.distance),
-                                 "adapted", cfg) for e in estimates}
+    Gs = {("adapted", e): _remap(detector, elevation_homography(
+        source, e, distance=cfg.distance, framing=cfg.framing), "adapted", cfg) for e in estimates}
     if sigma > 0:
         for e in estimates:
             Gs[(f"adapted, prior σ={sigma:g}", e)] = averaged_remap(detector, source, e, sigma, cfg)

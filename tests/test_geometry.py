@@ -126,3 +126,22 @@ def test_bad_camera_inputs():
         window_to_image_homography(cam, (-5.0, 0.0))
     with pytest.raises(ValueError, match="distance"):
         crop_homography(0.1, distance=0.5)
+
+
+@pytest.mark.parametrize("elevation", [0.0, np.pi / 8, np.pi / 4, 1.2])
+def test_silhouette_framed_crop_homography_keeps_the_person_box(elevation):
+    from viewadapt.geometry import apply_homography, crop_homography, elevation_homography
+
+    H = crop_homography(elevation, framing="silhouette")
+    ends = apply_homography(H, np.array([[31.5, 15.5], [31.5, 111.5]]))
+    # head and feet of the planar person land where the canonical window has them
+    assert np.allclose(ends, [[31.5, 15.5], [31.5, 111.5]], atol=1e-9)
+    assert np.allclose(elevation_homography(elevation, elevation, framing="silhouette"),
+                       np.eye(3), atol=1e-12)
+    plane = crop_homography(elevation)
+    if elevation > 0:
+        # the plane-framed person is foreshortened; the silhouette framing scales it back
+        p = apply_homography(plane, np.array([[31.5, 15.5], [31.5, 111.5]]))
+        assert p[1, 1] - p[0, 1] < 96 - 1
+    with pytest.raises(ValueError, match="framing"):
+        crop_homography(elevation, framing="tight")

@@ -355,25 +355,46 @@ def crop_camera(elevation: float, *, distance: float = 10.0,
 
 
 def crop_homography(elevation: float, *, distance: float = 10.0,
-                    person_height: float = PERSON_HEIGHT_M) -> np.ndarray:
+                    person_height: float = PERSON_HEIGHT_M, framing: str = "plane") -> np.ndarray:
     """Homography from the canonical window (the person plane) to the crop at ``elevation``.
 
-    At elevation 0 this is the identity (up to float rounding).
+    ``framing="plane"`` (the paper's set-up): the crop camera at ``distance`` aimed at the
+    person's centre, the same intrinsics at every elevation; at elevation 0 this is the
+    identity (up to float rounding). ``framing="silhouette"``: that crop rescaled and
+    shifted so that the projected person (head to feet, the planar model's stand-in for the
+    silhouette) is 96 px tall and centred in the window, as the generator's silhouette
+    framing does with the rendered body.
     """
     cam = crop_camera(elevation, distance=distance, person_height=person_height)
-    return window_to_image_homography(cam, (0.0, 0.0), person_height)
+    H = window_to_image_homography(cam, (0.0, 0.0), person_height)
+    if framing == "plane":
+        return H
+    if framing != "silhouette":
+        raise ValueError(f"framing must be 'plane' or 'silhouette', got {framing!r}")
+    y_feet = (WINDOW_HEIGHT + WINDOW_PERSON_HEIGHT_PX) / 2.0 - 0.5
+    cx = (WINDOW_WIDTH - 1) / 2.0
+    ends = apply_homography(H, np.array([[cx, y_feet - WINDOW_PERSON_HEIGHT_PX], [cx, y_feet]]))
+    k = WINDOW_PERSON_HEIGHT_PX / abs(ends[1, 1] - ends[0, 1])
+    centre = ends.mean(axis=0)
+    N = np.array([[k, 0.0, cx - k * centre[0]],
+                  [0.0, k, y_feet - WINDOW_PERSON_HEIGHT_PX / 2.0 - k * centre[1]],
+                  [0.0, 0.0, 1.0]])
+    return N @ H
 
 
 def elevation_homography(source_elevation: float, target_elevation: float, *,
                          distance: float = 10.0,
-                         person_height: float = PERSON_HEIGHT_M) -> np.ndarray:
+                         person_height: float = PERSON_HEIGHT_M,
+                         framing: str = "plane") -> np.ndarray:
     """``H_st``: source-view crop pixels -> target-view crop pixels, through the person plane.
 
     Wang et al. (2017), Sec. 3.1: ``u_1 = H_1 H_2^{-1} u_2``. Here
-    ``H_st = H_t H_s^{-1}`` with ``H_e`` the plane-to-crop homography at elevation ``e``.
+    ``H_st = H_t H_s^{-1}`` with ``H_e`` the plane-to-crop homography at elevation ``e``
+    (:func:`crop_homography`; ``framing`` says how the crops were framed).
     """
-    Hs = crop_homography(source_elevation, distance=distance, person_height=person_height)
-    Ht = crop_homography(target_elevation, distance=distance, person_height=person_height)
+    kw = dict(distance=distance, person_height=person_height, framing=framing)
+    Hs = crop_homography(source_elevation, **kw)
+    Ht = crop_homography(target_elevation, **kw)
     return check_homography(Ht @ np.linalg.inv(Hs), "H_st")
 
 

@@ -38,7 +38,8 @@ def main(argv=None):
     t = time.perf_counter()
     ds = load_dataset(a.data)
     times["load + validate dataset"] = time.perf_counter() - t
-    cfg = CrossvalConfig(seed=a.seed, n_jobs=a.jobs, distance=float(ds.config.get("distance", 10)))
+    cfg = CrossvalConfig(seed=a.seed, n_jobs=a.jobs, distance=float(ds.config.get("distance", 10)),
+                         framing=str(ds.config.get("framing", "plane")))
     cache = FeatureCache(ds, out / "cache", n_jobs=a.jobs)
     t = time.perf_counter()
     prepare(ds, cfg, cache)
