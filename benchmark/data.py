@@ -16,7 +16,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-__all__ = ["DatasetError", "Dataset", "load_dataset", "read_image", "REQUIRED_COLUMNS"]
+__all__ = ["DatasetError", "Dataset", "load_dataset", "read_image", "read_json",
+           "REQUIRED_COLUMNS"]
 
 REQUIRED_COLUMNS = ("path", "kind", "person_id", "scene_id", "instance", "elevation",
                     "elevation_index", "H_window_to_image", "width", "height")
@@ -67,6 +68,14 @@ class Dataset:
         return self.root / rel
 
 
+def read_json(path, *, error=ValueError):
+    """The JSON document in ``path``; invalid JSON raises ``error`` naming the file."""
+    try:
+        return json.loads(Path(path).read_text())
+    except json.JSONDecodeError as exc:
+        raise error(f"{path} is not valid JSON: {exc}") from None
+
+
 def _fingerprint(manifest: pd.DataFrame, config: dict) -> str:
     h = hashlib.sha256()
     h.update(json.dumps(config, sort_keys=True, default=str).encode())
@@ -91,10 +100,7 @@ def load_dataset(root, *, check_files: bool = True) -> Dataset:
     if not cfg_path.is_file():
         raise DatasetError(f"{root} is not a dataset: {cfg_path.name} is missing "
                            "(generate one with `viewadapt generate`)")
-    try:
-        config = json.loads(cfg_path.read_text())
-    except json.JSONDecodeError as exc:
-        raise DatasetError(f"{cfg_path} is not valid JSON: {exc}") from None
+    config = read_json(cfg_path, error=DatasetError)
     man_path = root / "manifest.parquet"
     if man_path.is_file():
         try:

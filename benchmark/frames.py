@@ -83,10 +83,9 @@ def load_frames(root) -> list:
     if not path.is_file():
         raise FileNotFoundError(f"{root} has no frames_coco.json: it holds no surveillance "
                                 "frames (generate a preset with frames, or the toy set)")
-    try:
-        coco = json.loads(path.read_text())
-    except json.JSONDecodeError as exc:
-        raise ValueError(f"{path} is not valid JSON: {exc}") from None
+    from .data import read_json
+
+    coco = read_json(path)
     by_image = {}
     for a in coco.get("annotations", []):
         if a.get("category_id", 1) != 1 or a.get("iscrowd", 0):
@@ -229,7 +228,9 @@ class OperatorCache:
     or model never reuses a stale operator. Files are written atomically.
     """
 
-    VERSION = 1
+    #: bump whenever what an operator holds or computes changes (2: ACF gradient rows
+    #: scaled by s ** lambda, gather tables, G without explicit zeros)
+    VERSION = 2
 
     def __init__(self, directory):
         self.dir = Path(directory)
