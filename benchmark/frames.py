@@ -229,8 +229,9 @@ class OperatorCache:
     """
 
     #: bump whenever what an operator holds or computes changes (2: ACF gradient rows
-    #: scaled by s ** lambda, gather tables, G without explicit zeros)
-    VERSION = 2
+    #: scaled by s ** lambda, gather tables, G without explicit zeros; 3: block-normalised
+    #: HOG cells with texture channels)
+    VERSION = 3
 
     def __init__(self, directory):
         self.dir = Path(directory)
@@ -279,7 +280,7 @@ class OperatorCache:
 class SourceDetectors:
     """Detectors trained on source-view (elevation 0) crops."""
 
-    hog_weights: np.ndarray       # (16, 8, 9)
+    hog_weights: np.ndarray       # (16, 8, 13): viewadapt.fullframe.hog_window_features
     hog_bias: float
     acf: object                   # AdaBoostTrees
 
@@ -298,6 +299,12 @@ class SourceDetectors:
         obj = pickle.loads(p.read_bytes())
         if not isinstance(obj, SourceDetectors):
             raise ValueError(f"{p} is not a model written by `viewadapt bench frames`")
+        from viewadapt.fullframe import HOG_CHANNELS
+
+        if np.shape(obj.hog_weights) != (16, 8, HOG_CHANNELS):
+            raise ValueError(f"{p} holds HOG weights of shape {np.shape(obj.hog_weights)}, "
+                             f"not (16, 8, {HOG_CHANNELS}): it was trained on an older "
+                             "version's features; retrain it with `viewadapt bench frames`")
         return obj
 
     def fingerprint(self) -> str:
@@ -316,7 +323,7 @@ def train_source_detectors(ds, *, seed: int = 0, quick: bool = False, source_ind
     trained on the dataset's crops of one elevation (default the first, 0)."""
     from viewadapt.boosting import AdaBoostTrees
     from viewadapt.classifiers import LinearSVMDetector
-    from viewadapt.fullframe import acf_window_features, hog_window_features
+    from viewadapt.fullframe import HOG_CHANNELS, acf_window_features, hog_window_features
 
     from .features import background_windows, person_windows
 
@@ -327,9 +334,8 @@ def train_source_detectors(ds, *, seed: int = 0, quick: bool = False, source_ind
     Xp = np.stack([hog_window_features(w).ravel() for w in pos])
     Xn = np.stack([hog_window_features(w).ravel() for w in neg])
     y = np.r_[np.ones(len(Xp), int), np.zeros(len(Xn), int)]
-    # C = 1: these normalised cells have norm ~4 per window; C = 0.01 (Dalal & Triggs on
-    # their descriptor) underfits them badly (toy crops: 0.56 vs 0.33 miss rate at 1e-2 FPPW)
-    svm = LinearSVMDetector(C=1.0, initial_negatives=2000 if quick else 5000,
+    # C = 0.01 as Dalal & Triggs (block-normalised, clipped cells as their descriptor)
+    svm = LinearSVMDetector(C=0.01, initial_negatives=2000 if quick else 5000,
                             mining_rounds=1, random_state=seed).fit(np.vstack([Xp, Xn]), y)
     # the channels the full-frame operator reads (float32 OpenCV path)
     Ap = np.stack([acf_window_features(w).ravel() for w in pos])
@@ -338,7 +344,7 @@ def train_source_detectors(ds, *, seed: int = 0, quick: bool = False, source_ind
     trees = AdaBoostTrees(n_estimators=n_trees, stages=None, max_bins=32 if quick else 64,
                           max_features=0.25 if quick else 0.125, random_state=seed)
     trees.fit(np.vstack([Ap, An]), np.r_[np.ones(len(Ap), int), np.zeros(len(An), int)])
-    return SourceDetectors(svm.coef_[0].reshape(16, 8, 9).astype(np.float64),
+    return SourceDetectors(svm.coef_[0].reshape(16, 8, HOG_CHANNELS).astype(np.float64),
                            float(svm.intercept_[0]), trees)
 
 
@@ -494,8 +500,8 @@ def hog_pyramid_detect(image, models, *, upsample: int = 4, step: float = 1.05,
                        threshold: float = 0.0) -> np.ndarray:
     """The unadapted HOG/SVM slid over an image pyramid of the upsampled frame.
 
-    Every level's normalised 8-px cells (:func:`viewadapt.fullframe.hog_frame_features`)
-    are cross-correlated with the (16, 8, 9) weights; windows at a one-cell stride.
+    Every level's block-normalised 8-px cells (:func:`viewadapt.fullframe.hog_frame_features`)
+    are cross-correlated with the (16, 8, 13) weights; windows at a one-cell stride.
     """
     import cv2
 
@@ -503,7 +509,7 @@ def hog_pyramid_detect(image, models, *, upsample: int = 4, step: float = 1.05,
 
     h, w = image.shape[:2]
     T = np.asarray(models.hog_weights, np.float32)
-    T3 = [np.ascontiguousarray(T[:, :, k:k + 3]) for k in range(0, 9, 3)]
+    T3 = [np.ascontiguousarray(T[:, :, k:k + 3]) for k in range(0, T.shape[2], 3)]
     boxes, scores = [], []
     for s in _pyramid_scales((w, h), upsample, step):
         level = cv2.resize(image, (int(round(w * s)), int(round(h * s))),
@@ -513,7 +519,7 @@ def hog_pyramid_detect(image, models, *, upsample: int = 4, step: float = 1.05,
             continue
         res = None
         for k, t in enumerate(T3):
-            r = cv2.matchTemplate(np.ascontiguousarray(F[:, :, 3 * k:3 * k + 3]), t,
+            r = cv2.matchTemplate(np.ascontiguousarray(F[:, :, 3 * k:3 * k + t.shape[2]]), t,
                                   cv2.TM_CCORR)
             res = r if res is None else res + r
         res = res + models.hog_bias

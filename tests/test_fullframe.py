@@ -7,7 +7,8 @@ import scipy.sparse as sp
 
 from tests.tolerances import EXACT, FLOAT32
 from viewadapt.fullframe import (
-    ACF_SHRINK, HOG_CELL, _acf_remap, build_adapted_linear_operator,
+    ACF_SHRINK, HOG_CELL, HOG_CHANNELS, _acf_remap, block_normalize_cells,
+    build_adapted_linear_operator,
     acf_frame_features, acf_window_features, build_adapted_trees_operator,
     fast_acf_pixel_channels,
     fast_orientation_channels, hog_frame_features, hog_window_features,
@@ -148,6 +149,56 @@ def test_acf_window_features_are_the_reference_channels():
     assert np.abs(got - ref).mean() < 1e-3 * np.abs(ref).mean()
 
 
+def _block_normalize_loop(X, eps, clip):
+    """Plain-loop reference: four reflected 2x2 blocks per cell, L2 norm, clip, reduce."""
+    ny, nx, nb = X.shape
+
+    def refl(i, n):          # reflect-101 index
+        return -i if i < 0 else (2 * (n - 1) - i if i >= n else i)
+
+    out = np.zeros((ny, nx, nb + 4))
+    for i in range(ny):
+        for j in range(nx):
+            for k, (di, dj) in enumerate(((-1, -1), (-1, 0), (0, -1), (0, 0))):
+                e = sum(float(np.sum(X[refl(i + di + a, ny), refl(j + dj + b, nx)] ** 2))
+                        for a in (0, 1) for b in (0, 1))
+                f = np.minimum(X[i, j] / np.sqrt(e + eps ** 2), clip)
+                out[i, j, :nb] += f
+                out[i, j, nb + k] = f.sum()
+    return out
+
+
+def test_block_normalize_cells_against_a_plain_loop():
+    rng = np.random.default_rng(4)
+    X = rng.gamma(0.5, 200.0, size=(5, 4, 9)).astype(np.float32)
+    X[1, 2] = 0                                      # an empty cell: the floor applies
+    got = block_normalize_cells(X, eps=30.0, clip=0.2)
+    ref = _block_normalize_loop(X.astype(np.float64), 30.0, 0.2)
+    assert got.shape == (5, 4, 13) and got.dtype == np.float32
+    assert np.allclose(got, ref, rtol=1e-5, atol=1e-6)
+    assert np.all(got[:, :, :9] <= 4 * 0.2 + 1e-6) and np.any(got[:, :, :9] > 0.2)
+    # a cell that dominates its blocks is clipped in every normalisation
+    X[3, 1, 4] = 1e6
+    got = block_normalize_cells(X, eps=30.0, clip=0.2)
+    assert got[3, 1, 4] == pytest.approx(0.8)
+    with pytest.raises(ValueError, match="cells"):
+        block_normalize_cells(X[0])
+
+
+def test_block_normalised_features_hardly_change_with_cell_size():
+    """Features of a scene at 8 px cells and of the same scene at half resolution with
+    4 px cells are close (the premise of reading frame cells of any size)."""
+    rng = np.random.default_rng(5)
+    big = cv2.GaussianBlur(cv2.resize(rng.integers(0, 256, (32, 16, 3), dtype=np.uint8),
+                                      (128, 256), interpolation=cv2.INTER_CUBIC), (0, 0), 2)
+    small = cv2.resize(big, (64, 128), interpolation=cv2.INTER_AREA)
+    f8 = hog_frame_features(big, [8], pad=0).maps[8]
+    f4 = hog_frame_features(small, [4], pad=0).maps[4]
+    other = hog_frame_features(np.ascontiguousarray(big[::-1]), [8], pad=0).maps[8]
+    d_same, d_other = np.abs(f8 - f4).mean(), np.abs(f8 - other).mean()
+    assert d_same < 0.35 * d_other
+
+
 def test_window_features_are_frame_features_at_8px():
     rng = np.random.default_rng(0)
     win = rng.integers(0, 256, (128, 64, 3), dtype=np.uint8)
@@ -163,7 +214,7 @@ def _explicit_hog_score(frame, H, c, w, b):
     x = hog_frame_features(frame, [c], pad=0).maps[c]
     ny, nx = x.shape[:2]
     G = feature_remap_matrix(H, CellGrid.for_window(64, 128, HOG_CELL), CellGrid(nx, ny, c),
-                             n_bins=9, preserve="mean")
+                             n_bins=9, n_plain=4, preserve="mean")
     return float(w.ravel() @ (G @ x.astype(np.float64).ravel()) + b)
 
 
@@ -171,7 +222,7 @@ def _explicit_hog_score(frame, H, c, w, b):
 def test_adapted_scores_equal_explicitly_remapped_features(windows, frame, tolerance):
     rng = np.random.default_rng(1)
     sub = windows.subset(np.arange(0, len(windows), max(1, len(windows) // 60)))
-    w = rng.normal(size=(16, 8, 9))
+    w = rng.normal(size=(16, 8, HOG_CHANNELS))
     op = build_adapted_linear_operator(sub, w, 0.3, tolerance=tolerance)
     feats = op.frame_features(frame)
     s = {m: op.scores(feats, method=m) for m in ("sparse", "template", "gather")}
@@ -229,7 +280,7 @@ def test_operator_cache_invalidates_on_calibration_change(tmp_path, frame):
     from benchmark.frames import FrameDetector
 
     class Models:  # the minimal model interface FrameDetector needs
-        hog_weights = np.random.default_rng(0).normal(size=(16, 8, 9))
+        hog_weights = np.random.default_rng(0).normal(size=(16, 8, HOG_CHANNELS))
         hog_bias = 0.0
 
         def fingerprint(self):
@@ -282,7 +333,7 @@ def test_no_window_fits():
 
 
 def test_frame_of_the_wrong_size(windows, frame):
-    op = build_adapted_linear_operator(windows.subset(np.arange(5)), np.ones((16, 8, 9)))
+    op = build_adapted_linear_operator(windows.subset(np.arange(5)), np.ones((16, 8, HOG_CHANNELS)))
     with pytest.raises(ValueError, match="calibration"):
         op.detect(frame[:-8])
     with pytest.raises(ValueError, match="weights"):

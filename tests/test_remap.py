@@ -173,6 +173,24 @@ def test_G_is_kron_of_S_and_A_in_single_form():
     assert abs(G - sp.kron(S, A)).max() < 1e-12
 
 
+@pytest.mark.parametrize("per_cell", [True, False])
+def test_plain_channels_are_remapped_by_S_alone(per_cell):
+    """n_plain channels after the bins: G = S (x) diag(A_k, I) in the (cell, channel) layout,
+    i.e. the bins exactly as without them and the plain channels by S."""
+    H = elevation_homography(0, np.pi / 4)
+    fine = CellGrid.for_window(cell_size=4)
+    G = feature_remap_matrix(H, G8, fine, per_cell=per_cell, n_plain=4).toarray()
+    G9 = feature_remap_matrix(H, G8, fine, per_cell=per_cell).toarray()
+    S = cell_remap_matrix(H, G8, fine).toarray()
+    n_out, n_in = S.shape
+    G = G.reshape(n_out, 13, n_in, 13)
+    assert np.allclose(G[:, :9, :, :9], G9.reshape(n_out, 9, n_in, 9), **EXACT)
+    assert np.allclose(G[:, 9:, :, 9:], np.einsum("kl,ij->kilj", S, np.eye(4)), **EXACT)
+    assert not G[:, :9, :, 9:].any() and not G[:, 9:, :, :9].any()
+    with pytest.raises(ValueError, match="n_plain"):
+        feature_remap_matrix(H, G8, fine, n_plain=-1)
+
+
 def test_adaptation_identity_exact():
     H = elevation_homography(np.pi / 8, np.pi / 4)
     G = feature_remap_matrix(H, G8, CellGrid.for_window(cell_size=4))

@@ -78,7 +78,8 @@ __all__ = [
     "fast_acf_pixel_channels",
     "acf_window_features",
     "FrameFeatures",
-    "normalize_cells",
+    "HOG_CHANNELS",
+    "block_normalize_cells",
     "hog_window_features",
     "hog_frame_features",
     "acf_frame_features",
@@ -103,6 +104,11 @@ ACF_SHRINK = 4
 #: Blender set's frames, s = 0.26..1.05: 0.365 (``python -m benchmark.perf.acf_scaling``).
 ACF_GRADIENT_LAMBDA = 0.365
 _N_HOG_BINS = 9
+#: Channels per cell of the full-frame HOG features: 9 orientations, 4 texture energies
+#: (:func:`block_normalize_cells`).
+HOG_CHANNELS = _N_HOG_BINS + 4
+#: Clipping of block-normalised HOG values (Dalal & Triggs' L2-Hys threshold).
+HOG_CLIP = 0.2
 _N_ACF = 10
 _N_ORIENT_ACF = 6
 _CENTRE = np.array([(WINDOW_WIDTH - 1) / 2.0, (WINDOW_HEIGHT - 1) / 2.0])
@@ -324,44 +330,63 @@ def _check_frame(image, image_size):
     return arr
 
 
-def normalize_cells(cells, magnitude, *, eps: float = 1.0) -> np.ndarray:
-    """Divide HOG cell sums by the mean gradient magnitude of the 3x3 cells around them.
+def block_normalize_cells(cells, *, eps: float = 1.0, clip: float = HOG_CLIP) -> np.ndarray:
+    """Window-independent HOG cell features: Dalal-Triggs block normalisation per cell.
 
-    .. math:: F[l, b] = \\frac{X[l, b]}{\\frac19 \\sum_{l' \\in N_3(l)} M[l'] + \\epsilon c}
+    Each cell's histogram ``X[l]`` is divided by the L2 norm of each of the four 2x2-cell
+    blocks that contain it and clipped at ``clip`` (the L2-Hys threshold), giving four
+    normalised copies ``F_k[l]``; these are reduced analytically as Felzenszwalb et al.
+    (2010) do, to the 9 orientation sums ``sum_k F_k[l, b]`` and the 4 texture energies
+    ``sum_b F_k[l, b]``:
 
-    with ``X`` the cells' oriented-magnitude sums, ``M = sum_b X`` their magnitude sums
-    and ``c`` the cell size (``c = sqrt(pixels per cell)``). Numerator and denominator
-    both grow with the length of the edges in a cell, so ``F`` is (to first order) the
-    same at any cell size: the frame's features at ``c`` px match the canonical window's at
-    8 px, and the factor depends on the image only, never on a window, so ``G`` folds into
-    linear weights. Borders are reflected (``reflect-101``).
+    .. math:: F_k[l, b] = \\min\\left(\\frac{X[l, b]}
+              {\\sqrt{\\sum_{l' \\in B_k(l)} \\|X[l']\\|^2 + \\epsilon^2}}, c\\right)
+
+    The blocks lie on the image's own cell grid, never on a window's, so the features of a
+    frame cell are the same for every window that reads it and ``G`` folds into linear
+    weights. Numerator and denominator both grow with the cell's edge length, so the
+    features are (to first order) the same at any cell size: the frame's at ``c`` px match
+    the canonical window's at 8 px. Borders are reflected (``reflect-101``).
 
     Parameters
     ----------
     cells : (ny, nx, B) ndarray
-    magnitude : (ny, nx) ndarray
-        ``cells.sum(-1)`` or the cells' magnitude sums.
+        Oriented-magnitude cell sums.
     eps : float
-        Floor, in gradient units (0..255 images) per pixel of cell side.
+        Floor of the block norm, in the cells' units (scale it with the cell area).
+    clip : float
 
     Returns
     -------
-    (ny, nx, B) float32 ndarray
+    (ny, nx, B + 4) float32 ndarray: ``B`` orientation channels, then the texture energies
+    of the up-left, up-right, down-left and down-right blocks.
     """
-    import cv2
-
     X = np.asarray(cells, dtype=np.float32)
-    M = np.asarray(magnitude, dtype=np.float32)
-    border = cv2.BORDER_REFLECT_101 if min(M.shape) > 1 else cv2.BORDER_REPLICATE
-    local = cv2.boxFilter(M, -1, (3, 3), normalize=True, borderType=border)
-    return X / (local + np.float32(eps))[:, :, None]
+    if X.ndim != 3:
+        raise ValueError(f"cells must be (ny, nx, bins), got shape {X.shape}")
+    ny, nx, nb = X.shape
+    E = np.einsum("ijk,ijk->ij", X, X)
+    mode = "reflect" if min(ny, nx) > 1 else "edge"
+    Ep = np.pad(E, 1, mode=mode)
+    blocks = Ep[:-1, :-1] + Ep[1:, :-1] + Ep[:-1, 1:] + Ep[1:, 1:]      # (ny + 1, nx + 1)
+    inv = 1.0 / np.sqrt(blocks + np.float32(eps) ** 2)
+    orient = np.zeros_like(X)
+    texture = np.empty((ny * nx, 4), np.float32)
+    ones = np.ones(nb, np.float32)
+    F = np.empty_like(X)
+    for k, (a, b) in enumerate(((0, 0), (0, 1), (1, 0), (1, 1))):
+        np.multiply(X, inv[a:a + ny, b:b + nx, None], out=F)
+        np.minimum(F, np.float32(clip), out=F)
+        orient += F
+        texture[:, k] = F.reshape(-1, nb) @ ones        # a BLAS product: faster than .sum
+    return np.concatenate([orient, texture.reshape(ny, nx, 4)], axis=2)
 
 
 def hog_window_features(window, *, cell_size: int = HOG_CELL) -> np.ndarray:
-    """Source-view features of the adapted HOG detector: normalised 8-px cells.
+    """Source-view features of the adapted HOG detector: block-normalised 8-px cells.
 
-    :func:`normalize_cells` of the window's HOG cell sums (gamma off, 9 bins), the feature
-    the full-frame detector reads at every cell size.
+    :func:`block_normalize_cells` of the window's HOG cell sums (gamma off, 9 bins), the
+    feature the full-frame detector reads at every cell size.
 
     Parameters
     ----------
@@ -369,11 +394,10 @@ def hog_window_features(window, *, cell_size: int = HOG_CELL) -> np.ndarray:
 
     Returns
     -------
-    (16, 8, 9) float32 ndarray (flatten for a classifier).
+    (16, 8, 13) float32 ndarray (flatten for a classifier).
     """
     O = fast_orientation_channels(window)
-    X = _cell_sums(O, cell_size)
-    return normalize_cells(X, X.sum(-1), eps=cell_size * _EPS_PER_PX)
+    return block_normalize_cells(_cell_sums(O, cell_size), eps=cell_size ** 2 * _EPS_PER_PX)
 
 
 def acf_window_features(window) -> np.ndarray:
@@ -395,8 +419,9 @@ def acf_window_features(window) -> np.ndarray:
     return np.ascontiguousarray(np.moveaxis(F, -1, 0))
 
 
-#: Floor of :func:`normalize_cells` per pixel of cell side (gradient units of 0..255 images).
-_EPS_PER_PX = 2.0
+#: Floor of :func:`block_normalize_cells` per pixel of cell area (gradient units of 0..255
+#: images).
+_EPS_PER_PX = 1.0
 
 
 def hog_frame_features(image, cell_sizes, *, pad: int = 2, image_size=None) -> FrameFeatures:
@@ -404,7 +429,7 @@ def hog_frame_features(image, cell_sizes, *, pad: int = 2, image_size=None) -> F
 
     The per-pixel orientation channels are computed once
     (:func:`fast_orientation_channels`), summed into ``c x c`` cells for each ``c`` and
-    normalised by :func:`normalize_cells` -- the features :func:`hog_window_features`
+    normalised by :func:`block_normalize_cells` -- the features :func:`hog_window_features`
     computes on a canonical window with ``c = 8``.
 
     Parameters
@@ -418,12 +443,12 @@ def hog_frame_features(image, cell_sizes, *, pad: int = 2, image_size=None) -> F
 
     Returns
     -------
-    FrameFeatures with (M // c + 2 pad, N // c + 2 pad, 9) maps.
+    FrameFeatures with (M // c + 2 pad, N // c + 2 pad, 13) maps.
     """
     img = _check_frame(image, image_size)
     O = fast_orientation_channels(img)
     M, N = O.shape[:2]
-    maps = {c: _pad(normalize_cells(X, X.sum(-1), eps=c * _EPS_PER_PX), pad)
+    maps = {c: _pad(block_normalize_cells(X, eps=c * c * _EPS_PER_PX), pad)
             for c, X in _multi_cell_sums(O, cell_sizes).items()}
     return FrameFeatures(maps, pad, (N, M))
 
@@ -674,9 +699,11 @@ def _hog_remap(H, g, rule):
     c = g.cell_size
     in_grid = CellGrid(g.shape[1], g.shape[0], c,
                        origin=(g.origin[0] * c - 0.5, g.origin[1] * c - 0.5))
-    # normalised cell features are intensive (see normalize_cells): area-weighted means
+    # normalised cell features are intensive (see block_normalize_cells): area-weighted
+    # means; S (x) A on the orientation channels, S alone on the texture energies
     return feature_remap_matrix(H, out_grid, in_grid, n_bins=_N_HOG_BINS, rule=rule,
-                                per_cell=True, preserve="mean")
+                                per_cell=True, preserve="mean",
+                                n_plain=HOG_CHANNELS - _N_HOG_BINS)
 
 
 def _acf_remap(H, g, rule):
@@ -914,9 +941,9 @@ def build_adapted_linear_operator(windows: CandidateWindows, weights, bias: floa
     Parameters
     ----------
     windows : CandidateWindows
-    weights : (16, 8, 9) or (1152,) array_like
-        Source-view weights over the canonical window's normalised 8-px HOG cells, layout
-        row-major ``(n_y, n_x, n_bins)``: a linear model trained on
+    weights : (16, 8, 13) or (1664,) array_like
+        Source-view weights over the canonical window's block-normalised 8-px HOG cells,
+        layout row-major ``(n_y, n_x, channel)``: a linear model trained on
         ``hog_window_features(window).ravel()``.
     bias : float
     features : {"hog"}
@@ -937,10 +964,11 @@ def build_adapted_linear_operator(windows: CandidateWindows, weights, bias: floa
     if features != "hog":
         raise ValueError(f"features must be 'hog' for linear models, got {features!r}")
     w = np.asarray(weights, dtype=np.float64).ravel()
-    n_src = (WINDOW_HEIGHT // HOG_CELL) * (WINDOW_WIDTH // HOG_CELL) * _N_HOG_BINS
+    shape = (WINDOW_HEIGHT // HOG_CELL, WINDOW_WIDTH // HOG_CELL, HOG_CHANNELS)
+    n_src = int(np.prod(shape))
     if w.size != n_src or not np.all(np.isfinite(w)):
-        raise ValueError(f"weights must be {n_src} finite values over (16, 8, 9) cells, "
-                         f"got {w.size}")
+        raise ValueError(f"weights must be {n_src} finite values over {shape} cells "
+                         f"(hog_window_features), got {w.size}")
     if not np.isfinite(tolerance) or tolerance < 0:
         raise ValueError(f"tolerance must be >= 0 cells, got {tolerance!r}")
     scale = windows.scale
@@ -950,8 +978,9 @@ def build_adapted_linear_operator(windows: CandidateWindows, weights, bias: floa
     for g in groups:
         G = _hog_remap(windows.homographies[g.prototype], g, rule)
         g.template = np.asarray(G.T @ w, dtype=np.float32).reshape(g.shape[0], g.shape[1],
-                                                                     _N_HOG_BINS)
-        g.template3 = [np.ascontiguousarray(g.template[:, :, k:k + 3]) for k in range(0, 9, 3)]
+                                                                     HOG_CHANNELS)
+        g.template3 = [np.ascontiguousarray(g.template[:, :, k:k + 3])
+                       for k in range(0, HOG_CHANNELS, 3)]
     pad = _required_pad(groups, windows.image_size)
     make_features = _FeatureMaker("hog", sorted(set(cell.tolist())), pad,
                                   tuple(windows.image_size), {})

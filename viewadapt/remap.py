@@ -377,7 +377,7 @@ def orientation_remap_matrix(jacobian, n_bins: int = 9, rule: str = "covariant",
 def feature_remap_matrix(H_out_to_in, out_grid: CellGrid, in_grid: CellGrid, *,
                          n_bins: int = 9, rule: str = "covariant", per_cell: bool = True,
                          anchor=None, preserve: str = "sum",
-                         bin_offset: float = 0.0) -> sp.csr_matrix:
+                         bin_offset: float = 0.0, n_plain: int = 0) -> sp.csr_matrix:
     """HOG-like feature remapping ``G = S (x) A`` (eq. (5)), or its per-cell refinement.
 
     Parameters
@@ -399,26 +399,40 @@ def feature_remap_matrix(H_out_to_in, out_grid: CellGrid, in_grid: CellGrid, *,
         See :func:`cell_remap_matrix`.
     bin_offset : float
         See :func:`orientation_remap_matrix`.
+    n_plain : int
+        Channels without orientation after the ``n_bins`` bins of each cell (e.g. the
+        texture energies of block-normalised HOG cells): remapped by ``S`` alone, so
+        ``G = S (x) diag(A, I)``.
 
     Returns
     -------
-    G : (out_grid.n_cells * n_bins, in_grid.n_cells * n_bins) scipy.sparse.csr_matrix
-        Acting on features flattened as ``(cell, bin)`` (row-major ``(n_y, n_x, n_bins)``).
+    G : (out_grid.n_cells * D, in_grid.n_cells * D) scipy.sparse.csr_matrix
+        ``D = n_bins + n_plain``; acting on features flattened as ``(cell, channel)``
+        (row-major ``(n_y, n_x, D)``).
     """
     S = cell_remap_matrix(H_out_to_in, out_grid, in_grid, preserve=preserve).tocoo()
     H = check_homography(H_out_to_in, "H_out_to_in")
+    if int(n_plain) != n_plain or n_plain < 0:
+        raise ValueError(f"n_plain must be a non-negative integer, got {n_plain!r}")
+    n_plain = int(n_plain)
+    B = n_bins + n_plain
     if n_bins == 1 or rule == "none":
-        return sp.kron(S, sp.identity(n_bins), format="csr")
+        return sp.kron(S, sp.identity(B), format="csr")
     if not per_cell:
         if anchor is None:
             x0, y0, x1, y1 = out_grid.bounds()
             anchor = ((x0 + x1) / 2, (y0 + y1) / 2)
         A = orientation_remap_matrix(homography_jacobian(H, np.asarray(anchor, float)),
                                      n_bins, rule, bin_offset=bin_offset)
-        return sp.kron(S, sp.csr_matrix(A), format="csr")
+        return sp.kron(S, sp.block_diag([A, sp.identity(n_plain)]) if n_plain else
+                       sp.csr_matrix(A), format="csr")
     A = orientation_remap_matrix(homography_jacobian(H, out_grid.centers()), n_bins, rule,
                                  bin_offset=bin_offset)
-    B = n_bins
+    if n_plain:
+        blocks = np.zeros((A.shape[0], B, B))
+        blocks[:, :n_bins, :n_bins] = A
+        blocks[:, n_bins:, n_bins:] = np.eye(n_plain)
+        A = blocks
     # entries (k, l, i, j) -> value S_kl * A_k[i, j]
     vals = S.data[:, None, None] * A[S.row]                           # (nnz, B, B)
     ii, jj = np.meshgrid(np.arange(B), np.arange(B), indexing="ij")
