@@ -183,6 +183,12 @@ def test_block_normalize_cells_against_a_plain_loop():
     assert got[3, 1, 4] == pytest.approx(0.8)
     with pytest.raises(ValueError, match="cells"):
         block_normalize_cells(X[0])
+    # in place into the inside of a zero-padded map
+    padded = np.zeros((7, 6, 13), np.float32)
+    block_normalize_cells(X, eps=30.0, clip=0.2, out=padded[1:-1, 1:-1])
+    assert np.array_equal(padded[1:-1, 1:-1], got) and not padded[0].any()
+    with pytest.raises(ValueError, match="out"):
+        block_normalize_cells(X, out=padded)
 
 
 def test_block_normalised_features_hardly_change_with_cell_size():

@@ -330,7 +330,8 @@ def _check_frame(image, image_size):
     return arr
 
 
-def block_normalize_cells(cells, *, eps: float = 1.0, clip: float = HOG_CLIP) -> np.ndarray:
+def block_normalize_cells(cells, *, eps: float = 1.0, clip: float = HOG_CLIP,
+                          out=None) -> np.ndarray:
     """Window-independent HOG cell features: Dalal-Triggs block normalisation per cell.
 
     Each cell's histogram ``X[l]`` is divided by the L2 norm of each of the four 2x2-cell
@@ -355,6 +356,8 @@ def block_normalize_cells(cells, *, eps: float = 1.0, clip: float = HOG_CLIP) ->
     eps : float
         Floor of the block norm, in the cells' units (scale it with the cell area).
     clip : float
+    out : (ny, nx, B + 4) float32 ndarray, optional
+        Written in place (e.g. the inside of a zero-padded map); returned.
 
     Returns
     -------
@@ -379,7 +382,13 @@ def block_normalize_cells(cells, *, eps: float = 1.0, clip: float = HOG_CLIP) ->
         np.minimum(F, np.float32(clip), out=F)
         orient += F
         texture[:, k] = F.reshape(-1, nb) @ ones        # a BLAS product: faster than .sum
-    return np.concatenate([orient, texture.reshape(ny, nx, 4)], axis=2)
+    if out is None:
+        out = np.empty((ny, nx, nb + 4), np.float32)
+    elif out.shape != (ny, nx, nb + 4):
+        raise ValueError(f"out must have shape {(ny, nx, nb + 4)}, got {out.shape}")
+    out[:, :, :nb] = orient
+    out[:, :, nb:] = texture.reshape(ny, nx, 4)
+    return out
 
 
 def hog_window_features(window, *, cell_size: int = HOG_CELL) -> np.ndarray:
@@ -448,8 +457,12 @@ def hog_frame_features(image, cell_sizes, *, pad: int = 2, image_size=None) -> F
     img = _check_frame(image, image_size)
     O = fast_orientation_channels(img)
     M, N = O.shape[:2]
-    maps = {c: _pad(block_normalize_cells(X, eps=c * c * _EPS_PER_PX), pad)
-            for c, X in _multi_cell_sums(O, cell_sizes).items()}
+    maps = {}
+    for c, X in _multi_cell_sums(O, cell_sizes).items():
+        ny, nx = X.shape[:2]
+        F = np.zeros((ny + 2 * pad, nx + 2 * pad, HOG_CHANNELS), np.float32)
+        block_normalize_cells(X, eps=c * c * _EPS_PER_PX, out=F[pad:pad + ny, pad:pad + nx])
+        maps[c] = F
     return FrameFeatures(maps, pad, (N, M))
 
 
