@@ -44,7 +44,7 @@ def _window_features(w, reps) -> dict:
     :mod:`viewadapt.fullframe` (the same quantities as :mod:`viewadapt.hog` /
     :mod:`viewadapt.acf` up to rounding, tested there; ~3x faster per window).
     """
-    from viewadapt.fullframe import _cell_sums, acf_window_features, fast_orientation_channels
+    from viewadapt.fullframe import acf_window_features, cell_sums, fast_orientation_channels
     from viewadapt.hog import hog_descriptor, locally_normalize_channels
 
     out, O = {}, {}
@@ -59,7 +59,7 @@ def _window_features(w, reps) -> dict:
                 if key not in O:
                     O[key] = locally_normalize_channels(ch, cell_size=8).astype(np.float32)
                 ch = O[key]
-            out[rep] = _cell_sums(ch, opt["cell"]).ravel()
+            out[rep] = cell_sums(ch, opt["cell"]).ravel()
         elif family == "acf":
             out[rep] = acf_window_features(w).ravel()
         else:

@@ -299,11 +299,11 @@ class SourceDetectors:
         obj = pickle.loads(p.read_bytes())
         if not isinstance(obj, SourceDetectors):
             raise ValueError(f"{p} is not a model written by `viewadapt bench frames`")
-        from viewadapt.fullframe import HOG_CHANNELS
+        from viewadapt.fullframe import HOG_WEIGHT_SHAPE
 
-        if np.shape(obj.hog_weights) != (16, 8, HOG_CHANNELS):
+        if np.shape(obj.hog_weights) != HOG_WEIGHT_SHAPE:
             raise ValueError(f"{p} holds HOG weights of shape {np.shape(obj.hog_weights)}, "
-                             f"not (16, 8, {HOG_CHANNELS}): it was trained on an older "
+                             f"not {HOG_WEIGHT_SHAPE}: it was trained on an older "
                              "version's features; retrain it with `viewadapt bench frames`")
         return obj
 
@@ -323,7 +323,7 @@ def train_source_detectors(ds, *, seed: int = 0, quick: bool = False, source_ind
     trained on the dataset's crops of one elevation (default the first, 0)."""
     from viewadapt.boosting import AdaBoostTrees
     from viewadapt.classifiers import LinearSVMDetector
-    from viewadapt.fullframe import HOG_CHANNELS, acf_window_features, hog_window_features
+    from viewadapt.fullframe import HOG_WEIGHT_SHAPE, acf_window_features, hog_window_features
 
     from .features import background_windows, person_windows
 
@@ -344,7 +344,7 @@ def train_source_detectors(ds, *, seed: int = 0, quick: bool = False, source_ind
     trees = AdaBoostTrees(n_estimators=n_trees, stages=None, max_bins=32 if quick else 64,
                           max_features=0.25 if quick else 0.125, random_state=seed)
     trees.fit(np.vstack([Ap, An]), np.r_[np.ones(len(Ap), int), np.zeros(len(An), int)])
-    return SourceDetectors(svm.coef_[0].reshape(16, 8, HOG_CHANNELS).astype(np.float64),
+    return SourceDetectors(svm.coef_[0].reshape(HOG_WEIGHT_SHAPE).astype(np.float64),
                            float(svm.intercept_[0]), trees)
 
 
@@ -505,11 +505,11 @@ def hog_pyramid_detect(image, models, *, upsample: int = 4, step: float = 1.05,
     """
     import cv2
 
-    from viewadapt.fullframe import hog_frame_features
+    from viewadapt.fullframe import channel_slices3, correlate_slices, hog_frame_features
 
     h, w = image.shape[:2]
     T = np.asarray(models.hog_weights, np.float32)
-    T3 = [np.ascontiguousarray(T[:, :, k:k + 3]) for k in range(0, T.shape[2], 3)]
+    T3 = channel_slices3(T)
     boxes, scores = [], []
     for s in _pyramid_scales((w, h), upsample, step):
         level = cv2.resize(image, (int(round(w * s)), int(round(h * s))),
@@ -517,12 +517,7 @@ def hog_pyramid_detect(image, models, *, upsample: int = 4, step: float = 1.05,
         F = hog_frame_features(level, [8], pad=0).maps[8]
         if F.shape[0] < 16 or F.shape[1] < 8:
             continue
-        res = None
-        for k, t in enumerate(T3):
-            r = cv2.matchTemplate(np.ascontiguousarray(F[:, :, 3 * k:3 * k + t.shape[2]]), t,
-                                  cv2.TM_CCORR)
-            res = r if res is None else res + r
-        res = res + models.hog_bias
+        res = correlate_slices(channel_slices3(F), T3) + models.hog_bias
         cy, cx = np.nonzero(res > threshold)
         if cy.size:
             boxes.append(_level_boxes(cy, cx, 8, level.shape[1] / w))

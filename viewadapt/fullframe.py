@@ -78,7 +78,8 @@ __all__ = [
     "fast_acf_pixel_channels",
     "acf_window_features",
     "FrameFeatures",
-    "HOG_CHANNELS",
+    "HOG_CHANNELS", "HOG_WEIGHT_SHAPE",
+    "cell_sums", "channel_slices3", "correlate_slices",
     "block_normalize_cells",
     "hog_window_features",
     "hog_frame_features",
@@ -107,6 +108,8 @@ _N_HOG_BINS = 9
 #: Channels per cell of the full-frame HOG features: 9 orientations, 4 texture energies
 #: (:func:`block_normalize_cells`).
 HOG_CHANNELS = _N_HOG_BINS + 4
+#: Shape of a source-view HOG/SVM weight array (cells down, cells across, channels).
+HOG_WEIGHT_SHAPE = (WINDOW_HEIGHT // HOG_CELL, WINDOW_WIDTH // HOG_CELL, HOG_CHANNELS)
 #: Clipping of block-normalised HOG values (Dalal & Triggs' L2-Hys threshold).
 HOG_CLIP = 0.2
 _N_ACF = 10
@@ -272,8 +275,7 @@ class FrameFeatures:
         """The map of cell size ``c`` as contiguous 3-channel slices (for matchTemplate)."""
         if c not in self._split:
             F = self.maps[c]
-            self._split[c] = [np.ascontiguousarray(F[:, :, k:k + 3])
-                              for k in range(0, F.shape[2], 3)]
+            self._split[c] = channel_slices3(F)
         return self._split[c]
 
     def vector(self, cell_sizes) -> np.ndarray:
@@ -287,7 +289,27 @@ def _pad(F, pad):
     return out
 
 
-def _cell_sums(channels, c):
+def channel_slices3(A) -> list:
+    """``A`` (h, w, C) as contiguous slices of at most 3 channels (``cv2.matchTemplate``
+    takes at most 4 channels)."""
+    return [np.ascontiguousarray(A[:, :, k:k + 3]) for k in range(0, A.shape[2], 3)]
+
+
+def correlate_slices(parts, templates) -> np.ndarray:
+    """Multi-channel cross-correlation: ``sum_k matchTemplate(parts[k], templates[k])``
+    (``TM_CCORR``) over matching :func:`channel_slices3` of a map and of a template."""
+    import cv2
+
+    res = None
+    for part, tpl in zip(parts, templates):
+        r = cv2.matchTemplate(part, tpl, cv2.TM_CCORR)
+        res = r if res is None else res + r
+    return res
+
+
+def cell_sums(channels, c: int) -> np.ndarray:
+    """Sums of ``channels`` (M, N[, C]) over ``c x c`` cells: (M // c, N // c, C) float32
+    (the remainder rows and columns are dropped)."""
     import cv2
 
     M, N = channels.shape[:2]
@@ -311,11 +333,11 @@ def _multi_cell_sums(channels, cell_sizes) -> dict:
             raise ValueError(f"cell sizes must be positive integers, got {c}")
         base = max((b for b in out if b > 1 and c % b == 0), default=None)
         if base is None:
-            out[c] = _cell_sums(channels, c)
+            out[c] = cell_sums(channels, c)
         else:
             r = c // base
             ny, nx = channels.shape[0] // c, channels.shape[1] // c
-            out[c] = _cell_sums(out[base][:ny * r, :nx * r], r)
+            out[c] = cell_sums(out[base][:ny * r, :nx * r], r)
     return out
 
 
@@ -406,7 +428,7 @@ def hog_window_features(window, *, cell_size: int = HOG_CELL) -> np.ndarray:
     (16, 8, 13) float32 ndarray (flatten for a classifier).
     """
     O = fast_orientation_channels(window)
-    return block_normalize_cells(_cell_sums(O, cell_size), eps=cell_size ** 2 * _EPS_PER_PX)
+    return block_normalize_cells(cell_sums(O, cell_size), eps=cell_size ** 2 * _EPS_PER_PX)
 
 
 def acf_window_features(window) -> np.ndarray:
@@ -824,8 +846,6 @@ class AdaptedLinearOperator(_OperatorBase):
         -------
         (N,) float64 ndarray
         """
-        import cv2
-
         self._check_features(features)
         if method == "sparse":
             if getattr(self, "_csr", None) is None:
@@ -843,10 +863,8 @@ class AdaptedLinearOperator(_OperatorBase):
             y1, x1 = int(oy.max()) + ny, int(ox.max()) + nx
             region = (y1 - y0 - ny + 1) * (x1 - x0 - nx + 1)
             if method == "template" and len(g.members) >= 8 and region <= 6 * len(g.members):
-                res = None
-                for part, tpl in zip(features.split3(g.cell_size), g.template3):
-                    r = cv2.matchTemplate(part[y0:y1, x0:x1], tpl, cv2.TM_CCORR)
-                    res = r if res is None else res + r
+                res = correlate_slices([p[y0:y1, x0:x1] for p in features.split3(g.cell_size)],
+                                       g.template3)
                 out[g.members] = res[oy - y0, ox - x0]
             else:
                 F = features.maps[g.cell_size]
@@ -977,10 +995,9 @@ def build_adapted_linear_operator(windows: CandidateWindows, weights, bias: floa
     if features != "hog":
         raise ValueError(f"features must be 'hog' for linear models, got {features!r}")
     w = np.asarray(weights, dtype=np.float64).ravel()
-    shape = (WINDOW_HEIGHT // HOG_CELL, WINDOW_WIDTH // HOG_CELL, HOG_CHANNELS)
-    n_src = int(np.prod(shape))
+    n_src = int(np.prod(HOG_WEIGHT_SHAPE))
     if w.size != n_src or not np.all(np.isfinite(w)):
-        raise ValueError(f"weights must be {n_src} finite values over {shape} cells "
+        raise ValueError(f"weights must be {n_src} finite values over {HOG_WEIGHT_SHAPE} cells "
                          f"(hog_window_features), got {w.size}")
     if not np.isfinite(tolerance) or tolerance < 0:
         raise ValueError(f"tolerance must be >= 0 cells, got {tolerance!r}")
@@ -992,8 +1009,7 @@ def build_adapted_linear_operator(windows: CandidateWindows, weights, bias: floa
         G = _hog_remap(windows.homographies[g.prototype], g, rule)
         g.template = np.asarray(G.T @ w, dtype=np.float32).reshape(g.shape[0], g.shape[1],
                                                                      HOG_CHANNELS)
-        g.template3 = [np.ascontiguousarray(g.template[:, :, k:k + 3])
-                       for k in range(0, HOG_CHANNELS, 3)]
+        g.template3 = channel_slices3(g.template)
     pad = _required_pad(groups, windows.image_size)
     make_features = _FeatureMaker("hog", sorted(set(cell.tolist())), pad,
                                   tuple(windows.image_size), {})
