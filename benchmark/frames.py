@@ -230,8 +230,8 @@ class OperatorCache:
 
     #: bump whenever what an operator holds or computes changes (2: ACF gradient rows
     #: scaled by s ** lambda, gather tables, G without explicit zeros; 3: block-normalised
-    #: HOG cells with texture channels)
-    VERSION = 3
+    #: HOG cells with texture channels; 4: the "runs" tables, no CSR matrix stored)
+    VERSION = 4
 
     def __init__(self, directory):
         self.dir = Path(directory)

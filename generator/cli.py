@@ -60,7 +60,7 @@ def cmd_generate(args) -> int:
         over["elevations"] = parse_elevations(args.elevations)
     if args.framing:
         over["framing"] = args.framing
-    for name in ("samples", "instances", "persons", "scenes"):
+    for name in ("samples", "instances", "persons", "scenes", "frames"):
         v = getattr(args, name, None)
         if v is not None:
             if v < 1:
@@ -126,6 +126,10 @@ def register(subparsers, common_parser: argparse.ArgumentParser) -> None:
     p.add_argument("--instances", type=int, help="placements per person and scene")
     p.add_argument("--persons", type=int, help="number of persons from the roster")
     p.add_argument("--scenes", type=int, help="number of scenes")
+    p.add_argument("--frames", type=int,
+                   help="calibrated surveillance frames in total, spread over the scenes "
+                        "(presets: tiny 1, small 9, paper 26); frame k of a scene is the "
+                        "same whatever the total, so a larger --frames extends a set")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_generate)
 

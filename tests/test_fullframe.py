@@ -231,7 +231,7 @@ def test_adapted_scores_equal_explicitly_remapped_features(windows, frame, toler
     w = rng.normal(size=(16, 8, HOG_CHANNELS))
     op = build_adapted_linear_operator(sub, w, 0.3, tolerance=tolerance)
     feats = op.frame_features(frame)
-    s = {m: op.scores(feats, method=m) for m in ("sparse", "template", "gather")}
+    s = {m: op.scores(feats, method=m) for m in ("runs", "sparse", "template", "gather")}
     for n in range(0, len(sub), 7):
         ref = _explicit_hog_score(frame, op.snapped_homographies[n], int(op.cell_size[n]), w, 0.3)
         for m in s:
@@ -240,10 +240,15 @@ def test_adapted_scores_equal_explicitly_remapped_features(windows, frame, toler
         assert np.allclose(op.snapped_homographies, sub.homographies, **EXACT)
     else:
         assert op.n_templates < len(sub)
-    # the one-matrix form is the same operator
+    # the one-matrix forms are the same operator
     W = op.to_sparse()
     assert W.shape[0] == len(sub)
     assert np.allclose(W @ feats.vector(op.cell_sizes) + op.bias, s["sparse"], **FLOAT32)
+    assert np.array_equal(op.scores(feats), s["runs"])            # the default form
+    Wu, rows = op.to_sparse(unique=True)
+    pw = op.position_weights()
+    assert pw.size == Wu.shape[0] == len(np.unique(rows)) <= len(sub)
+    assert np.array_equal(op.weights_per_window(), pw[rows])
 
 
 def test_adapted_trees_equal_explicit_remap(windows, frame):
@@ -344,6 +349,13 @@ def test_frame_of_the_wrong_size(windows, frame):
         op.detect(frame[:-8])
     with pytest.raises(ValueError, match="weights"):
         build_adapted_linear_operator(windows, np.ones(10))
+    with pytest.raises(ValueError, match="method must be"):
+        op.scores(op.frame_features(frame), method="dense")
+    # maps of the right sizes but another feature (ACF, 10 channels): refused, never read
+    # out of bounds by the compiled loop
+    acf = acf_frame_features(frame, op.cell_sizes, pad=op.pad)
+    with pytest.raises(ValueError, match="13 channels per cell"):
+        op.scores(acf)
 
 
 def test_acf_remap_is_s_kron_a(windows):

@@ -242,6 +242,19 @@ def test_plan_counts_and_paths(tiny_plan):
     assert image_relpath("frame", "shop", index=0) == "frames/shop/frame_0.png"
 
 
+def test_more_frames_extend_the_set(tiny_plan, scenes, roster):
+    cfg = tiny_plan.config
+    more = plan_dataset(preset_config("tiny", frames=cfg.frames + 5), 0, scenes=scenes,
+                        persons=roster)
+    frames = {u.uid: u.samples[0] for u in more.units if u.kind == "frame"}
+    assert len(frames) == cfg.frames + 5
+    for u in tiny_plan.units:
+        if u.kind == "frame":
+            a, b = u.samples[0], frames[u.uid]
+            assert (a.seed, a.persons, a.lighting) == (b.seed, b.persons, b.lighting)
+            assert a.camera.to_dict() == b.camera.to_dict()
+
+
 def test_paired_views_share_everything_but_the_camera(tiny_plan):
     s = next(s for u in tiny_plan.units if u.kind == "person" for s in u.samples)
     centres = [c.center for c in s.cameras]
@@ -472,6 +485,9 @@ def test_cli_user_errors_are_one_line_value_errors(tmp_path):
         a.func(a)
     a = p.parse_args(["generate", "--out", str(tmp_path / "o"), "--elevations", "0,2"])
     with pytest.raises(ValueError, match="outside"):
+        a.func(a)
+    a = p.parse_args(["generate", "--out", str(tmp_path / "o"), "--frames", "0"])
+    with pytest.raises(ValueError, match="--frames must be at least 1"):
         a.func(a)
     a = p.parse_args(["dataset", "verify", str(tmp_path / "nothing")])
     with pytest.raises(FileNotFoundError, match="not found"):

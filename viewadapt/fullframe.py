@@ -38,8 +38,13 @@ Run-time forms, all the same operator (tested against each other and against
 ``w^T G_n x``), measured on a 384x288 frame with ~30,000 windows
 (``benchmark/perf/runtime.py``):
 
-* ``"sparse"`` (default, fastest): one CSR matrix, a row per distinct scored position,
-  times the concatenated cell maps -- ~1,100 weights per row, ~14,000 rows;
+* ``"runs"`` (default, fastest): a compiled loop (:mod:`viewadapt._kernels`, numba) over
+  the ~14,000 distinct scored positions. A template row is one contiguous run of values,
+  and so is the frame map row it meets, so each position costs ``n_y`` vectorised dot
+  products and reads no index arrays -- the templates (a few MB) stay in cache;
+* ``"sparse"``: one CSR matrix, a row per distinct scored position, times the
+  concatenated cell maps -- ~1,600 weights per row, each with its column index: memory
+  bound (~190 MB read per frame), several times slower;
 * ``"template"``: one ``cv2.matchTemplate`` cross-correlation per shared template over its
   windows' region -- slower, because the ~700 templates each cost a call;
 * ``"gather"``: each window's patch gathered and dotted with its template.
@@ -825,28 +830,48 @@ class AdaptedLinearOperator(_OperatorBase):
             out[g.members] = g.template.size
         return out
 
-    def scores(self, features: FrameFeatures, *, method: str = "sparse") -> np.ndarray:
+    def position_weights(self) -> np.ndarray:
+        """(P,) number of adapted weights of each distinct scored position (windows
+        snapped onto the same position of the same template are scored once)."""
+        r = self._runs
+        return (r.t_rows * r.t_run)[r.group]
+
+    def scores(self, features: FrameFeatures, *, method: str = "runs") -> np.ndarray:
         """Scores of all windows on one frame's features.
 
         Parameters
         ----------
         features : FrameFeatures
             From :meth:`frame_features` (or :func:`hog_frame_features` with this
-            operator's cell sizes, normalisation sizes and padding).
-        method : {"sparse", "template", "gather"}
-            ``"sparse"`` (default, the fastest measured): the CSR matrix of
-            :meth:`to_sparse` (one row per distinct scored window) times the feature
-            vector; ``"template"``: one ``cv2.matchTemplate`` cross-correlation per group over the
+            operator's cell sizes and padding).
+        method : {"runs", "sparse", "template", "gather"}
+            ``"runs"`` (default, the fastest measured): a compiled loop over the distinct
+            scored positions, each template row a contiguous dot product with the frame
+            map row it meets; ``"sparse"``: the CSR matrix of :meth:`to_sparse` (one row
+            per distinct position) times the feature vector, built on first use;
+            ``"template"``: one ``cv2.matchTemplate`` cross-correlation per group over the
             region of its windows (``"gather"`` for groups whose windows are few or
-            scattered); ``"gather"``: each window's patch gathered and dotted;
-            ``"sparse"``: the CSR matrix of :meth:`to_sparse` times the feature vector.
-            All three agree up to float32 rounding.
+            scattered); ``"gather"``: each window's patch gathered and dotted. All agree up
+            to float32 rounding.
 
         Returns
         -------
         (N,) float64 ndarray
         """
         self._check_features(features)
+        if method == "runs":
+            from ._kernels import template_run_scores
+
+            r = self._runs
+            x = features.vector(self.cell_sizes)
+            if x.size != r.n_features or x.dtype != np.float32:
+                raise ValueError(f"features have {x.size} {x.dtype} values, the operator "
+                                 f"reads {r.n_features} float32 values ({HOG_CHANNELS} "
+                                 f"channels per cell)")
+            out = np.empty(len(r.starts))
+            template_run_scores(x, r.templates, r.t_offset, r.t_rows, r.t_run, r.x_stride,
+                                r.starts, r.group, out)
+            return out[r.row_of] + self.bias
         if method == "sparse":
             if getattr(self, "_csr", None) is None:
                 self._csr = self.to_sparse(unique=True)
@@ -854,7 +879,8 @@ class AdaptedLinearOperator(_OperatorBase):
             return np.asarray(W @ features.vector(self.cell_sizes),
                               dtype=np.float64)[rows] + self.bias
         if method not in ("template", "gather"):
-            raise ValueError(f"method must be 'template', 'gather' or 'sparse', got {method!r}")
+            raise ValueError(f"method must be 'runs', 'sparse', 'template' or 'gather', "
+                             f"got {method!r}")
         out = np.empty(self.n_windows)
         for g in self.groups:
             oy, ox = self._origins(g, features)
@@ -878,7 +904,7 @@ class AdaptedLinearOperator(_OperatorBase):
         return self.features(image)
 
     def detect(self, image, *, threshold: float = 0.0, nms_threshold: float = 0.5,
-               max_candidates: int = 2000, method: str = "sparse") -> np.ndarray:
+               max_candidates: int = 2000, method: str = "runs") -> np.ndarray:
         """Features, scores and non-maximum suppression on one frame.
 
         Returns
@@ -903,6 +929,42 @@ class AdaptedLinearOperator(_OperatorBase):
             off += ny * nx * C
         return offsets, dims, off, C
 
+    def _positions(self):
+        """The distinct scored positions: per group, the (k_g,) offsets in
+        :meth:`FrameFeatures.vector` of its distinct patch origins; and the (N,) position
+        (row) of every window, rows numbered group after group."""
+        offsets, dims, _, C = self._layout()
+        p = self.pad
+        row_of = np.empty(self.n_windows, np.intp)
+        starts, n_rows = [], 0
+        for g in self.groups:
+            Nx = dims[g.cell_size][1]
+            oy = g.origin[1] + g.shifts[:, 1] + p
+            ox = g.origin[0] + g.shifts[:, 0] + p
+            start, inv = np.unique(offsets[g.cell_size] + (oy * Nx + ox) * C,
+                                   return_inverse=True)
+            row_of[g.members] = n_rows + inv.ravel()
+            starts.append(start)
+            n_rows += len(start)
+        return starts, row_of
+
+    def _build_runs(self):
+        """The tables of the ``"runs"`` form (:func:`viewadapt._kernels.template_run_scores`)."""
+        _, dims, n_feat, C = self._layout()
+        starts, row_of = self._positions()
+        sizes = np.array([g.template.size for g in self.groups], np.int64)
+        self._runs = _RunTables(
+            templates=np.concatenate([g.template.ravel() for g in self.groups]).astype(
+                np.float32),
+            t_offset=np.concatenate([[0], np.cumsum(sizes)[:-1]]).astype(np.int64),
+            t_rows=np.array([g.shape[0] for g in self.groups], np.int64),
+            t_run=np.array([g.shape[1] * C for g in self.groups], np.int64),
+            x_stride=np.array([dims[g.cell_size][1] * C for g in self.groups], np.int64),
+            starts=np.concatenate(starts).astype(np.int64),
+            group=np.repeat(np.arange(len(self.groups), dtype=np.int64),
+                            [len(st) for st in starts]),
+            row_of=row_of, n_features=int(n_feat))
+
     def to_sparse(self, *, unique: bool = False):
         """The operator as one CSR matrix ``W`` with ``scores = W x + b``.
 
@@ -919,47 +981,49 @@ class AdaptedLinearOperator(_OperatorBase):
         W : (N or n_unique, n_features) float32 scipy.sparse.csr_matrix
         rows : (N,) intp ndarray, only with ``unique=True``
         """
-        offsets, dims, n_feat, C = self._layout()
-        p = self.pad
-        row_of = np.empty(self.n_windows, np.intp)
-        parts = []                               # (template nz cols, nz vals, starts)
-        n_rows = 0
+        _, dims, n_feat, C = self._layout()
+        starts, row_of = self._positions()
+        parts = []                               # (template nz cols, nz vals)
         for g in self.groups:
             ny, nx = g.shape
-            Ny, Nx = dims[g.cell_size]
+            Nx = dims[g.cell_size][1]
             yy, xx, cc = np.meshgrid(np.arange(ny), np.arange(nx), np.arange(C), indexing="ij")
             t = g.template.ravel()
             nz = np.flatnonzero(t)
-            base = ((yy * Nx + xx) * C + cc).ravel()[nz]
-            oy = g.origin[1] + g.shifts[:, 1] + p
-            ox = g.origin[0] + g.shifts[:, 0] + p
-            start = offsets[g.cell_size] + (oy * Nx + ox) * C
-            if unique:
-                start, inv = np.unique(start, return_inverse=True)
-                row_of[g.members] = n_rows + inv.ravel()
-            else:
-                row_of[g.members] = n_rows + np.arange(len(g.members))
-            parts.append((base, t[nz], start, n_rows))
-            n_rows += len(start)
-        counts = np.zeros(n_rows, np.int64)
-        for base, vals, start, r0 in parts:
-            counts[r0:r0 + len(start)] = base.size
-        indptr = np.zeros(n_rows + 1, np.int64)
+            parts.append((((yy * Nx + xx) * C + cc).ravel()[nz], t[nz]))
+        counts = np.concatenate([np.full(len(st), base.size, np.int64)
+                                 for (base, _), st in zip(parts, starts)])
+        indptr = np.zeros(len(counts) + 1, np.int64)
         np.cumsum(counts, out=indptr[1:])
         indices = np.empty(indptr[-1], np.int32 if n_feat < 2**31 else np.int64)
         data = np.empty(indptr[-1], np.float32)
-        for base, vals, start, r0 in parts:
+        r0 = 0
+        for (base, vals), start in zip(parts, starts):
             k = base.size
-            if k == 0:
-                continue
             s0 = indptr[r0]
             blk = slice(s0, s0 + k * len(start))
             indices[blk] = (start[:, None] + base[None, :]).ravel()
             data[blk] = np.tile(vals, len(start))
-        W = sp.csr_matrix((data, indices, indptr), shape=(n_rows, n_feat))
+            r0 += len(start)
+        W = sp.csr_matrix((data, indices, indptr), shape=(len(counts), n_feat))
         if unique:
             return W, row_of
-        return W if np.array_equal(row_of, np.arange(self.n_windows)) else W[row_of]
+        return W[row_of]
+
+
+@dataclass
+class _RunTables:
+    """Templates and distinct positions of an :class:`AdaptedLinearOperator`, flat."""
+
+    templates: np.ndarray          # all templates, row-major (n_y, n_x, C), concatenated
+    t_offset: np.ndarray           # (G,) start of each template in ``templates``
+    t_rows: np.ndarray             # (G,) n_y
+    t_run: np.ndarray              # (G,) n_x C: one template row, one contiguous run
+    x_stride: np.ndarray           # (G,) N_x C: one row of the padded map it reads
+    starts: np.ndarray             # (P,) offset of each distinct position in the x vector
+    group: np.ndarray              # (P,) its group
+    row_of: np.ndarray             # (N,) position of each window
+    n_features: int                # size of the x vector
 
 
 def build_adapted_linear_operator(windows: CandidateWindows, weights, bias: float = 0.0, *,
@@ -1015,7 +1079,7 @@ def build_adapted_linear_operator(windows: CandidateWindows, weights, bias: floa
                                   tuple(windows.image_size), {})
     op = AdaptedLinearOperator(windows, cell, groups, pad, bias, make_features)
     op.tolerance = float(tolerance)
-    op._csr = op.to_sparse(unique=True)       # the run-time form, built once offline
+    op._build_runs()                          # the run-time form, built once offline
     return op
 
 

@@ -132,9 +132,9 @@ def run_runtime(data, *, n_frames=3, warp_windows=1000, heights=(1.65, 1.85), jo
             info[f"{kind}_templates"] = op.n_templates
             info[f"{kind}_cell_sizes"] = op.cell_sizes
         hog, acf = det.operator("hog"), det.operator("acf")
-        Wu, _ = hog._csr
-        info["hog_scored_positions"] = int(Wu.shape[0])
-        info["hog_weights_per_window"] = float(Wu.nnz / Wu.shape[0])
+        pw = hog.position_weights()
+        info["hog_scored_positions"] = int(pw.size)
+        info["hog_weights_per_window"] = float(pw.mean())
         R = max(3, 2 * len(frames))
 
         def adapted(op, kind):
@@ -156,8 +156,10 @@ def run_runtime(data, *, n_frames=3, warp_windows=1000, heights=(1.65, 1.85), jo
         f0 = hog.frame_features(frames[0])
         W_all = hog.to_sparse()
         x0 = f0.vector(hog.cell_sizes)
-        forms = {"sparse, one row per distinct position (default)":
+        forms = {"runs: compiled loop over distinct positions (default)":
                  _best(lambda: hog.scores(f0), R)[0],
+                 "sparse, one row per distinct position":
+                 _best(lambda: hog.scores(f0, method="sparse"), R)[0],
                  "sparse, one row per candidate window": _best(lambda: W_all @ x0, R)[0],
                  "template: matchTemplate per shared template":
                  _best(lambda: hog.scores(f0, method="template"), 2)[0],
