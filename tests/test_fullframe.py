@@ -11,7 +11,7 @@ from viewadapt.fullframe import (
     build_adapted_linear_operator,
     acf_frame_features, acf_window_features, build_adapted_trees_operator,
     fast_acf_pixel_channels,
-    fast_orientation_channels, hog_frame_features, hog_window_features,
+    fast_orientation_channels, hog_frame_features, hog_window_features, orientation_cell_maps,
 )
 from viewadapt.geometry import (
     Camera, camera_from_pose, look_at_rotation, window_to_image_homography,
@@ -150,10 +150,13 @@ def test_acf_window_features_are_the_reference_channels():
 
 
 def _block_normalize_loop(X, eps, clip):
-    """Plain-loop reference: four reflected 2x2 blocks per cell, L2 norm, clip, reduce."""
+    """Plain-loop reference: four reflected 2x2 blocks per cell, L2 norm, clip, reduce
+    (a map one cell high or wide repeats its edge instead)."""
     ny, nx, nb = X.shape
 
     def refl(i, n):          # reflect-101 index
+        if min(ny, nx) == 1:
+            return min(max(i, 0), n - 1)
         return -i if i < 0 else (2 * (n - 1) - i if i >= n else i)
 
     out = np.zeros((ny, nx, nb + 4))
@@ -183,12 +186,36 @@ def test_block_normalize_cells_against_a_plain_loop():
     assert got[3, 1, 4] == pytest.approx(0.8)
     with pytest.raises(ValueError, match="cells"):
         block_normalize_cells(X[0])
+    row = X[2:3]                                     # one cell high: edge blocks
+    assert np.allclose(block_normalize_cells(row, eps=30.0, clip=0.2),
+                       _block_normalize_loop(row.astype(np.float64), 30.0, 0.2),
+                       rtol=1e-5, atol=1e-6)
     # in place into the inside of a zero-padded map
     padded = np.zeros((7, 6, 13), np.float32)
     block_normalize_cells(X, eps=30.0, clip=0.2, out=padded[1:-1, 1:-1])
     assert np.array_equal(padded[1:-1, 1:-1], got) and not padded[0].any()
     with pytest.raises(ValueError, match="out"):
         block_normalize_cells(X, out=padded)
+
+
+@pytest.mark.parametrize("kind", ["colour uint8", "grey float"])
+def test_orientation_cell_maps_are_cell_sums_of_the_pixel_channels(kind):
+    """The fused per-cell binning equals summing fast_orientation_channels over cells, at
+    sizes from pixels (2, 3, 5) and from smaller cells (4, 6), remainders dropped."""
+    rng = np.random.default_rng(6)
+    img = cv2.GaussianBlur(rng.integers(0, 256, (61, 47, 3), dtype=np.uint8), (0, 0), 1.5)
+    if kind == "grey float":
+        img = img[:, :, 1] / 255.0
+    O = fast_orientation_channels(img).astype(np.float64)
+    got = orientation_cell_maps(img, [6, 2, 3, 4, 5])
+    assert sorted(got) == [2, 3, 4, 5, 6]
+    for c, X in got.items():
+        ny, nx = 61 // c, 47 // c
+        ref = O[:ny * c, :nx * c].reshape(ny, c, nx, c, 9).sum(axis=(1, 3))
+        assert X.shape == (ny, nx, 9) and X.dtype == np.float32
+        assert np.allclose(X, ref, rtol=1e-4, atol=1e-3), c
+    with pytest.raises(ValueError, match="positive"):
+        orientation_cell_maps(img, [0])
 
 
 def test_block_normalised_features_hardly_change_with_cell_size():

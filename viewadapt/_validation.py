@@ -12,8 +12,10 @@ import numpy as np
 __all__ = ["check_image", "check_homography", "check_elevation", "check_finite"]
 
 
-def check_image(image, name: str = "image", *, allow_color: bool = True) -> np.ndarray:
-    """Return ``image`` as float64 in the 0..255 range, shape (M, N) or (M, N, 3).
+def check_image(image, name: str = "image", *, allow_color: bool = True,
+                dtype=np.float64) -> np.ndarray:
+    """Return ``image`` as ``dtype`` (float64 by default) in the 0..255 range, shape (M, N)
+    or (M, N, 3).
 
     uint8 images are taken as 0..255; float images must lie in [0, 1] and are scaled by 255
     (the scale OpenCV's HOG sees, which matters for its normalisation constants).
@@ -32,7 +34,7 @@ def check_image(image, name: str = "image", *, allow_color: bool = True) -> np.n
     if arr.shape[0] == 0 or arr.shape[1] == 0:
         raise ValueError(f"{name} is empty (shape {arr.shape})")
     if arr.dtype == np.uint8:
-        return arr.astype(np.float64)
+        return arr.astype(dtype)
     if np.issubdtype(arr.dtype, np.integer) or arr.dtype == bool:
         raise TypeError(f"{name} must be uint8 (0..255) or float (0..1), got dtype {arr.dtype}")
     arr = arr.astype(np.float64)
@@ -44,7 +46,7 @@ def check_image(image, name: str = "image", *, allow_color: bool = True) -> np.n
             f"float {name} must lie in [0, 1] (got values in [{lo:.3g}, {hi:.3g}]); "
             "pass uint8 for 0..255 images"
         )
-    return arr * 255.0
+    return (arr * 255.0).astype(dtype, copy=False)
 
 
 def check_finite(arr, name: str) -> np.ndarray:

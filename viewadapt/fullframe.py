@@ -84,7 +84,7 @@ __all__ = [
     "acf_window_features",
     "FrameFeatures",
     "HOG_CHANNELS", "HOG_WEIGHT_SHAPE",
-    "cell_sums", "channel_slices3", "correlate_slices",
+    "cell_sums", "orientation_cell_maps", "channel_slices3", "correlate_slices",
     "block_normalize_cells",
     "hog_window_features",
     "hog_frame_features",
@@ -329,21 +329,69 @@ def cell_sums(channels, c: int) -> np.ndarray:
     return out * np.float32(c * c)
 
 
-def _multi_cell_sums(channels, cell_sizes) -> dict:
+def _multi_cell_sums(channels, cell_sizes, *, from_pixels=None) -> dict:
     """Cell sums of ``channels`` at every size in ``cell_sizes``; a size that is a multiple
-    of a smaller one is summed from that size's cells (same sums, fewer pixels read)."""
+    of a smaller one is summed from that size's cells (same sums, fewer pixels read).
+
+    ``from_pixels(c)`` computes a size that is not (default :func:`cell_sums` of
+    ``channels``; then ``channels`` need only have the frame's shape)."""
+    if from_pixels is None:
+        def from_pixels(c):
+            return cell_sums(channels, c)
     out = {}
     for c in sorted(set(int(c) for c in cell_sizes)):
         if c < 1:
             raise ValueError(f"cell sizes must be positive integers, got {c}")
         base = max((b for b in out if b > 1 and c % b == 0), default=None)
         if base is None:
-            out[c] = cell_sums(channels, c)
+            out[c] = from_pixels(c)
         else:
             r = c // base
             ny, nx = channels.shape[0] // c, channels.shape[1] // c
             out[c] = cell_sums(out[base][:ny * r, :nx * r], r)
     return out
+
+
+def orientation_cell_maps(image, cell_sizes, *, n_bins: int = _N_HOG_BINS) -> dict:
+    """Oriented gradient magnitudes summed over ``c x c`` cells, for each ``c``.
+
+    The cell sums of :func:`fast_orientation_channels` (gamma off) -- the same quantity up
+    to float32 rounding -- without the (M, N, n_bins) per-pixel array: the strongest colour
+    channel's gradient and its two nearest bins go straight into the cells (a compiled
+    loop, :mod:`viewadapt._kernels`). Remainder rows and columns are dropped.
+
+    Parameters
+    ----------
+    image : (M, N[, 3]) ndarray, uint8 or float in [0, 1]
+    cell_sizes : iterable of int
+    n_bins : int
+
+    Returns
+    -------
+    dict int -> (M // c, N // c, n_bins) float32 ndarray
+    """
+    import cv2
+
+    from ._kernels import orientation_cell_sums, strongest_gradient
+
+    img = check_image(image, dtype=np.float32)
+    k = np.array([[-1.0, 0.0, 1.0]], np.float32)
+    dx = cv2.filter2D(img, cv2.CV_32F, k, borderType=cv2.BORDER_REFLECT_101)
+    dy = cv2.filter2D(img, cv2.CV_32F, k.T, borderType=cv2.BORDER_REFLECT_101)
+    if img.ndim == 3:
+        gx = np.empty(img.shape[:2], np.float32)
+        gy = np.empty(img.shape[:2], np.float32)
+        strongest_gradient(dx, dy, gx, gy)
+        dx, dy = gx, gy
+    mag, ang = cv2.cartToPolar(dx, dy)            # angle in [0, 2 pi)
+    M, N = mag.shape
+
+    def from_pixels(c):
+        out = np.zeros((M // c, N // c, n_bins), np.float32)
+        orientation_cell_sums(mag, ang, n_bins, c, out)
+        return out
+
+    return _multi_cell_sums(mag, cell_sizes, from_pixels=from_pixels)
 
 
 def _check_frame(image, image_size):
@@ -391,30 +439,19 @@ def block_normalize_cells(cells, *, eps: float = 1.0, clip: float = HOG_CLIP,
     (ny, nx, B + 4) float32 ndarray: ``B`` orientation channels, then the texture energies
     of the up-left, up-right, down-left and down-right blocks.
     """
-    X = np.asarray(cells, dtype=np.float32)
+    from ._kernels import block_normalize
+
+    X = np.ascontiguousarray(cells, dtype=np.float32)
     if X.ndim != 3:
         raise ValueError(f"cells must be (ny, nx, bins), got shape {X.shape}")
     ny, nx, nb = X.shape
-    E = np.einsum("ijk,ijk->ij", X, X)
-    mode = "reflect" if min(ny, nx) > 1 else "edge"
-    Ep = np.pad(E, 1, mode=mode)
-    blocks = Ep[:-1, :-1] + Ep[1:, :-1] + Ep[:-1, 1:] + Ep[1:, 1:]      # (ny + 1, nx + 1)
-    inv = 1.0 / np.sqrt(blocks + np.float32(eps) ** 2)
-    orient = np.zeros_like(X)
-    texture = np.empty((ny * nx, 4), np.float32)
-    ones = np.ones(nb, np.float32)
-    F = np.empty_like(X)
-    for k, (a, b) in enumerate(((0, 0), (0, 1), (1, 0), (1, 1))):
-        np.multiply(X, inv[a:a + ny, b:b + nx, None], out=F)
-        np.minimum(F, np.float32(clip), out=F)
-        orient += F
-        texture[:, k] = F.reshape(-1, nb) @ ones        # a BLAS product: faster than .sum
     if out is None:
         out = np.empty((ny, nx, nb + 4), np.float32)
-    elif out.shape != (ny, nx, nb + 4):
-        raise ValueError(f"out must have shape {(ny, nx, nb + 4)}, got {out.shape}")
-    out[:, :, :nb] = orient
-    out[:, :, nb:] = texture.reshape(ny, nx, 4)
+    elif out.shape != (ny, nx, nb + 4) or out.dtype != np.float32:
+        raise ValueError(f"out must be float32 of shape {(ny, nx, nb + 4)}, got {out.dtype} "
+                         f"{out.shape}")
+    if X.size:
+        block_normalize(X, float(eps), float(clip), out)
     return out
 
 
@@ -432,8 +469,8 @@ def hog_window_features(window, *, cell_size: int = HOG_CELL) -> np.ndarray:
     -------
     (16, 8, 13) float32 ndarray (flatten for a classifier).
     """
-    O = fast_orientation_channels(window)
-    return block_normalize_cells(cell_sums(O, cell_size), eps=cell_size ** 2 * _EPS_PER_PX)
+    X = orientation_cell_maps(window, [cell_size])[cell_size]
+    return block_normalize_cells(X, eps=cell_size ** 2 * _EPS_PER_PX)
 
 
 def acf_window_features(window) -> np.ndarray:
@@ -463,8 +500,8 @@ _EPS_PER_PX = 1.0
 def hog_frame_features(image, cell_sizes, *, pad: int = 2, image_size=None) -> FrameFeatures:
     """Normalised HOG cell maps of a frame at several cell sizes, native resolution.
 
-    The per-pixel orientation channels are computed once
-    (:func:`fast_orientation_channels`), summed into ``c x c`` cells for each ``c`` and
+    The per-pixel gradients are computed once and summed into ``c x c`` cells of oriented
+    magnitude for each ``c`` (:func:`orientation_cell_maps`), then
     normalised by :func:`block_normalize_cells` -- the features :func:`hog_window_features`
     computes on a canonical window with ``c = 8``.
 
@@ -482,10 +519,9 @@ def hog_frame_features(image, cell_sizes, *, pad: int = 2, image_size=None) -> F
     FrameFeatures with (M // c + 2 pad, N // c + 2 pad, 13) maps.
     """
     img = _check_frame(image, image_size)
-    O = fast_orientation_channels(img)
-    M, N = O.shape[:2]
+    M, N = img.shape[:2]
     maps = {}
-    for c, X in _multi_cell_sums(O, cell_sizes).items():
+    for c, X in orientation_cell_maps(img, cell_sizes).items():
         ny, nx = X.shape[:2]
         F = np.zeros((ny + 2 * pad, nx + 2 * pad, HOG_CHANNELS), np.float32)
         block_normalize_cells(X, eps=c * c * _EPS_PER_PX, out=F[pad:pad + ny, pad:pad + nx])
