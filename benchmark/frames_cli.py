@@ -53,8 +53,12 @@ def cmd_detect(args) -> int:
             raise FileNotFoundError(f"frame {p} does not exist")
     boxes = read_boxes(args.boxes, paths) if args.boxes else None
     dets = []
+    from .frames import UPSAMPLE_BELOW
+
     det = FrameDetector(cam, models, person_heights=args.heights,
                         cache_dir=args.cache or (args.out / "cache"),
+                        upsample_below=UPSAMPLE_BELOW if args.upsample_below is None
+                        else args.upsample_below,
                         threshold_hog=args.threshold, threshold_acf=args.threshold)
     method = f"{args.detector}_adapted"
     rows, coco_img, coco_ann = [], [], []
@@ -119,12 +123,13 @@ def _group_by_camera(frames):
 
 
 def _detect_camera(group, models, methods, heights, cache_dir, tolerance,
-                   cells_per_source_cell, progress=None):
+                   cells_per_source_cell, upsample_below, progress=None):
     """Every method on the frames of one camera: (detections, seconds, windows)."""
     from .frames import FrameDetector
 
     fd = FrameDetector(group[0].camera, models, person_heights=heights, cache_dir=cache_dir,
-                       tolerance=tolerance, cells_per_source_cell=cells_per_source_cell)
+                       tolerance=tolerance, cells_per_source_cell=cells_per_source_cell,
+                       upsample_below=upsample_below)
     for kind in ("hog", "acf"):                  # offline precomputation, not timed per frame
         if f"{kind}_adapted" in methods:
             fd.operator(kind)
@@ -143,7 +148,8 @@ def _detect_camera(group, models, methods, heights, cache_dir, tolerance,
 
 def run_frames_benchmark(data, *, methods, seed=0, quick=False, max_frames=None,
                          heights=(1.75,), cache_dir=None, models=None, progress=True,
-                         tolerance=0.5, cells_per_source_cell=0.7, jobs=1):
+                         tolerance=0.5, cells_per_source_cell=0.7, upsample_below=None,
+                         jobs=1):
     """Detect with every method on every frame; return (results dict, models, detections).
 
     Cameras are processed in parallel with ``jobs`` worker processes (joblib); the
@@ -153,8 +159,12 @@ def run_frames_benchmark(data, *, methods, seed=0, quick=False, max_frames=None,
     from tqdm.auto import tqdm
 
     from .data import load_dataset
-    from .frames import evaluate_method, load_frames, train_source_detectors
+    from .frames import UPSAMPLE_BELOW, evaluate_method, load_frames, train_source_detectors
 
+    if upsample_below is None:
+        upsample_below = UPSAMPLE_BELOW
+    if not np.isfinite(upsample_below) or upsample_below < 0:
+        raise ValueError(f"--upsample-below must be >= 0, got {upsample_below}")
     frames = load_frames(data)
     if max_frames:
         frames = frames[:max_frames]
@@ -169,7 +179,8 @@ def run_frames_benchmark(data, *, methods, seed=0, quick=False, max_frames=None,
     groups = _group_by_camera(frames)
     order = [f for g in groups for f in g]
     kw = dict(models=models, methods=methods, heights=heights, cache_dir=cache_dir,
-              tolerance=tolerance, cells_per_source_cell=cells_per_source_cell)
+              tolerance=tolerance, cells_per_source_cell=cells_per_source_cell,
+              upsample_below=upsample_below)
     n_jobs = 1 if jobs is None else int(jobs)
     if n_jobs != 1 and len(groups) > 1:
         par = Parallel(n_jobs=n_jobs, return_as="generator")
@@ -242,13 +253,37 @@ def _accuracy_targets(results) -> list:
     return ["", "## Targets", ""] + out if out else []
 
 
+def _earlier_results(out: Path, data: Path) -> dict:
+    """``out``'s earlier run on ``data``: method -> (frame key -> detections, s / frame)."""
+    from .data import read_json
+
+    run, det = out / "run.json", out / "detections.json"
+    if not (run.is_file() and det.is_file() and (out / "frames_summary.csv").is_file()):
+        raise ValueError(f"--keep-other-methods: {out} holds no earlier `bench frames` run "
+                         "(run.json, detections.json, frames_summary.csv)")
+    old = read_json(run)
+    if Path(old.get("data", "")).resolve() != Path(data).resolve():
+        raise ValueError(f"--keep-other-methods: {out} holds results on {old.get('data')}, "
+                         f"not on {data}")
+    secs = {}
+    for line in (out / "frames_summary.csv").read_text().splitlines()[1:]:
+        m, _, sec = line.split(",")[:3]
+        secs[m] = float(sec)
+    return {m: (d, secs.get(m, float("nan"))) for m, d in read_json(det).items()}
+
+
+def _frame_key(f) -> str:
+    return f"{f.path.name}@{f.scene_id}"
+
+
 def cmd_bench_frames(args) -> int:
     from viewadapt.cli import _check_out, atomic_output_dir
 
-    from .frames import METHODS, SourceDetectors
+    from .frames import METHODS, SourceDetectors, evaluate_method
 
     _check_out(args.out)
     methods = args.methods or list(METHODS)
+    earlier = _earlier_results(args.out, args.data) if args.keep_other_methods else {}
     models = SourceDetectors.load(args.model) if args.model else None
     t0 = time.perf_counter()
     results, models, dets, frames, info = run_frames_benchmark(
@@ -256,7 +291,19 @@ def cmd_bench_frames(args) -> int:
         max_frames=args.max_frames, heights=args.heights,
         cache_dir=args.cache or (args.out / "cache"), models=models,
         tolerance=args.tolerance, cells_per_source_cell=args.cells_per_source_cell,
-        jobs=args.jobs)
+        upsample_below=args.upsample_below, jobs=args.jobs)
+    kept = [m for m in earlier if m not in methods]
+    for m in kept:
+        old, sec = earlier[m]
+        missing = [_frame_key(f) for f in frames if _frame_key(f) not in old]
+        if missing:
+            raise ValueError(f"--keep-other-methods: {m}'s earlier results lack the frames "
+                             f"{missing[:3]}{' ...' if len(missing) > 3 else ''}")
+        dets[m] = [np.asarray(old[_frame_key(f)], float).reshape(-1, 5) for f in frames]
+        results[m] = dict(evaluate_method(dets[m], frames), seconds_per_frame=sec)
+    if kept:
+        print(f"kept from the earlier run in {args.out}: {', '.join(kept)}")
+        methods = list(dict.fromkeys([*earlier, *methods]))     # the earlier run's order
     with atomic_output_dir(args.out) as tmp:
         lines = ["| method | LAMR (1e-2..1e0 fppi) | s / frame |", "|---|---|---|"]
         csv = ["method,lamr,seconds_per_frame,n_frames,n_gt"]
@@ -273,14 +320,14 @@ def cmd_bench_frames(args) -> int:
                  results[m]["miss_rate"].tolist(), "lamr": results[m]["lamr"]}
              for m in methods}))
         (tmp / "detections.json").write_text(json.dumps(
-            {m: {str(f.path.name) + f"@{f.scene_id}": d.tolist() for f, d in zip(frames, dets[m])}
+            {m: {_frame_key(f): d.tolist() for f, d in zip(frames, dets[m])}
              for m in methods}))
         plot_det_figure(results, tmp / "det_frames",
                         title=f"{info['n_frames']} frames, {info['n_gt']} persons")
         (tmp / "models").mkdir()
         models.save(tmp / "models" / "source_detectors.pkl")
         (tmp / "run.json").write_text(json.dumps(_metadata(
-            args, data=str(args.data), methods=methods, **info,
+            args, data=str(args.data), methods=methods, kept_from_earlier_run=kept, **info,
             seconds=round(time.perf_counter() - t0, 1)), indent=2, default=str))
     print("\n".join(lines))
     print(f"\nwrote {args.out}/frames_summary.{{md,csv}}, det_frames.{{png,pdf}}, "
@@ -347,6 +394,9 @@ def register(sub, common) -> None:
                    help="assumed person heights, metres, comma-separated (default 1.75)")
     p.add_argument("--cache", type=Path, default=None,
                    help="operator cache directory (default OUT/cache)")
+    p.add_argument("--upsample-below", type=float, default=None,
+                   help="windows of persons smaller than 96 x this many px read the frame "
+                        "upsampled 2x (default 0.5, i.e. 48 px; 0 = never)")
     p.add_argument("--boxes", type=Path, default=None,
                    help="optional ground truth to evaluate against: CSV with frame,x,y,w,h"
                         "[,occlusion] or COCO JSON; writes evaluation.json and det.png "
@@ -378,8 +428,17 @@ def register(sub, common) -> None:
     p.add_argument("--cells-per-source-cell", type=float, default=0.7,
                    help="frame cells per source cell along each axis when choosing a "
                         "window's frame cell size (default 0.7)")
+    p.add_argument("--upsample-below", type=float, default=None,
+                   help="windows of persons smaller than 96 x this many px read the frame "
+                        "upsampled 2x (default 0.5, i.e. 48 px; 0 = never)")
     p.add_argument("--model", type=Path, default=None,
                    help="reuse trained source detectors instead of training")
+    p.add_argument("--keep-other-methods", action="store_true",
+                   help="run only --methods and keep the other methods' results of the "
+                        "earlier run in --out on the same --data (e.g. rerun the adapted "
+                        "detectors without the slow image-warping baselines); the table "
+                        "and figure show all. Pass that run's --model so the detectors "
+                        "are the same")
     p.set_defaults(func=cmd_bench_frames)
     p = bsub.add_parser("runtime", parents=[common, opts],
                         help="frames per second per method (Table 1)",

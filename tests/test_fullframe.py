@@ -12,6 +12,7 @@ from viewadapt.fullframe import (
     acf_frame_features, acf_window_features, build_adapted_trees_operator,
     fast_acf_pixel_channels,
     fast_orientation_channels, hog_frame_features, hog_window_features, orientation_cell_maps,
+    build_multiresolution_operator, upsampled_windows,
 )
 from viewadapt.geometry import (
     Camera, camera_from_pose, look_at_rotation, window_to_image_homography,
@@ -406,3 +407,73 @@ def test_acf_remap_is_s_kron_a(windows):
         assert np.allclose(G4[ch, :, :, ch], S, **EXACT)
     ref = GO.reshape(n_out, 6, n_in, 6).transpose(1, 0, 2, 3)       # (out bin, k, l, in bin)
     assert np.allclose(G4[4:, :, :, 4:], ref, **EXACT)
+
+
+# ------------------------------------------------------------ small persons, upsampled frame
+
+
+def test_upsampled_windows_map_through_the_resize_convention(windows):
+    import cv2
+
+    W2 = upsampled_windows(windows, 2)
+    assert W2.image_size == (2 * SIZE[0], 2 * SIZE[1])
+    assert np.allclose(W2.feet, 2 * windows.feet + 0.5, **EXACT)
+    assert np.allclose(W2.scale, 2 * windows.scale, **EXACT)
+    # cv2.resize's pixel centres: a bright dot at (x, y) lands around (2x + 0.5, 2y + 0.5)
+    img = np.zeros((SIZE[1], SIZE[0]), np.float32)
+    img[40, 70] = 1.0
+    big = cv2.resize(img, (2 * SIZE[0], 2 * SIZE[1]), interpolation=cv2.INTER_LINEAR)
+    ys, xs = np.mgrid[:big.shape[0], :big.shape[1]]
+    assert (big * xs).sum() / big.sum() == pytest.approx(2 * 70 + 0.5, abs=1e-6)
+    assert (big * ys).sum() / big.sum() == pytest.approx(2 * 40 + 0.5, abs=1e-6)
+    with pytest.raises(ValueError, match="factor"):
+        upsampled_windows(windows, 0)
+
+
+def test_multiresolution_scores_are_the_layers_explicit_scores(windows, frame):
+    """Small persons' windows score w^T G(U H) x_2x on the upsampled frame's cells, the
+    others w^T G(H) x on the frame's; boxes come back in frame pixels."""
+    import cv2
+
+    rng = np.random.default_rng(7)
+    sub = windows.subset(np.arange(0, len(windows), max(1, len(windows) // 80)))
+    s_mid = float(np.median(sub.scale))
+    w = rng.normal(size=(16, 8, HOG_CHANNELS))
+
+    def build(win):
+        return build_adapted_linear_operator(win, w, 0.2, tolerance=0.0)
+
+    op = build_multiresolution_operator(sub, build, upsample_below=s_mid)
+    assert [f for f, _, _ in op.layers] == [1, 2]
+    small = np.flatnonzero(sub.scale < s_mid)
+    assert np.array_equal(op.layers[1][2], small) and 0 < len(small) < len(sub)
+    # tolerance 0: every window is scored at its own homography, in frame pixels
+    assert np.allclose(op.snapped_homographies, sub.homographies, atol=1e-9)
+    assert np.allclose(op.boxes(), sub.person_boxes(), atol=1e-6)
+    feats = op.frame_features(frame)
+    s = op.scores(feats)
+    big = cv2.resize(frame, (2 * SIZE[0], 2 * SIZE[1]), interpolation=cv2.INTER_LINEAR)
+    U = np.array([[2.0, 0, 0.5], [0, 2.0, 0.5], [0, 0, 1]])
+    ref_native = build(sub)
+    for n in range(0, len(sub), 5):
+        if sub.scale[n] < s_mid:
+            k = int(np.flatnonzero(small == n)[0])
+            c = int(op.layers[1][1].cell_size[k])
+            ref = _explicit_hog_score(big, U @ sub.homographies[n], c, w, 0.2)
+        else:
+            ref = _explicit_hog_score(frame, sub.homographies[n],
+                                      int(ref_native.cell_size[n]), w, 0.2)
+        assert s[n] == pytest.approx(ref, rel=1e-4, abs=1e-4 * np.abs(w).sum())
+    # no window below the threshold: one native layer, the plain operator's scores
+    flat = build_multiresolution_operator(sub, build, upsample_below=0.0)
+    assert [f for f, _, _ in flat.layers] == [1]
+    assert np.allclose(flat.scores(flat.frame_features(frame)),
+                       ref_native.scores(ref_native.frame_features(frame)), **EXACT)
+    d = op.detect(frame, threshold=-np.inf)
+    assert d.shape[1] == 5 and len(d) > 0
+    with pytest.raises(ValueError, match="upsample_below"):
+        build_multiresolution_operator(sub, build, upsample_below=-1)
+    with pytest.raises(ValueError, match="list of 2 FrameFeatures"):
+        op.scores(feats[:1])
+    with pytest.raises(ValueError, match="calibration"):
+        op.detect(frame[:-8])

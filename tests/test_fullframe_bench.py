@@ -75,6 +75,30 @@ def test_bench_frames_outputs(bench):
     assert json.loads((bench / "run.json").read_text())["seed"] == 0
 
 
+def test_rerun_some_methods_keeping_the_others(toy, bench, tmp_path):
+    import shutil
+
+    out = tmp_path / "again"
+    shutil.copytree(bench, out)
+    before = (bench / "frames_summary.csv").read_text().splitlines()
+    rc = _main(["bench", "frames", "--data", str(toy), "--out", str(out), "--quick",
+                "--model", str(bench / "models" / "source_detectors.pkl"),
+                "--methods", "acf_adapted", "--keep-other-methods"])
+    assert rc == 0
+    after = (out / "frames_summary.csv").read_text().splitlines()
+    assert [r.split(",")[0] for r in after] == [r.split(",")[0] for r in before]
+    # the kept methods are evaluated from their stored detections: same rates
+    for a, b in zip(before, after):
+        if not a.startswith("acf_adapted"):
+            assert a.split(",")[:2] == b.split(",")[:2]
+    run = json.loads((out / "run.json").read_text())
+    assert run["kept_from_earlier_run"] == ["hog_adapted", "hog_warp", "opencv_native"]
+    # nothing earlier to keep: a one-line error before any work
+    assert _main(["bench", "frames", "--data", str(toy), "--out", str(tmp_path / "none"),
+                  "--methods", "acf_adapted", "--keep-other-methods"]) == 2
+    assert not (tmp_path / "none").exists()
+
+
 def test_detect_cli(toy, bench, tmp_path):
     frames = load_frames(toy)
     cam = frames[0].camera
@@ -128,6 +152,13 @@ def test_detect_cli(toy, bench, tmp_path):
     assert _main(["detect", "--calibration", str(calib), "--model",
                   str(bench / "models" / "source_detectors.pkl"), "--out", str(bad),
                   str(small)]) == 2
+    assert _main(["detect", "--calibration", str(calib), "--model",
+                  str(bench / "models" / "source_detectors.pkl"), "--out", str(bad),
+                  "--upsample-below", "-1", str(frames[0].path)]) == 2
+    assert not bad.exists()
+    assert _main(["bench", "frames", "--data", str(toy), "--out", str(bad), "--quick",
+                  "--model", str(bench / "models" / "source_detectors.pkl"),
+                  "--upsample-below", "nan", "--methods", "hog_adapted"]) == 2
     assert not bad.exists()
 
 
@@ -220,3 +251,23 @@ def test_json_calibration_and_bad_cameras(tmp_path):
     j.write_text("{not json")
     with pytest.raises(ValueError, match="cannot be parsed"):
         read_calibration(j)
+
+
+def test_runtime_table_end_to_end(toy, tmp_path):
+    """`bench runtime`'s table on the toy set (timings are not checked, only that every
+    method is timed with the operator forms the library ships)."""
+    from benchmark.perf.runtime import format_table, run_runtime
+
+    rows, info = run_runtime(toy, n_frames=1, warp_windows=8, jobs=1, quick=True,
+                             cache_dir=tmp_path / "cache")
+    methods = {r["method"] for r in rows}
+    assert {"hog_adapted", "acf_adapted", "hog_warp", "acf_warp", "hog_pyramid",
+            "acf_pyramid", "opencv", "opencv_native"} <= methods
+    assert all(r["seconds_per_frame"] > 0 for r in rows)
+    assert info["candidate_windows"] > 20000                  # the CAVIAR-like camera
+    assert 0 < info["hog_scored_positions"] <= info["candidate_windows"]
+    assert set(info["hog_scoring_forms_ms"]) >= {
+        "runs: compiled loop over distinct positions (default)",
+        "sparse, one row per distinct position"}
+    table = format_table(rows, info)
+    assert "hog_adapted / hog_warp" in table and "## Targets" in table

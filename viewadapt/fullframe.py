@@ -21,6 +21,14 @@ window's source cells in the frame (``8 s`` px for HOG, ``4 s`` for ACF, ``s`` t
 frame pixels per canonical pixel), so that every window reads about one frame cell per
 source cell; :class:`FrameFeatures` holds one cell map per size in use.
 
+Small persons: an upsampled frame
+---------------------------------
+A person 30-48 px tall covers 2-3 px per source cell, and the frame's native cells are then
+too coarse and noisy a sample of it (image warping interpolates such a window up to 64x128
+first). :func:`build_multiresolution_operator` gives the windows of persons smaller than
+``96 * upsample_below`` px the cells of the frame upsampled 2x (bilinear), and the others
+the frame's own: two ordinary operators, each window still scored by ``w^T G_n x``.
+
 The operator
 ------------
 Neighbouring windows have nearly the same ``H_n`` up to a translation. Windows whose shapes
@@ -95,6 +103,7 @@ __all__ = [
     "AdaptedTreesOperator",
     "build_adapted_linear_operator",
     "build_adapted_trees_operator",
+    "MultiResolutionOperator", "build_multiresolution_operator", "upsampled_windows",
     "detections_from_scores",
 ]
 
@@ -470,7 +479,7 @@ def hog_window_features(window, *, cell_size: int = HOG_CELL) -> np.ndarray:
     (16, 8, 13) float32 ndarray (flatten for a classifier).
     """
     X = orientation_cell_maps(window, [cell_size])[cell_size]
-    return block_normalize_cells(X, eps=cell_size ** 2 * _EPS_PER_PX)
+    return block_normalize_cells(X, eps=_hog_eps(cell_size))
 
 
 def acf_window_features(window) -> np.ndarray:
@@ -495,6 +504,12 @@ def acf_window_features(window) -> np.ndarray:
 #: Floor of :func:`block_normalize_cells` per pixel of cell area (gradient units of 0..255
 #: images).
 _EPS_PER_PX = 1.0
+
+
+def _hog_eps(c: int) -> float:
+    """Floor of the block norm for ``c x c`` cells: ``_EPS_PER_PX`` per pixel of cell area
+    (the norms grow with the area, so the floor does too)."""
+    return float(c * c) * _EPS_PER_PX
 
 
 def hog_frame_features(image, cell_sizes, *, pad: int = 2, image_size=None) -> FrameFeatures:
@@ -524,7 +539,7 @@ def hog_frame_features(image, cell_sizes, *, pad: int = 2, image_size=None) -> F
     for c, X in orientation_cell_maps(img, cell_sizes).items():
         ny, nx = X.shape[:2]
         F = np.zeros((ny + 2 * pad, nx + 2 * pad, HOG_CHANNELS), np.float32)
-        block_normalize_cells(X, eps=c * c * _EPS_PER_PX, out=F[pad:pad + ny, pad:pad + nx])
+        block_normalize_cells(X, eps=_hog_eps(c), out=F[pad:pad + ny, pad:pad + nx])
         maps[c] = F
     return FrameFeatures(maps, pad, (N, M))
 
@@ -854,6 +869,8 @@ class AdaptedLinearOperator(_OperatorBase):
     bias : float
     """
 
+    nms_overlap, nms_threshold = "union", 0.5
+
     def __init__(self, windows, cell_size, groups, pad, bias, features):
         self._setup(windows, cell_size, groups, pad)
         self.bias = float(bias)
@@ -1136,6 +1153,8 @@ class AdaptedTreesOperator(_OperatorBase):
 
     source_cell = ACF_SHRINK
 
+    nms_overlap, nms_threshold = "min", 0.65
+
     def __init__(self, windows, cell_size, groups, pad, model, features):
         self._setup(windows, cell_size, groups, pad)
         self.model = model
@@ -1356,6 +1375,156 @@ def build_adapted_trees_operator(windows: CandidateWindows, model, *, tolerance:
 
 
 # ------------------------------------------------------------------------------- output
+
+
+# ------------------------------------------------------------- several frame resolutions
+
+
+def upsampled_windows(windows: CandidateWindows, factor: int) -> CandidateWindows:
+    """The same windows in the frame upsampled ``factor`` times (``cv2.resize``, pixel
+    centres ``u' = f u + (f - 1) / 2``)."""
+    f = int(factor)
+    if f < 1:
+        raise ValueError(f"factor must be a positive integer, got {factor!r}")
+    U = np.array([[f, 0.0, (f - 1) / 2], [0.0, f, (f - 1) / 2], [0.0, 0.0, 1.0]])
+    w, h = windows.image_size
+    return CandidateWindows(windows.ground_xy, windows.person_height,
+                            U @ windows.homographies, (f * w, f * h), windows.grid_index)
+
+
+class MultiResolutionOperator:
+    """Adapted operators of one camera over the frame and an upsampled copy of it.
+
+    Windows of small persons (frame pixels per canonical pixel ``s`` below
+    ``upsample_below``) read cells of the frame upsampled ``factor`` times (bilinear); the
+    others read the frame itself. Each part is an ordinary adapted operator
+    (:class:`AdaptedLinearOperator`, :class:`AdaptedTreesOperator`) built for its windows
+    in its frame's coordinates, so every window's score is still ``w^T G_n x`` -- with
+    ``x`` the cells of the frame it reads. Built by :func:`build_multiresolution_operator`.
+
+    Attributes
+    ----------
+    layers : list of (factor, operator, (k,) window indices)
+    snapped_homographies : (N, 3, 3) ndarray
+        Each window's scored homography, in the frame's own pixels.
+    """
+
+    def __init__(self, windows, layers):
+        self.image_size = tuple(windows.image_size)
+        self.n_windows = len(windows)
+        self.layers = layers
+        H = np.empty((self.n_windows, 3, 3))
+        for f, op, idx in layers:
+            D = np.array([[1.0 / f, 0.0, -(f - 1) / (2.0 * f)], [0.0, 1.0 / f,
+                          -(f - 1) / (2.0 * f)], [0.0, 0.0, 1.0]])
+            H[idx] = D @ op.snapped_homographies
+        self.snapped_homographies = H
+        self.cell_size = np.zeros(self.n_windows)
+        for f, op, idx in layers:
+            self.cell_size[idx] = op.cell_size / f           # in frame pixels
+        first = layers[0][1]
+        self.nms_overlap, self.nms_threshold = first.nms_overlap, first.nms_threshold
+
+    @property
+    def n_templates(self) -> int:
+        return sum(op.n_templates for _, op, _ in self.layers)
+
+    @property
+    def cell_sizes(self) -> list:
+        """Cell sizes in frame pixels (``c / factor`` on an upsampled layer)."""
+        return sorted(set(c / f for f, op, _ in self.layers for c in op.cell_sizes))
+
+    def feature_pixels(self) -> int:
+        """Pixels whose channels are computed per frame, all layers."""
+        return sum(op.feature_pixels() for _, op, _ in self.layers)
+
+    def position_weights(self) -> np.ndarray:
+        """Adapted weights of each distinct scored position, all layers (linear models)."""
+        return np.concatenate([op.position_weights() for _, op, _ in self.layers])
+
+    def boxes(self) -> np.ndarray:
+        """(N, 4) person boxes ``(x, y, w, h)`` of the scored windows, frame pixels."""
+        return self._cached_boxes().copy()
+
+    def _cached_boxes(self) -> np.ndarray:
+        b = getattr(self, "_boxes", None)
+        if b is None:
+            b = self._boxes = person_boxes(self.snapped_homographies)
+        return b
+
+    def frame_features(self, image) -> list:
+        """One :class:`FrameFeatures` per layer (the upsampled frame computed once)."""
+        import cv2
+
+        img = _check_frame(image, self.image_size)
+        out, resized = [], {}
+        for f, op, _ in self.layers:
+            if f not in resized:
+                w, h = self.image_size
+                resized[f] = img if f == 1 else cv2.resize(
+                    img, (f * w, f * h), interpolation=cv2.INTER_LINEAR)
+            out.append(op.frame_features(resized[f]))
+        return out
+
+    def scores(self, features, **kw) -> np.ndarray:
+        """(N,) scores of all windows from :meth:`frame_features` (``kw``: the layers'
+        ``method``)."""
+        if len(features) != len(self.layers):
+            raise ValueError(f"features must be a list of {len(self.layers)} FrameFeatures "
+                             "(MultiResolutionOperator.frame_features)")
+        out = np.empty(self.n_windows)
+        for (f, op, idx), feats in zip(self.layers, features):
+            out[idx] = op.scores(feats, **kw)
+        return out
+
+    def detect(self, image, *, threshold: float = 0.0, nms_threshold=None,
+               max_candidates: int = 2000, **kw) -> np.ndarray:
+        """Features, scores and non-maximum suppression (as the layers' operator kind).
+
+        Returns
+        -------
+        (D, 5) ndarray of ``(x, y, w, h, score)`` rows in frame pixels, by decreasing score.
+        """
+        s = self.scores(self.frame_features(image), **kw)
+        return detections_from_scores(
+            self._cached_boxes(), s, threshold=threshold, overlap=self.nms_overlap,
+            nms_threshold=self.nms_threshold if nms_threshold is None else nms_threshold,
+            max_candidates=max_candidates)
+
+
+def build_multiresolution_operator(windows: CandidateWindows, build, *,
+                                   upsample_below: float = 0.5,
+                                   factor: int = 2) -> MultiResolutionOperator:
+    """Adapted operators of small persons' windows on an upsampled frame, the rest native.
+
+    Parameters
+    ----------
+    windows : CandidateWindows
+    build : callable
+        ``build(windows) -> operator``, e.g.
+        ``lambda w: build_adapted_linear_operator(w, weights, bias)``; called once per
+        layer with that layer's windows in its own frame's coordinates.
+    upsample_below : float
+        Windows with fewer than this many frame pixels per canonical-window pixel (a person
+        of ``96 s`` px) read the upsampled frame; 0 = none.
+    factor : int
+        Upsampling of that frame.
+
+    Returns
+    -------
+    MultiResolutionOperator
+    """
+    _check_windows(windows)
+    if not np.isfinite(upsample_below) or upsample_below < 0:
+        raise ValueError(f"upsample_below must be >= 0, got {upsample_below!r}")
+    small = windows.scale < upsample_below
+    layers = []
+    for f, mask in ((1, ~small), (int(factor), small)):
+        idx = np.flatnonzero(mask)
+        if len(idx):
+            sub = windows.subset(idx)
+            layers.append((f, build(sub if f == 1 else upsampled_windows(sub, f)), idx))
+    return MultiResolutionOperator(windows, layers)
 
 
 def detections_from_scores(boxes, scores, *, threshold: float = 0.0,
