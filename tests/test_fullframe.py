@@ -12,7 +12,7 @@ from viewadapt.fullframe import (
     acf_frame_features, acf_window_features, build_adapted_trees_operator,
     fast_acf_pixel_channels,
     fast_orientation_channels, hog_frame_features, hog_window_features, orientation_cell_maps,
-    build_multiresolution_operator, upsampled_windows,
+    build_multiresolution_operator, upsampled_windows, _upsampled_band,
 )
 from viewadapt.geometry import (
     Camera, camera_from_pose, look_at_rotation, window_to_image_homography,
@@ -444,29 +444,40 @@ def test_multiresolution_scores_are_the_layers_explicit_scores(windows, frame):
         return build_adapted_linear_operator(win, w, 0.2, tolerance=0.0)
 
     op = build_multiresolution_operator(sub, build, upsample_below=s_mid)
-    assert [f for f, _, _ in op.layers] == [1, 2]
+    assert [layer.factor for layer in op.layers] == [1, 2]
     small = np.flatnonzero(sub.scale < s_mid)
-    assert np.array_equal(op.layers[1][2], small) and 0 < len(small) < len(sub)
+    assert np.array_equal(op.layers[1].index, small) and 0 < len(small) < len(sub)
+    # only the band of rows the small windows cover is upsampled, and it holds the same
+    # pixels as those rows of the whole upsampled frame
+    r0, r1 = op.layers[1].rows
+    assert 0 <= r0 < r1 <= SIZE[1] and (r0, r1) != (0, SIZE[1])
+    assert (2 * r0) % 48 == 0
+    big = cv2.resize(frame, (2 * SIZE[0], 2 * SIZE[1]), interpolation=cv2.INTER_LINEAR)
+    band = big[2 * r0:2 * r1]
+    assert np.array_equal(_upsampled_band(frame, 2, (r0, r1)), band)
     # tolerance 0: every window is scored at its own homography, in frame pixels
     assert np.allclose(op.snapped_homographies, sub.homographies, atol=1e-9)
     assert np.allclose(op.boxes(), sub.person_boxes(), atol=1e-6)
     feats = op.frame_features(frame)
     s = op.scores(feats)
-    big = cv2.resize(frame, (2 * SIZE[0], 2 * SIZE[1]), interpolation=cv2.INTER_LINEAR)
-    U = np.array([[2.0, 0, 0.5], [0, 2.0, 0.5], [0, 0, 1]])
+    U = np.array([[2.0, 0, 0.5], [0, 2.0, 0.5 - 2 * r0], [0, 0, 1]])   # frame -> band
     ref_native = build(sub)
     for n in range(0, len(sub), 5):
         if sub.scale[n] < s_mid:
             k = int(np.flatnonzero(small == n)[0])
-            c = int(op.layers[1][1].cell_size[k])
-            ref = _explicit_hog_score(big, U @ sub.homographies[n], c, w, 0.2)
+            c = int(op.layers[1].operator.cell_size[k])
+            ref = _explicit_hog_score(band, U @ sub.homographies[n], c, w, 0.2)
         else:
             ref = _explicit_hog_score(frame, sub.homographies[n],
                                       int(ref_native.cell_size[n]), w, 0.2)
         assert s[n] == pytest.approx(ref, rel=1e-4, abs=1e-4 * np.abs(w).sum())
+    # the band gives the scores the whole upsampled frame would (its edges are far enough)
+    whole = build(upsampled_windows(sub.subset(small), 2))
+    assert np.allclose(whole.scores(whole.frame_features(big)), s[small], rtol=1e-5,
+                       atol=1e-5 * np.abs(w).sum())
     # no window below the threshold: one native layer, the plain operator's scores
     flat = build_multiresolution_operator(sub, build, upsample_below=0.0)
-    assert [f for f, _, _ in flat.layers] == [1]
+    assert [layer.factor for layer in flat.layers] == [1]
     assert np.allclose(flat.scores(flat.frame_features(frame)),
                        ref_native.scores(ref_native.frame_features(frame)), **EXACT)
     d = op.detect(frame, threshold=-np.inf)

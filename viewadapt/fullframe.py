@@ -72,7 +72,9 @@ References
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 import scipy.sparse as sp
@@ -1392,19 +1394,34 @@ def upsampled_windows(windows: CandidateWindows, factor: int) -> CandidateWindow
                             U @ windows.homographies, (f * w, f * h), windows.grid_index)
 
 
+class _Layer(NamedTuple):
+    factor: int                    # upsampling of the frame this layer reads
+    operator: object               # adapted operator in that frame's band coordinates
+    index: np.ndarray              # (k,) its windows
+    rows: tuple                    # (r0, r1): the frame rows upsampled (all rows if 1)
+
+
+#: Context kept around an upsampled band, frame px: gradients, block normalisation and ACF
+#: smoothing near the band's edges never reach a window's cells (16 px = 2 cells of 16 px
+#: in the 2x frame, and the band starts on a multiple of every cell size).
+_BAND_MARGIN = 16
+_BAND_ALIGN = 48                   # lcm of the allowed cell sizes, upsampled-frame px
+
+
 class MultiResolutionOperator:
     """Adapted operators of one camera over the frame and an upsampled copy of it.
 
     Windows of small persons (frame pixels per canonical pixel ``s`` below
-    ``upsample_below``) read cells of the frame upsampled ``factor`` times (bilinear); the
-    others read the frame itself. Each part is an ordinary adapted operator
+    ``upsample_below``) read cells of the frame upsampled ``factor`` times (bilinear), and
+    only the band of rows those windows cover (plus a margin) is upsampled; the others
+    read the frame itself. Each part is an ordinary adapted operator
     (:class:`AdaptedLinearOperator`, :class:`AdaptedTreesOperator`) built for its windows
-    in its frame's coordinates, so every window's score is still ``w^T G_n x`` -- with
+    in its own frame's coordinates, so every window's score is still ``w^T G_n x`` -- with
     ``x`` the cells of the frame it reads. Built by :func:`build_multiresolution_operator`.
 
     Attributes
     ----------
-    layers : list of (factor, operator, (k,) window indices)
+    layers : list of (factor, operator, (k,) window indices, (r0, r1) frame rows)
     snapped_homographies : (N, 3, 3) ndarray
         Each window's scored homography, in the frame's own pixels.
     """
@@ -1412,35 +1429,33 @@ class MultiResolutionOperator:
     def __init__(self, windows, layers):
         self.image_size = tuple(windows.image_size)
         self.n_windows = len(windows)
-        self.layers = layers
+        self.layers = [_Layer(*layer) for layer in layers]
         H = np.empty((self.n_windows, 3, 3))
-        for f, op, idx in layers:
-            D = np.array([[1.0 / f, 0.0, -(f - 1) / (2.0 * f)], [0.0, 1.0 / f,
-                          -(f - 1) / (2.0 * f)], [0.0, 0.0, 1.0]])
-            H[idx] = D @ op.snapped_homographies
-        self.snapped_homographies = H
         self.cell_size = np.zeros(self.n_windows)
-        for f, op, idx in layers:
+        for f, op, idx, (r0, _) in self.layers:
+            H[idx] = _band_to_frame(f, r0) @ op.snapped_homographies
             self.cell_size[idx] = op.cell_size / f           # in frame pixels
-        first = layers[0][1]
+        self.snapped_homographies = H
+        first = self.layers[0].operator
         self.nms_overlap, self.nms_threshold = first.nms_overlap, first.nms_threshold
 
     @property
     def n_templates(self) -> int:
-        return sum(op.n_templates for _, op, _ in self.layers)
+        return sum(layer.operator.n_templates for layer in self.layers)
 
     @property
     def cell_sizes(self) -> list:
         """Cell sizes in frame pixels (``c / factor`` on an upsampled layer)."""
-        return sorted(set(c / f for f, op, _ in self.layers for c in op.cell_sizes))
+        return sorted(set(c / layer.factor for layer in self.layers
+                          for c in layer.operator.cell_sizes))
 
     def feature_pixels(self) -> int:
         """Pixels whose channels are computed per frame, all layers."""
-        return sum(op.feature_pixels() for _, op, _ in self.layers)
+        return sum(layer.operator.feature_pixels() for layer in self.layers)
 
     def position_weights(self) -> np.ndarray:
         """Adapted weights of each distinct scored position, all layers (linear models)."""
-        return np.concatenate([op.position_weights() for _, op, _ in self.layers])
+        return np.concatenate([layer.operator.position_weights() for layer in self.layers])
 
     def boxes(self) -> np.ndarray:
         """(N, 4) person boxes ``(x, y, w, h)`` of the scored windows, frame pixels."""
@@ -1453,18 +1468,10 @@ class MultiResolutionOperator:
         return b
 
     def frame_features(self, image) -> list:
-        """One :class:`FrameFeatures` per layer (the upsampled frame computed once)."""
-        import cv2
-
+        """One :class:`FrameFeatures` per layer."""
         img = _check_frame(image, self.image_size)
-        out, resized = [], {}
-        for f, op, _ in self.layers:
-            if f not in resized:
-                w, h = self.image_size
-                resized[f] = img if f == 1 else cv2.resize(
-                    img, (f * w, f * h), interpolation=cv2.INTER_LINEAR)
-            out.append(op.frame_features(resized[f]))
-        return out
+        return [layer.operator.frame_features(_upsampled_band(img, layer.factor, layer.rows))
+                for layer in self.layers]
 
     def scores(self, features, **kw) -> np.ndarray:
         """(N,) scores of all windows from :meth:`frame_features` (``kw``: the layers'
@@ -1473,8 +1480,8 @@ class MultiResolutionOperator:
             raise ValueError(f"features must be a list of {len(self.layers)} FrameFeatures "
                              "(MultiResolutionOperator.frame_features)")
         out = np.empty(self.n_windows)
-        for (f, op, idx), feats in zip(self.layers, features):
-            out[idx] = op.scores(feats, **kw)
+        for layer, feats in zip(self.layers, features):
+            out[layer.index] = layer.operator.scores(feats, **kw)
         return out
 
     def detect(self, image, *, threshold: float = 0.0, nms_threshold=None,
@@ -1492,6 +1499,27 @@ class MultiResolutionOperator:
             max_candidates=max_candidates)
 
 
+def _band_to_frame(f, r0):
+    """Homography from a band's pixels (rows ``r0..`` of the frame upsampled ``f`` times)
+    to the frame's pixels."""
+    c = (f - 1) / (2.0 * f)
+    return np.array([[1.0 / f, 0.0, -c], [0.0, 1.0 / f, r0 - c], [0.0, 0.0, 1.0]])
+
+
+def _upsampled_band(img, f, rows):
+    """Rows ``r0:r1`` of ``img`` upsampled ``f`` times: the same pixels as those rows of the
+    whole frame upsampled by ``cv2.resize`` (two rows of context resized with them)."""
+    import cv2
+
+    if f == 1:
+        return img
+    r0, r1 = rows
+    a, b = max(r0 - 2, 0), min(r1 + 2, img.shape[0])
+    big = cv2.resize(np.ascontiguousarray(img[a:b]), (f * img.shape[1], f * (b - a)),
+                     interpolation=cv2.INTER_LINEAR)
+    return big[f * (r0 - a):f * (r1 - a)]
+
+
 def build_multiresolution_operator(windows: CandidateWindows, build, *,
                                    upsample_below: float = 0.5,
                                    factor: int = 2) -> MultiResolutionOperator:
@@ -1503,7 +1531,8 @@ def build_multiresolution_operator(windows: CandidateWindows, build, *,
     build : callable
         ``build(windows) -> operator``, e.g.
         ``lambda w: build_adapted_linear_operator(w, weights, bias)``; called once per
-        layer with that layer's windows in its own frame's coordinates.
+        layer with that layer's windows in its own frame's coordinates (for the upsampled
+        layer: the band of frame rows its windows cover, upsampled).
     upsample_below : float
         Windows with fewer than this many frame pixels per canonical-window pixel (a person
         of ``96 s`` px) read the upsampled frame; 0 = none.
@@ -1517,13 +1546,25 @@ def build_multiresolution_operator(windows: CandidateWindows, build, *,
     _check_windows(windows)
     if not np.isfinite(upsample_below) or upsample_below < 0:
         raise ValueError(f"upsample_below must be >= 0, got {upsample_below!r}")
+    f = int(factor)
     small = windows.scale < upsample_below
+    w, h = windows.image_size
     layers = []
-    for f, mask in ((1, ~small), (int(factor), small)):
-        idx = np.flatnonzero(mask)
-        if len(idx):
-            sub = windows.subset(idx)
-            layers.append((f, build(sub if f == 1 else upsampled_windows(sub, f)), idx))
+    idx = np.flatnonzero(~small)
+    if len(idx):
+        layers.append((1, build(windows.subset(idx)), idx, (0, h)))
+    idx = np.flatnonzero(small)
+    if len(idx):
+        sub = upsampled_windows(windows.subset(idx), f)
+        ys = _map_points(sub.homographies, _PROBES[:4])[:, :, 1]
+        align = _BAND_ALIGN // math.gcd(_BAND_ALIGN, f) * f        # f px per frame row
+        y0 = max(0, int(np.floor((ys.min() - f * _BAND_MARGIN) / align)) * align)
+        y1 = min(f * h, int(np.ceil(ys.max() + f * _BAND_MARGIN)))
+        r0, r1 = y0 // f, -(-y1 // f)
+        T = np.array([[1.0, 0.0, 0.0], [0.0, 1.0, -f * r0], [0.0, 0.0, 1.0]])
+        band = CandidateWindows(sub.ground_xy, sub.person_height, T @ sub.homographies,
+                                (f * w, f * (r1 - r0)), sub.grid_index)
+        layers.append((f, build(band), idx, (r0, r1)))
     return MultiResolutionOperator(windows, layers)
 
 
