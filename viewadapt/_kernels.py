@@ -138,3 +138,63 @@ def block_normalize(X, eps, clip, out):  # pragma: no cover - compiled
                     out[i, j, b] += f
                     tex += f
                 out[i, j, nb + k] = tex
+
+
+@njit(cache=True, nogil=True, boundscheck=False)
+def rgb_to_luv(img, M, y0, kappa, scale, un, vn, u_off, v_off, out):  # pragma: no cover
+    """Per pixel of an (H, W, 3) float32 RGB image in [0, 1]: XYZ = ``M`` RGB, then the
+    toolbox's scaled LUV (``viewadapt.acf.rgb_to_luv``), written into ``out``."""
+    H, W = img.shape[0], img.shape[1]
+    third = np.float32(1.0 / 3.0)
+    for i in range(H):
+        for j in range(W):
+            r = img[i, j, 0]
+            g = img[i, j, 1]
+            b = img[i, j, 2]
+            x = M[0, 0] * r + M[0, 1] * g + M[0, 2] * b
+            y = M[1, 0] * r + M[1, 1] * g + M[1, 2] * b
+            z = M[2, 0] * r + M[2, 1] * g + M[2, 2] * b
+            if y > y0:
+                L = (np.float32(116.0) * y ** third - np.float32(16.0)) * scale
+            else:
+                L = y * kappa * scale
+            inv = np.float32(1.0) / (x + np.float32(15.0) * y + np.float32(3.0) * z
+                                     + np.float32(1e-35))
+            out[i, j, 0] = L
+            out[i, j, 1] = L * (np.float32(52.0) * x * inv - np.float32(13.0) * un) + u_off
+            out[i, j, 2] = L * (np.float32(117.0) * y * inv - np.float32(13.0) * vn) + v_off
+
+
+@njit(cache=True, nogil=True, boundscheck=False)
+def acf_channels_out(luv, mag, dx, dy, n_orient, out):  # pragma: no cover - compiled
+    """The ten ACF pixel channels into ``out`` (H, W, 4 + n_orient): L, U, V, the
+    normalised magnitude, and the magnitude in the unsigned orientation bin of
+    ``(dx, dy)`` (bin ``k`` centred at ``k pi / n_orient``; a pixel exactly on a boundary
+    goes to the upper bin, as ``floor(theta n / pi + 1/2)`` does)."""
+    H, W = mag.shape
+    cs = np.empty(n_orient, np.float32)
+    sn = np.empty(n_orient, np.float32)
+    for k in range(n_orient):
+        b = (k + 0.5) * np.pi / n_orient
+        cs[k] = np.cos(b)
+        sn[k] = np.sin(b)
+    for i in range(H):
+        for j in range(W):
+            out[i, j, 0] = luv[i, j, 0]
+            out[i, j, 1] = luv[i, j, 1]
+            out[i, j, 2] = luv[i, j, 2]
+            m = mag[i, j]
+            out[i, j, 3] = m
+            x = dx[i, j]
+            y = dy[i, j]
+            if y < 0 or (y == 0 and x < 0):          # the upper half-plane: unsigned angle
+                x = -x
+                y = -y
+            k_bin = 0
+            for k in range(n_orient):                # boundaries at or below the angle
+                if cs[k] * y - sn[k] * x >= 0:
+                    k_bin += 1
+            if k_bin == n_orient:
+                k_bin = 0
+            for k in range(n_orient):
+                out[i, j, 4 + k] = m if k == k_bin else np.float32(0.0)

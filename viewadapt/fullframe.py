@@ -222,24 +222,19 @@ def fast_acf_pixel_channels(image) -> np.ndarray:
 
     from . import acf as _acf
 
-    img = check_image(image).astype(np.float32) * np.float32(1 / 255)
+    from ._kernels import acf_channels_out, rgb_to_luv, strongest_gradient
+
+    img = check_image(image, dtype=np.float32) * np.float32(1 / 255)
     if img.ndim == 2:
         img = cv2.merge([img, img, img])
     M, N = img.shape[:2]
-    xyz = cv2.transform(img, _acf._RGB_TO_XYZ.astype(np.float32))
-    x, y, z = cv2.split(xyz)
-    cube = cv2.pow(y, 1.0 / 3.0)
-    L = np.where(y > np.float32(_acf._Y0), np.float32(116.0) * cube - np.float32(16.0),
-                 y * np.float32(_acf._KAPPA)) * np.float32(_acf._LUV_SCALE)
-    inv = 1.0 / (x + 15.0 * y + 3.0 * z + np.float32(1e-35))
-    U = L * (np.float32(52.0) * x * inv - np.float32(13.0 * _acf._UN)) \
-        + np.float32(_acf._U_OFFSET)
-    V = L * (np.float32(117.0) * y * inv - np.float32(13.0 * _acf._VN)) \
-        + np.float32(_acf._V_OFFSET)
+    f32 = np.float32
+    luv = np.empty((M, N, 3), np.float32)
+    rgb_to_luv(img, _acf._RGB_TO_XYZ.astype(np.float32), f32(_acf._Y0), f32(_acf._KAPPA),
+               f32(_acf._LUV_SCALE), f32(_acf._UN), f32(_acf._VN), f32(_acf._U_OFFSET),
+               f32(_acf._V_OFFSET), luv)
     tri1 = _acf._triangle_kernel(1).astype(np.float32)
-    luv = cv2.sepFilter2D(cv2.merge([L.astype(np.float32), U.astype(np.float32),
-                                     V.astype(np.float32)]), -1, tri1, tri1,
-                          borderType=cv2.BORDER_REFLECT)
+    luv = cv2.sepFilter2D(luv, -1, tri1, tri1, borderType=cv2.BORDER_REFLECT)
     # toolbox grad1: central differences / 2 inside, one-sided at the ends
     k = np.array([[-0.5, 0.0, 0.5]], np.float32)
     gx = cv2.filter2D(luv, -1, k, borderType=cv2.BORDER_REPLICATE)
@@ -254,18 +249,16 @@ def fast_acf_pixel_channels(image) -> np.ndarray:
         gy[-1] = luv[-1] - luv[-2]
     else:
         gy[:] = 0
-    dx, dy, best = _strongest_channel(gx, gy)
-    mag = cv2.sqrt(best)
+    dx = np.empty((M, N), np.float32)
+    dy = np.empty((M, N), np.float32)
+    strongest_gradient(gx, gy, dx, dy)
+    mag = cv2.magnitude(dx, dy)
     tri5 = _acf._triangle_kernel(5).astype(np.float32)
     mag = mag / (cv2.sepFilter2D(mag, -1, tri5, tri5, borderType=cv2.BORDER_REFLECT)
                  + np.float32(0.005))
-    n_o = _N_ORIENT_ACF
-    theta = np.arctan2(dy, dx)                                  # float32, in [-pi, pi]
-    o = theta * np.float32(n_o / np.pi) + np.float32(0.5)
-    k_bin = np.floor(o).astype(np.int32) % n_o
-    planes = [luv[:, :, 0], luv[:, :, 1], luv[:, :, 2], mag]
-    planes += [np.where(k_bin == b, mag, np.float32(0.0)) for b in range(n_o)]
-    return cv2.merge([np.ascontiguousarray(q, dtype=np.float32) for q in planes])
+    out = np.empty((M, N, 4 + _N_ORIENT_ACF), np.float32)
+    acf_channels_out(luv, mag, dx, dy, _N_ORIENT_ACF, out)
+    return out
 
 
 @dataclass
