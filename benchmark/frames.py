@@ -359,9 +359,10 @@ def _window_person_boxes(H):
 
 #: Windows of persons smaller than ``96 * UPSAMPLE_BELOW`` px (48 px) read the frame
 #: upsampled 2x (:func:`viewadapt.fullframe.build_multiresolution_operator`). Chosen on the
-#: 26 paper-preset frames, adapted LAMR with the frame upsampled below s = 0 (never) / 0.35
-#: / 0.5 / 0.7 / everywhere: HOG/SVM 0.683 / 0.649 / 0.617 / 0.630 / 0.643, ACF 0.691 /
-#: 0.669 / 0.646 / 0.648 / 0.633; checked on the 78 frames rendered after them.
+#: 26 paper-preset frames (templates grouped over all windows in that experiment), adapted
+#: LAMR with the frame upsampled below s = 0 (never) / 0.35 / 0.5 / 0.7 / everywhere:
+#: HOG/SVM 0.683 / 0.649 / 0.617 / 0.630 / 0.643, ACF 0.691 / 0.669 / 0.646 / 0.648 /
+#: 0.633; checked on the 78 frames rendered after them (README, "Accuracy").
 UPSAMPLE_BELOW = 0.5
 
 
