@@ -691,7 +691,23 @@ class _Group:
     template: object = None        # linear: (n_y, n_x, C) float32; trees: sparse G rows
 
 
-class _OperatorBase:
+class _SnappedBoxes:
+    """Person boxes of an operator's ``snapped_homographies``, computed once."""
+
+    def boxes(self) -> np.ndarray:
+        """(N, 4) person boxes ``(x, y, w, h)`` of the scored (snapped) windows, in the
+        frame's pixels."""
+        return self._cached_boxes().copy()
+
+    def _cached_boxes(self) -> np.ndarray:
+        # computed once per operator (not per frame): ~18 ms for 30,000 windows
+        b = getattr(self, "_boxes", None)
+        if b is None:
+            b = self._boxes = person_boxes(self.snapped_homographies)
+        return b
+
+
+class _OperatorBase(_SnappedBoxes):
     """Shared geometry of the adapted operators (see :class:`AdaptedLinearOperator`)."""
 
     source_cell: int = HOG_CELL
@@ -718,17 +734,6 @@ class _OperatorBase:
     @property
     def n_templates(self) -> int:
         return len(self.groups)
-
-    def boxes(self) -> np.ndarray:
-        """(N, 4) person boxes ``(x, y, w, h)`` of the scored (snapped) windows."""
-        return self._cached_boxes().copy()
-
-    def _cached_boxes(self) -> np.ndarray:
-        # computed once per operator (not per frame): ~18 ms for 30,000 windows
-        b = getattr(self, "_boxes", None)
-        if b is None:
-            b = self._boxes = person_boxes(self.snapped_homographies)
-        return b
 
     def feature_pixels(self) -> int:
         """Frame pixels whose channels are computed per frame (the whole frame, once)."""
@@ -1401,7 +1406,7 @@ _BAND_MARGIN = 16
 _BAND_ALIGN = 48                   # lcm of the allowed cell sizes, upsampled-frame px
 
 
-class MultiResolutionOperator:
+class MultiResolutionOperator(_SnappedBoxes):
     """Adapted operators of one camera over the frame and an upsampled copy of it.
 
     Windows of small persons (frame pixels per canonical pixel ``s`` below
@@ -1449,16 +1454,6 @@ class MultiResolutionOperator:
     def position_weights(self) -> np.ndarray:
         """Adapted weights of each distinct scored position, all layers (linear models)."""
         return np.concatenate([layer.operator.position_weights() for layer in self.layers])
-
-    def boxes(self) -> np.ndarray:
-        """(N, 4) person boxes ``(x, y, w, h)`` of the scored windows, frame pixels."""
-        return self._cached_boxes().copy()
-
-    def _cached_boxes(self) -> np.ndarray:
-        b = getattr(self, "_boxes", None)
-        if b is None:
-            b = self._boxes = person_boxes(self.snapped_homographies)
-        return b
 
     def frame_features(self, image) -> list:
         """One :class:`FrameFeatures` per layer."""
