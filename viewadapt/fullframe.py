@@ -140,24 +140,32 @@ _PROBES = np.array([[-0.5, -0.5], [WINDOW_WIDTH - 0.5, -0.5], [WINDOW_WIDTH - 0.
 # ---------------------------------------------------------------------------- features
 
 
-def _strongest_channel(dx, dy):
-    """Per pixel, the colour channel of largest gradient magnitude (ties keep the earlier
-    channel): ``(dx, dy, dx**2 + dy**2)`` of that channel, float32 planes."""
+def _strongest_gradient(dx, dy):
+    """Per pixel of (M, N, K) float32 derivatives, the ``(dx, dy)`` planes of the channel of
+    largest magnitude (ties keep the earlier channel)."""
+    from ._kernels import strongest_gradient
+
+    gx = np.empty(dx.shape[:2], np.float32)
+    gy = np.empty(dx.shape[:2], np.float32)
+    strongest_gradient(dx, dy, gx, gy)
+    return gx, gy
+
+
+def _gradient_polar(img):
+    """HOG gradients of a float32 (M, N[, 3]) image: central differences with reflect-101
+    borders, the colour channel of largest magnitude; ``(magnitude, angle in [0, 2 pi))``."""
     import cv2
 
-    xs, ys = cv2.split(dx), cv2.split(dy)
-    m2 = [cv2.add(cv2.multiply(x, x), cv2.multiply(y, y)) for x, y in zip(xs, ys)]
-    gx, gy, best = xs[0].copy(), ys[0].copy(), m2[0]
-    for c in range(1, len(xs)):
-        sel = cv2.compare(m2[c], best, cv2.CMP_GT)
-        cv2.copyTo(xs[c], sel, gx)
-        cv2.copyTo(ys[c], sel, gy)
-        best = cv2.max(best, m2[c])
-    return gx, gy, best
+    k = np.array([[-1.0, 0.0, 1.0]], np.float32)
+    dx = cv2.filter2D(img, cv2.CV_32F, k, borderType=cv2.BORDER_REFLECT_101)
+    dy = cv2.filter2D(img, cv2.CV_32F, k.T, borderType=cv2.BORDER_REFLECT_101)
+    if img.ndim == 3:
+        dx, dy = _strongest_gradient(dx, dy)
+    return cv2.cartToPolar(dx, dy)
 
 
 def fast_orientation_channels(image, *, n_bins: int = 9, gamma: bool = False) -> np.ndarray:
-    """Per-pixel oriented gradient magnitudes in float32 with OpenCV kernels.
+    """Per-pixel oriented gradient magnitudes in float32 (OpenCV kernels, compiled channel pick).
 
     The same quantity as :func:`viewadapt.hog.orientation_channels`:
     (optionally square-root gamma, then) central differences with reflect-101 borders, the colour channel of largest magnitude,
@@ -180,14 +188,9 @@ def fast_orientation_channels(image, *, n_bins: int = 9, gamma: bool = False) ->
     img = check_image(image).astype(np.float32)
     if gamma:
         img = cv2.sqrt(img)
-    k = np.array([[-1.0, 0.0, 1.0]], np.float32)
-    dx = cv2.filter2D(img, cv2.CV_32F, k, borderType=cv2.BORDER_REFLECT_101)
-    dy = cv2.filter2D(img, cv2.CV_32F, k.T, borderType=cv2.BORDER_REFLECT_101)
+    mag, ang = _gradient_polar(img)
     # OpenCV element-wise calls on contiguous planes throughout: several times faster than
     # numpy on strided channel views (measured in benchmark/perf/runtime.py's feature time)
-    if img.ndim == 3:
-        dx, dy, _ = _strongest_channel(dx, dy)
-    mag, ang = cv2.cartToPolar(dx, dy)            # angle in [0, 2 pi)
     t = cv2.subtract(cv2.multiply(ang, n_bins / np.pi), 0.5)      # in [-0.5, 2 n_bins)
     for _ in range(2):                                            # t mod n_bins
         cv2.add(t, float(n_bins), t, mask=cv2.compare(t, 0.0, cv2.CMP_LT))
@@ -222,7 +225,7 @@ def fast_acf_pixel_channels(image) -> np.ndarray:
 
     from . import acf as _acf
 
-    from ._kernels import acf_channels_out, rgb_to_luv, strongest_gradient
+    from ._kernels import acf_channels_out, rgb_to_luv
 
     img = check_image(image, dtype=np.float32) * np.float32(1 / 255)
     if img.ndim == 2:
@@ -249,9 +252,7 @@ def fast_acf_pixel_channels(image) -> np.ndarray:
         gy[-1] = luv[-1] - luv[-2]
     else:
         gy[:] = 0
-    dx = np.empty((M, N), np.float32)
-    dy = np.empty((M, N), np.float32)
-    strongest_gradient(gx, gy, dx, dy)
+    dx, dy = _strongest_gradient(gx, gy)
     mag = cv2.magnitude(dx, dy)
     tri5 = _acf._triangle_kernel(5).astype(np.float32)
     mag = mag / (cv2.sepFilter2D(mag, -1, tri5, tri5, borderType=cv2.BORDER_REFLECT)
@@ -374,20 +375,9 @@ def orientation_cell_maps(image, cell_sizes, *, n_bins: int = _N_HOG_BINS) -> di
     -------
     dict int -> (M // c, N // c, n_bins) float32 ndarray
     """
-    import cv2
+    from ._kernels import orientation_cell_sums
 
-    from ._kernels import orientation_cell_sums, strongest_gradient
-
-    img = check_image(image, dtype=np.float32)
-    k = np.array([[-1.0, 0.0, 1.0]], np.float32)
-    dx = cv2.filter2D(img, cv2.CV_32F, k, borderType=cv2.BORDER_REFLECT_101)
-    dy = cv2.filter2D(img, cv2.CV_32F, k.T, borderType=cv2.BORDER_REFLECT_101)
-    if img.ndim == 3:
-        gx = np.empty(img.shape[:2], np.float32)
-        gy = np.empty(img.shape[:2], np.float32)
-        strongest_gradient(dx, dy, gx, gy)
-        dx, dy = gx, gy
-    mag, ang = cv2.cartToPolar(dx, dy)            # angle in [0, 2 pi)
+    mag, ang = _gradient_polar(check_image(image, dtype=np.float32))
     M, N = mag.shape
 
     def from_pixels(c):
@@ -1386,10 +1376,23 @@ def upsampled_windows(windows: CandidateWindows, factor: int) -> CandidateWindow
     f = int(factor)
     if f < 1:
         raise ValueError(f"factor must be a positive integer, got {factor!r}")
-    U = np.array([[f, 0.0, (f - 1) / 2], [0.0, f, (f - 1) / 2], [0.0, 0.0, 1.0]])
     w, h = windows.image_size
+    return _band_windows(windows, f, (0, h))
+
+
+def _frame_to_band(f, r0):
+    """Homography from the frame's pixels to those of its rows ``r0..`` upsampled ``f``
+    times by ``cv2.resize`` (pixel centres ``u' = f u + (f - 1) / 2``)."""
+    c = (f - 1) / 2.0
+    return np.array([[f, 0.0, c], [0.0, f, c - f * r0], [0.0, 0.0, 1.0]])
+
+
+def _band_windows(windows, f, rows):
+    """``windows`` in the band of frame rows ``rows = (r0, r1)`` upsampled ``f`` times."""
+    r0, r1 = rows
     return CandidateWindows(windows.ground_xy, windows.person_height,
-                            U @ windows.homographies, (f * w, f * h), windows.grid_index)
+                            _frame_to_band(f, r0) @ windows.homographies,
+                            (f * windows.image_size[0], f * (r1 - r0)), windows.grid_index)
 
 
 class _Layer(NamedTuple):
@@ -1429,10 +1432,8 @@ class MultiResolutionOperator(_SnappedBoxes):
         self.n_windows = len(windows)
         self.layers = [_Layer(*layer) for layer in layers]
         H = np.empty((self.n_windows, 3, 3))
-        self.cell_size = np.zeros(self.n_windows)
         for f, op, idx, (r0, _) in self.layers:
-            H[idx] = _band_to_frame(f, r0) @ op.snapped_homographies
-            self.cell_size[idx] = op.cell_size / f           # in frame pixels
+            H[idx] = np.linalg.inv(_frame_to_band(f, r0)) @ op.snapped_homographies
         self.snapped_homographies = H
         first = self.layers[0].operator
         self.nms_overlap, self.nms_threshold = first.nms_overlap, first.nms_threshold
@@ -1487,13 +1488,6 @@ class MultiResolutionOperator(_SnappedBoxes):
             max_candidates=max_candidates)
 
 
-def _band_to_frame(f, r0):
-    """Homography from a band's pixels (rows ``r0..`` of the frame upsampled ``f`` times)
-    to the frame's pixels."""
-    c = (f - 1) / (2.0 * f)
-    return np.array([[1.0 / f, 0.0, -c], [0.0, 1.0 / f, r0 - c], [0.0, 0.0, 1.0]])
-
-
 def _upsampled_band(img, f, rows):
     """Rows ``r0:r1`` of ``img`` upsampled ``f`` times: the same pixels as those rows of the
     whole frame upsampled by ``cv2.resize`` (two rows of context resized with them)."""
@@ -1543,16 +1537,15 @@ def build_multiresolution_operator(windows: CandidateWindows, build, *,
         layers.append((1, build(windows.subset(idx)), idx, (0, h)))
     idx = np.flatnonzero(small)
     if len(idx):
-        sub = upsampled_windows(windows.subset(idx), f)
-        ys = _map_points(sub.homographies, _PROBES[:4])[:, :, 1]
-        align = _BAND_ALIGN // math.gcd(_BAND_ALIGN, f) * f        # f px per frame row
+        sub = windows.subset(idx)
+        # the rows the windows cover, in upsampled px, widened by the margin; the band
+        # starts on a multiple of every cell size and of f
+        ys = f * _map_points(sub.homographies, _PROBES[:4])[:, :, 1] + (f - 1) / 2
+        align = _BAND_ALIGN // math.gcd(_BAND_ALIGN, f) * f
         y0 = max(0, int(np.floor((ys.min() - f * _BAND_MARGIN) / align)) * align)
         y1 = min(f * h, int(np.ceil(ys.max() + f * _BAND_MARGIN)))
-        r0, r1 = y0 // f, -(-y1 // f)
-        T = np.array([[1.0, 0.0, 0.0], [0.0, 1.0, -f * r0], [0.0, 0.0, 1.0]])
-        band = CandidateWindows(sub.ground_xy, sub.person_height, T @ sub.homographies,
-                                (f * w, f * (r1 - r0)), sub.grid_index)
-        layers.append((f, build(band), idx, (r0, r1)))
+        rows = (y0 // f, -(-y1 // f))
+        layers.append((f, build(_band_windows(sub, f, rows)), idx, rows))
     return MultiResolutionOperator(windows, layers)
 
 
