@@ -272,6 +272,22 @@ def _earlier_results(out: Path, data: Path) -> dict:
     return {m: (d, secs.get(m, float("nan"))) for m, d in read_json(det).items()}
 
 
+def curve_corners(fppi, miss_rate):
+    """The points of a DET curve (one per detection, by decreasing score) where the
+    staircase turns: the last point of each FPPI value, then the first of each run of equal
+    miss rates, and the end point. The miss rate at any FPPI
+    (:func:`viewadapt.metrics.miss_rate_at`) and so the log-average miss rate are
+    unchanged; a few hundred points instead of one per detection."""
+    fp, miss = np.asarray(fppi, float), np.asarray(miss_rate, float)
+    if fp.size == 0:
+        return fp, miss
+    last = np.r_[fp[1:] != fp[:-1], True]
+    fp, miss = fp[last], miss[last]
+    keep = np.r_[True, miss[1:] != miss[:-1]]
+    keep[-1] = True
+    return fp[keep], miss[keep]
+
+
 def _frame_key(f) -> str:
     return f"{f.path.name}@{f.scene_id}"
 
@@ -316,8 +332,8 @@ def cmd_bench_frames(args) -> int:
         (tmp / "frames_summary.md").write_text("\n".join(lines) + "\n")
         (tmp / "frames_summary.csv").write_text("\n".join(csv) + "\n")
         (tmp / "det_curves.json").write_text(json.dumps(
-            {m: {"fppi": results[m]["fppi"].tolist(), "miss_rate":
-                 results[m]["miss_rate"].tolist(), "lamr": results[m]["lamr"]}
+            {m: dict(zip(("fppi", "miss_rate"), (a.tolist() for a in curve_corners(
+                results[m]["fppi"], results[m]["miss_rate"]))), lamr=results[m]["lamr"])
              for m in methods}))
         (tmp / "detections.json").write_text(json.dumps(
             {m: {_frame_key(f): d.tolist() for f, d in zip(frames, dets[m])}

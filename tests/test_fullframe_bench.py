@@ -12,6 +12,7 @@ from benchmark.frames import (
 )
 from benchmark.toyframes import make_toy_frame_dataset
 from viewadapt.geometry import camera_from_pose
+from viewadapt.metrics import log_average_miss_rate
 
 
 def _main(argv):
@@ -72,7 +73,25 @@ def test_bench_frames_outputs(bench):
     curves = json.loads((bench / "det_curves.json").read_text())
     for m, c in curves.items():
         assert 0 < c["lamr"] <= 1
+        # the stored corners give the reported log-average miss rate
+        assert log_average_miss_rate(c["fppi"], c["miss_rate"]) == pytest.approx(c["lamr"])
     assert json.loads((bench / "run.json").read_text())["seed"] == 0
+
+
+def test_curve_corners_keep_every_miss_rate():
+    from benchmark.frames_cli import curve_corners
+    from viewadapt.metrics import miss_rate_at
+
+    rng = np.random.default_rng(0)
+    n = 400
+    fp = np.cumsum(rng.random(n) < 0.6) / 7.0                 # FPPI, non-decreasing
+    miss = 1 - np.cumsum(rng.random(n) < 0.3) / 200.0         # miss rate, non-increasing
+    cf, cm = curve_corners(fp, miss)
+    assert len(cf) < n / 2 and cf[-1] == fp[-1]
+    ref = np.r_[np.logspace(-3, 2, 500), fp, fp - 1e-9]
+    assert np.array_equal(miss_rate_at(cf, cm, ref), miss_rate_at(fp, miss, ref))
+    assert log_average_miss_rate(cf, cm) == log_average_miss_rate(fp, miss)
+    assert [len(a) for a in curve_corners([], [])] == [0, 0]
 
 
 def test_rerun_some_methods_keeping_the_others(toy, bench, tmp_path):
