@@ -240,6 +240,21 @@ def test_window_features_are_frame_features_at_8px():
     assert np.allclose(hog_window_features(win), f, **FLOAT32)
 
 
+def test_hog_maps_share_one_buffer_in_the_order_given(frame):
+    f = hog_frame_features(frame, [4, 2, 8, 4], pad=2)
+    assert list(f.maps) == [4, 2, 8]
+    ref = np.concatenate([f.maps[c].ravel() for c in (4, 2, 8)])
+    v = f.vector([4, 2, 8])
+    assert np.array_equal(v, ref) and np.shares_memory(v, f.maps[2])      # no copy
+    other = f.vector([2, 4])                                              # another order
+    assert np.array_equal(other, np.concatenate([f.maps[2].ravel(), f.maps[4].ravel()]))
+    assert not np.shares_memory(other, f.maps[2])
+    # each map is the single-size computation (cell sums may be summed from finer ones)
+    for c in (2, 4, 8):
+        one = hog_frame_features(frame, [c], pad=2).maps[c]
+        assert np.allclose(f.maps[c], one, **FLOAT32)
+
+
 # ------------------------------------------------------------- per-window adapted scores
 
 
@@ -277,6 +292,24 @@ def test_adapted_scores_equal_explicitly_remapped_features(windows, frame, toler
     pw = op.position_weights()
     assert pw.size == Wu.shape[0] == len(np.unique(rows)) <= len(sub)
     assert np.array_equal(op.weights_per_window(), pw[rows])
+
+
+def test_linear_operator_pickles_one_copy_of_its_templates(windows, frame):
+    import pickle
+
+    rng = np.random.default_rng(2)
+    w = rng.normal(size=(16, 8, HOG_CHANNELS))
+    op = build_adapted_linear_operator(windows, w, 0.1, tolerance=0.0)
+    feats = op.frame_features(frame)
+    before = {m: op.scores(feats, method=m) for m in ("runs", "sparse", "template")}
+    blob = pickle.dumps(op)
+    nbytes = op._runs.templates.nbytes
+    # the group templates are views into the run tables, pickled once
+    assert nbytes < len(blob) < 1.5 * nbytes + 4e5
+    back = pickle.loads(blob)
+    assert all(np.shares_memory(g.template, back._runs.templates) for g in back.groups)
+    for m, s in before.items():
+        assert np.array_equal(back.scores(feats, method=m), s)
 
 
 def test_adapted_trees_equal_explicit_remap(windows, frame):

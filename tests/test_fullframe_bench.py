@@ -290,3 +290,19 @@ def test_runtime_table_end_to_end(toy, tmp_path):
         "sparse, one row per distinct position"}
     table = format_table(rows, info)
     assert "hog_adapted / hog_warp" in table and "## Targets" in table
+
+
+def test_frame_view_copies_change_the_svm_and_the_separation_script_runs(toy, bench, capsys):
+    from benchmark.data import load_dataset
+    from benchmark.frames import SourceDetectors, train_source_detectors
+    from benchmark.perf.frameview_separation import main as separation_main
+
+    crops_only = train_source_detectors(load_dataset(toy), quick=True, frame_view=False)
+    with_copies = SourceDetectors.load(bench / "models" / "source_detectors.pkl")
+    assert not np.allclose(crops_only.hog_weights, with_copies.hog_weights)
+    assert separation_main(["--data", str(toy), "--model",
+                            str(bench / "models" / "source_detectors.pkl"),
+                            "--scales", "0.4,0.8"]) == 0
+    rows = [r for r in capsys.readouterr().out.splitlines() if r.startswith("| 0.")]
+    assert len(rows) == 2
+    assert all(np.isfinite(float(v)) for r in rows for v in r.split("|")[3:5])

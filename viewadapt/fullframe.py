@@ -73,7 +73,7 @@ References
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import NamedTuple
 
 import numpy as np
@@ -88,7 +88,7 @@ from .remap import CellGrid, cell_remap_matrix, feature_remap_matrix, orientatio
 from .windows import CandidateWindows, _map_points, person_boxes
 
 __all__ = [
-    "HOG_CELL", "ACF_SHRINK",
+    "HOG_CELL", "HOG_CELL_SIZES", "ACF_SHRINK",
     "fast_orientation_channels",
     "fast_acf_pixel_channels",
     "acf_window_features",
@@ -111,6 +111,8 @@ __all__ = [
 
 #: Source-view cell size of the HOG detectors (8 px in the 64x128 window, 16 x 8 cells).
 HOG_CELL = 8
+#: Frame cell sizes the adapted HOG operator may choose from (:func:`choose_cell_sizes`).
+HOG_CELL_SIZES = (2, 3, 4, 6, 8, 12, 16)
 #: Source-view ACF aggregation block (4 px, 32 x 16 blocks).
 ACF_SHRINK = 4
 #: Power-law exponent of the ACF gradient channels across scales (Dollár et al. 2014):
@@ -280,6 +282,8 @@ class FrameFeatures:
     pad: int
     image_size: tuple
     _split: dict = field(default_factory=dict, repr=False)
+    #: (cell sizes, buffer) when the maps are consecutive views of one flat buffer
+    _flat: tuple = field(default=None, repr=False)
 
     def split3(self, c: int):
         """The map of cell size ``c`` as contiguous 3-channel slices (for matchTemplate)."""
@@ -289,7 +293,10 @@ class FrameFeatures:
         return self._split[c]
 
     def vector(self, cell_sizes) -> np.ndarray:
-        """All maps of ``cell_sizes`` flattened and concatenated (the sparse operator's x)."""
+        """All maps of ``cell_sizes`` flattened and concatenated (the sparse operator's x);
+        no copy when the maps already lie in one buffer in that order."""
+        if self._flat is not None and tuple(cell_sizes) == self._flat[0]:
+            return self._flat[1]
         return np.concatenate([self.maps[c].ravel() for c in cell_sizes])
 
 
@@ -520,13 +527,21 @@ def hog_frame_features(image, cell_sizes, *, pad: int = 2, image_size=None) -> F
     """
     img = _check_frame(image, image_size)
     M, N = img.shape[:2]
-    maps = {}
-    for c, X in orientation_cell_maps(img, cell_sizes).items():
+    # all maps in one zero-padded buffer, in the order of the cell sizes given: the
+    # operator's feature vector without a copy (FrameFeatures.vector)
+    order = tuple(dict.fromkeys(int(c) for c in cell_sizes))
+    cells = orientation_cell_maps(img, order)
+    shapes = [(M // c + 2 * pad, N // c + 2 * pad, HOG_CHANNELS) for c in order]
+    flat = np.zeros(sum(int(np.prod(sh)) for sh in shapes), np.float32)
+    maps, off = {}, 0
+    for c, sh in zip(order, shapes):
+        F = flat[off:off + int(np.prod(sh))].reshape(sh)
+        off += F.size
+        X = cells[c]
         ny, nx = X.shape[:2]
-        F = np.zeros((ny + 2 * pad, nx + 2 * pad, HOG_CHANNELS), np.float32)
         block_normalize_cells(X, eps=_hog_eps(c), out=F[pad:pad + ny, pad:pad + nx])
         maps[c] = F
-    return FrameFeatures(maps, pad, (N, M))
+    return FrameFeatures(maps, pad, (N, M), _flat=(order, flat))
 
 
 def acf_frame_features(image, cell_sizes, *, pad: int = 2, smooth_channels: float = 1,
@@ -933,7 +948,7 @@ class AdaptedLinearOperator(_OperatorBase):
             region = (y1 - y0 - ny + 1) * (x1 - x0 - nx + 1)
             if method == "template" and len(g.members) >= 8 and region <= 6 * len(g.members):
                 res = correlate_slices([p[y0:y1, x0:x1] for p in features.split3(g.cell_size)],
-                                       g.template3)
+                                       channel_slices3(g.template))
                 out[g.members] = res[oy - y0, ox - x0]
             else:
                 F = features.maps[g.cell_size]
@@ -992,7 +1007,8 @@ class AdaptedLinearOperator(_OperatorBase):
         return starts, row_of
 
     def _build_runs(self):
-        """The tables of the ``"runs"`` form (:func:`viewadapt._kernels.template_run_scores`)."""
+        """The tables of the ``"runs"`` form (:func:`viewadapt._kernels.template_run_scores`);
+        each group's template becomes a view into them (one copy of the weights)."""
         _, dims, n_feat, C = self._layout()
         starts, row_of = self._positions()
         sizes = np.array([g.template.size for g in self.groups], np.int64)
@@ -1007,6 +1023,25 @@ class AdaptedLinearOperator(_OperatorBase):
             group=np.repeat(np.arange(len(self.groups), dtype=np.int64),
                             [len(st) for st in starts]),
             row_of=row_of, n_features=int(n_feat))
+        self._link_templates()
+
+    def _link_templates(self):
+        r = self._runs
+        for g, off in zip(self.groups, r.t_offset):
+            n = g.shape[0] * g.shape[1] * HOG_CHANNELS
+            g.template = r.templates[off:off + n].reshape(g.shape[0], g.shape[1], HOG_CHANNELS)
+
+    def __getstate__(self):
+        # the templates are views into the run tables: pickle them once (there), and never
+        # the CSR form (rebuilt on first use)
+        state = self.__dict__.copy()
+        state["groups"] = [replace(g, template=None) for g in self.groups]
+        state.pop("_csr", None)
+        return state
+
+    def __setstate__(self, state):
+        self.__dict__.update(state)
+        self._link_templates()
 
     def to_sparse(self, *, unique: bool = False):
         """The operator as one CSR matrix ``W`` with ``scores = W x + b``.
@@ -1072,7 +1107,7 @@ class _RunTables:
 def build_adapted_linear_operator(windows: CandidateWindows, weights, bias: float = 0.0, *,
                                   features: str = "hog", tolerance: float = 0.5,
                                   cells_per_source_cell: float = 0.7,
-                                  allowed_cell_sizes=(2, 3, 4, 6, 8, 12, 16),
+                                  allowed_cell_sizes=HOG_CELL_SIZES,
                                   rule: str = "covariant") -> AdaptedLinearOperator:
     """Precompute the adapted linear detector of every candidate window (eq. (7)).
 
@@ -1116,7 +1151,6 @@ def build_adapted_linear_operator(windows: CandidateWindows, weights, bias: floa
         G = _hog_remap(windows.homographies[g.prototype], g, rule)
         g.template = np.asarray(G.T @ w, dtype=np.float32).reshape(g.shape[0], g.shape[1],
                                                                      HOG_CHANNELS)
-        g.template3 = channel_slices3(g.template)
     pad = _required_pad(groups, windows.image_size)
     make_features = _FeatureMaker("hog", sorted(set(cell.tolist())), pad,
                                   tuple(windows.image_size), {})

@@ -81,7 +81,7 @@ def _pyramid_pixels(size, upsample, step, per_level=lambda w, h: w * h):
 
 
 def run_runtime(data, *, n_frames=3, warp_windows=1000, heights=(1.65, 1.85), jobs=-1,
-                seed=0, quick=True, cache_dir=None, throughput_seconds=4.0):
+                seed=0, quick=True, cache_dir=None, throughput_seconds=4.0, frame_view=True):
     """Time every method; return (rows, info)."""
     import cv2
     from joblib import Parallel, delayed
@@ -101,7 +101,7 @@ def run_runtime(data, *, n_frames=3, warp_windows=1000, heights=(1.65, 1.85), jo
         if (img.shape[1], img.shape[0]) != size:
             img = cv2.resize(img, size, interpolation=cv2.INTER_AREA)
         frames.append(img)
-    models = train_source_detectors(ds, seed=seed, quick=quick)
+    models = train_source_detectors(ds, seed=seed, quick=quick, frame_view=frame_view)
     import tempfile
 
     tmpdir = Path(tempfile.mkdtemp(prefix="viewadapt-runtime-"))
