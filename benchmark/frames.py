@@ -32,8 +32,8 @@ from viewadapt.geometry import WINDOW_HEIGHT, WINDOW_WIDTH, Camera, camera_from_
 from viewadapt.windows import PERSON_BOX_WINDOW
 
 __all__ = ["OperatorCache", "FrameRecord", "load_frames", "read_calibration", "SourceDetectors",
-           "train_source_detectors", "METHODS", "FrameDetector", "standardize_boxes",
-           "evaluate_method", "PAPER_FPS"]
+           "train_source_detectors", "FRAME_VIEW_CHOICES", "METHODS", "FrameDetector",
+           "standardize_boxes", "evaluate_method", "PAPER_FPS"]
 
 #: Table 1 of the paper: frames per second on one Intel Core i7 core, CAVIAR 384x288.
 PAPER_FPS = {"hog_pyramid": 0.439, "acf_pyramid": 3.54, "hog_warp": 0.0666,
@@ -318,18 +318,24 @@ class SourceDetectors:
         return h.hexdigest()[:16]
 
 
+#: ``frame_view`` choices of :func:`train_source_detectors`: which detectors also train on
+#: frame-view copies of the crops.
+FRAME_VIEW_CHOICES = ("hog", "acf", "both", "none")
+
+
 def train_source_detectors(ds, *, seed: int = 0, quick: bool = False, source_index: int = 0,
-                           progress: bool = False,
-                           frame_view: bool = True) -> SourceDetectors:
+                           progress: bool = False, frame_view: str = "hog") -> SourceDetectors:
     """Linear SVM on :func:`viewadapt.fullframe.hog_window_features` and ACF boosted trees,
     trained on the dataset's crops of one elevation (default the first, 0).
 
-    With ``frame_view`` the SVM also sees one frame-view copy of every crop
-    (:func:`viewadapt.frameview.frame_view_copies`): the crop as the adapted full-frame
-    detector reads it from a frame, at a random person height of 24-144 px and a random
-    offset against the frame's cell grid. Same crops, no target data; on the 104
-    paper-preset frames it lowered adapted HOG's LAMR from 0.656 to 0.620 while image
-    warping stayed at 0.594 with the same SVM (README, "Accuracy", finding 5).
+    ``frame_view`` (``"hog"``, ``"acf"``, ``"both"`` or ``"none"``) says which detectors
+    also see one frame-view copy of every crop (:func:`viewadapt.frameview.frame_view_copies`):
+    the crop as the adapted full-frame detector reads it from a frame, at a random person
+    height of 24-144 px and a random offset against the frame's cell grid. Same crops, no
+    target data. On the 104 paper-preset frames the HOG copies lowered adapted HOG's LAMR
+    from 0.656 to 0.620 while image warping stayed at 0.594 with the same SVM; the ACF
+    copies lowered adapted ACF from 0.596 to 0.522 and ACF warping from 0.584 to 0.446
+    (README, "Accuracy", finding 5). The default is ``"hog"``.
     """
     from viewadapt.boosting import AdaBoostTrees
     from viewadapt.classifiers import LinearSVMDetector
@@ -337,29 +343,34 @@ def train_source_detectors(ds, *, seed: int = 0, quick: bool = False, source_ind
 
     from .features import background_windows, person_windows
 
+    if frame_view not in FRAME_VIEW_CHOICES:
+        raise ValueError(f"frame_view must be one of {FRAME_VIEW_CHOICES}, got {frame_view!r}")
     pos = list(person_windows(ds, source_index).images(ds.root))
     neg = list(background_windows(ds, source_index, stride=16).images(ds.root))
     # left-right mirrored crops double the positives (Dalal & Triggs)
     pos = pos + [np.ascontiguousarray(w[:, ::-1]) for w in pos]
-    Xp = np.stack([hog_window_features(w).ravel() for w in pos])
-    Xn = np.stack([hog_window_features(w).ravel() for w in neg])
-    if frame_view:
-        from viewadapt.frameview import frame_view_copies
 
-        Xp = np.vstack([Xp, frame_view_copies(pos, seed=seed, upsample_below=UPSAMPLE_BELOW)])
-        Xn = np.vstack([Xn, frame_view_copies(neg, seed=seed + 1,
-                                              upsample_below=UPSAMPLE_BELOW)])
-    y = np.r_[np.ones(len(Xp), int), np.zeros(len(Xn), int)]
+    def training_set(features, kind, copy_seed):
+        Xp = np.stack([features(w).ravel() for w in pos])
+        Xn = np.stack([features(w).ravel() for w in neg])
+        if frame_view in (kind, "both"):
+            from viewadapt.frameview import frame_view_copies
+
+            kw = dict(kind=kind, upsample_below=UPSAMPLE_BELOW)
+            Xp = np.vstack([Xp, frame_view_copies(pos, seed=copy_seed, **kw)])
+            Xn = np.vstack([Xn, frame_view_copies(neg, seed=copy_seed + 1, **kw)])
+        return np.vstack([Xp, Xn]), np.r_[np.ones(len(Xp), int), np.zeros(len(Xn), int)]
+
+    X, y = training_set(hog_window_features, "hog", seed)
     # C = 0.01 as Dalal & Triggs (block-normalised, clipped cells as their descriptor)
     svm = LinearSVMDetector(C=0.01, initial_negatives=2000 if quick else 5000,
-                            mining_rounds=1, random_state=seed).fit(np.vstack([Xp, Xn]), y)
+                            mining_rounds=1, random_state=seed).fit(X, y)
     # the channels the full-frame operator reads (float32 OpenCV path)
-    Ap = np.stack([acf_window_features(w).ravel() for w in pos])
-    An = np.stack([acf_window_features(w).ravel() for w in neg])
+    X, y = training_set(acf_window_features, "acf", seed + 2)
     n_trees = 64 if quick else 256
     trees = AdaBoostTrees(n_estimators=n_trees, stages=None, max_bins=32 if quick else 64,
                           max_features=0.25 if quick else 0.125, random_state=seed)
-    trees.fit(np.vstack([Ap, An]), np.r_[np.ones(len(Ap), int), np.zeros(len(An), int)])
+    trees.fit(X, y)
     return SourceDetectors(svm.coef_[0].reshape(HOG_WEIGHT_SHAPE).astype(np.float64),
                            float(svm.intercept_[0]), trees)
 

@@ -149,7 +149,7 @@ def _detect_camera(group, models, methods, heights, cache_dir, tolerance,
 def run_frames_benchmark(data, *, methods, seed=0, quick=False, max_frames=None,
                          heights=(1.75,), cache_dir=None, models=None, progress=True,
                          tolerance=0.5, cells_per_source_cell=0.7, upsample_below=None,
-                         jobs=1, frame_view=True):
+                         jobs=1, frame_view="hog"):
     """Detect with every method on every frame; return (results dict, models, detections).
 
     Cameras are processed in parallel with ``jobs`` worker processes (joblib); the
@@ -309,7 +309,7 @@ def cmd_bench_frames(args) -> int:
         cache_dir=args.cache or (args.out / "cache"), models=models,
         tolerance=args.tolerance, cells_per_source_cell=args.cells_per_source_cell,
         upsample_below=args.upsample_below, jobs=args.jobs,
-        frame_view=not args.no_frame_view)
+        frame_view=args.frame_view)
     kept = [m for m in earlier if m not in methods]
     for m in kept:
         old, sec = earlier[m]
@@ -366,7 +366,7 @@ def cmd_bench_runtime(args) -> int:
     table, info = run_runtime(args.data, n_frames=args.frames, warp_windows=args.warp_windows,
                               heights=args.heights, jobs=args.jobs, seed=args.seed,
                               quick=args.quick, cache_dir=args.cache,
-                              frame_view=not args.no_frame_view)
+                              frame_view=args.frame_view)
     md = format_table(table, info)
     with atomic_output_dir(args.out) as tmp:
         (tmp / "runtime.md").write_text(md)
@@ -431,10 +431,11 @@ def register(sub, common) -> None:
     opts.add_argument("--cache", type=Path, default=None,
                       help="operator cache directory (default OUT/cache)")
     opts.add_argument("--quick", action="store_true", help="smaller detectors (tests)")
-    opts.add_argument("--no-frame-view", action="store_true",
-                      help="train the HOG/SVM on the crops alone, without a frame-view copy "
-                           "of each (the crop as the adapted detector reads it from a frame; "
-                           "viewadapt.frameview); ignored with --model")
+    opts.add_argument("--frame-view", choices=["hog", "acf", "both", "none"], default="hog",
+                      help="which detectors also train on a frame-view copy of every crop "
+                           "(the crop as the adapted detector reads it from a frame; "
+                           "viewadapt.frameview): default hog; none = crops alone. Ignored "
+                           "with --model")
     p = bsub.add_parser("frames", parents=[common, opts],
                         help="miss rate vs FPPI on calibrated frames (Fig. 3)",
                         description="Train HOG/SVM and ACF on the dataset's elevation-0 crops, "

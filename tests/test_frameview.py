@@ -6,11 +6,12 @@ import pytest
 from tests.tolerances import FLOAT32
 
 from viewadapt.frameview import (
-    FRAME_VIEW_SCALES, frame_view, frame_view_copies, hog_frame_view_features,
+    FRAME_VIEW_SCALES, acf_frame_view_features, frame_view, frame_view_copies,
+    hog_frame_view_features,
 )
 from viewadapt.fullframe import (
-    HOG_CHANNELS, build_adapted_linear_operator, build_multiresolution_operator,
-    hog_window_features,
+    HOG_CHANNELS, build_adapted_linear_operator, build_adapted_trees_operator,
+    build_multiresolution_operator, hog_window_features,
 )
 from viewadapt.windows import CandidateWindows, person_boxes
 
@@ -24,13 +25,11 @@ def window():
     return w
 
 
-def _operator_score(frame, H, weights, bias, **kw):
+def _operator_score(frame, H, build):
     """Score of the one window ``H`` by the full-frame multi-resolution operator."""
     wins = CandidateWindows(np.zeros((1, 2)), np.array([1.75]), H[None],
                             (frame.shape[1], frame.shape[0]), np.zeros((1, 2), int))
-    op = build_multiresolution_operator(
-        wins, lambda w: build_adapted_linear_operator(w, weights, bias, tolerance=0.0, **kw),
-        upsample_below=0.5)
+    op = build_multiresolution_operator(wins, build, upsample_below=0.5)
     return float(op.scores(op.frame_features(frame))[0])
 
 
@@ -42,9 +41,38 @@ def test_linear_score_is_the_operators_score(window, scale, offset):
     w = rng.normal(size=(16, 8, HOG_CHANNELS))
     frame, H = frame_view(window, scale, offset=offset)
     x = hog_frame_view_features(window, scale, offset=offset)
-    ref = _operator_score(frame, H, w, 0.25)
+    ref = _operator_score(frame, H, lambda ws: build_adapted_linear_operator(
+        ws, w, 0.25, tolerance=0.0))
     assert float(w.ravel() @ x.ravel().astype(np.float64)) + 0.25 == pytest.approx(
         ref, rel=1e-4, abs=1e-4 * np.abs(w).sum())
+
+
+@pytest.fixture(scope="module")
+def trees(window):
+    # boosted trees whose thresholds fall where frame-view ACF channels lie: fitted on
+    # copies of the window at random scales, labelled by scale (so scores vary with it)
+    from viewadapt.boosting import AdaBoostTrees
+
+    rng = np.random.default_rng(6)
+    scales = rng.choice(FRAME_VIEW_SCALES, 60)
+    X = np.stack([acf_frame_view_features(window, s, offset=tuple(rng.integers(0, 8, 2))).ravel()
+                  for s in scales])
+    y = (scales < 0.6).astype(int) ^ (rng.random(60) < 0.2)
+    return AdaBoostTrees(n_estimators=16, stages=None, max_bins=16, max_features=0.2,
+                         random_state=0).fit(X, y)
+
+
+def test_trees_score_is_the_operators_score(window, trees):
+    got, ref = [], []
+    for scale, offset in [(0.3, (0, 0)), (0.45, (5, 2)), (0.7, (3, 7)), (1.0, (1, 4))]:
+        frame, H = frame_view(window, scale, offset=offset)
+        x = acf_frame_view_features(window, scale, offset=offset)
+        assert x.shape == (10, 32, 16)
+        got.append(float(trees.decision_function(x.reshape(1, -1).astype(np.float64))[0]))
+        ref.append(_operator_score(frame, H, lambda ws: build_adapted_trees_operator(
+            ws, trees, tolerance=0.0)))
+    assert np.allclose(got, ref, rtol=1e-5, atol=1e-5)
+    assert np.ptp(ref) > 0                     # the scales score differently
 
 
 def test_frame_view_geometry(window):
@@ -78,6 +106,9 @@ def test_copies_are_seeded_and_cover_the_scales(window):
     assert np.array_equal(a, b) and not np.array_equal(a, c)
     assert min(FRAME_VIEW_SCALES) == 0.25 and max(FRAME_VIEW_SCALES) == 1.5
     assert frame_view_copies([], seed=0).shape == (0, 16 * 8 * HOG_CHANNELS)
+    assert frame_view_copies([window], kind="acf").shape == (1, 10 * 32 * 16)
+    with pytest.raises(ValueError, match="kind must be"):
+        frame_view_copies([window], kind="sift")
 
 
 @pytest.mark.parametrize("kw,msg", [

@@ -297,9 +297,13 @@ def test_frame_view_copies_change_the_svm_and_the_separation_script_runs(toy, be
     from benchmark.frames import SourceDetectors, train_source_detectors
     from benchmark.perf.frameview_separation import main as separation_main
 
-    crops_only = train_source_detectors(load_dataset(toy), quick=True, frame_view=False)
+    crops_only = train_source_detectors(load_dataset(toy), quick=True, frame_view="none")
     with_copies = SourceDetectors.load(bench / "models" / "source_detectors.pkl")
     assert not np.allclose(crops_only.hog_weights, with_copies.hog_weights)
+    # the default copies only the HOG/SVM's crops: the trees are the crops-only ones
+    assert np.array_equal(crops_only.acf.threshold_, with_copies.acf.threshold_)
+    with pytest.raises(ValueError, match="frame_view must be one of"):
+        train_source_detectors(load_dataset(toy), quick=True, frame_view="yes")
     assert separation_main(["--data", str(toy), "--model",
                             str(bench / "models" / "source_detectors.pkl"),
                             "--scales", "0.4,0.8"]) == 0

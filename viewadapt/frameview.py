@@ -1,4 +1,4 @@
-"""Training windows as the full-frame adapted HOG detector sees them ("frame-view copies").
+"""Training windows as the full-frame adapted detectors see them ("frame-view copies").
 
 The adapted detector never sees a person at the canonical 64x128 resolution. It reads the
 frame's block-normalised cells, ``c`` px wide on the frame's own grid, and remaps them to
@@ -18,6 +18,8 @@ A linear SVM trained on the crops plus one such copy of each learns weights that
 under that resampling. On the 104 paper-preset frames this lowered the adapted HOG
 detector's log-average miss rate from 0.656 to 0.620, while image warping stayed at 0.594
 with the same SVM (0.595 with the crops-only one; README, "Accuracy", finding 5).
+:func:`acf_frame_view_features` does the same for the ACF trees; their copies helped image
+warping more than adaptation (same finding).
 """
 
 from __future__ import annotations
@@ -25,16 +27,19 @@ from __future__ import annotations
 from functools import lru_cache
 
 import numpy as np
+import scipy.sparse as sp
 
 from ._validation import check_image
 from .fullframe import (
-    HOG_CELL, HOG_CELL_SIZES, HOG_WEIGHT_SHAPE, _frame_to_band, _Group,
-    _hog_remap, _patch_grid, choose_cell_sizes, hog_frame_features,
+    _N_ACF, ACF_GRADIENT_LAMBDA, ACF_SHRINK, FRAME_CELL_SIZES, HOG_CELL, HOG_WEIGHT_SHAPE,
+    _acf_gradient_rows, _acf_remap, _frame_to_band, _Group, _hog_remap, _patch_grid,
+    acf_frame_features, choose_cell_sizes, hog_frame_features,
 )
 from .geometry import WINDOW_HEIGHT, WINDOW_WIDTH
 from .windows import CandidateWindows
 
-__all__ = ["FRAME_VIEW_SCALES", "frame_view", "hog_frame_view_features", "frame_view_copies"]
+__all__ = ["FRAME_VIEW_SCALES", "frame_view", "hog_frame_view_features",
+           "acf_frame_view_features", "frame_view_copies"]
 
 #: Scales (frame px per canonical px) the copies are drawn from: persons of 24 to 144 px,
 #: log-spaced (the surveillance frames' range; a grid so that ``G`` is built once each).
@@ -60,20 +65,28 @@ def _frame_view_geometry(scale, offset, f, image_shape):
     return Hm, (W, H)
 
 
-@lru_cache(maxsize=512)
-def _frame_view_remap(scale, offset, f, image_shape, cells_per_source_cell,
-                      allowed_cell_sizes, rule):
+@lru_cache(maxsize=1024)
+def _frame_view_remap(kind, scale, offset, f, image_shape, cells_per_source_cell,
+                      allowed_cell_sizes, rule, gradient_lambda):
+    """``G`` (csr), the frame cell size, the patch (cx0, cy0, nx, ny) and the frame size of
+    one frame view, built as the operator of ``kind`` builds them."""
     Hm, size = _frame_view_geometry(scale, offset, f, image_shape)
     # frame px per canonical px, computed as the operator does (a boundary case such as
     # 8 * 0.7 / 0.7 must pick the same cell size)
     s = CandidateWindows(np.zeros((1, 2)), np.ones(1), Hm[None], size,
                          np.zeros((1, 2), int)).scale[0]
-    c = int(choose_cell_sizes([s], HOG_CELL, cells_per_source_cell=cells_per_source_cell,
+    source_cell = HOG_CELL if kind == "hog" else ACF_SHRINK
+    c = int(choose_cell_sizes([s], source_cell, cells_per_source_cell=cells_per_source_cell,
                               allowed=allowed_cell_sizes)[0])
     cx0, cy0, nx, ny = _patch_grid(Hm, c, None)
-    G = _hog_remap(Hm, _Group(c, 0, (cx0, cy0), (ny, nx), np.zeros(1, int),
-                              np.zeros((1, 2), int)), rule).tocsr()
-    return G, c, (cx0, cy0, nx, ny), size
+    g = _Group(c, 0, (cx0, cy0), (ny, nx), np.zeros(1, int), np.zeros((1, 2), int))
+    if kind == "hog":
+        G = _hog_remap(Hm, g, rule)
+    else:
+        G = _acf_remap(Hm, g, rule)
+        if gradient_lambda:          # as build_adapted_trees_operator scales the rows
+            G = sp.diags(np.where(_acf_gradient_rows(), s ** gradient_lambda, 1.0)) @ G
+    return G.tocsr(), c, (cx0, cy0, nx, ny), size
 
 
 def frame_view(window, scale: float, *, offset=(0, 0)):
@@ -116,9 +129,30 @@ def frame_view(window, scale: float, *, offset=(0, 0)):
     return np.clip(np.rint(frame), 0, 255).astype(np.uint8), H
 
 
+def _read_through_frame(kind, window, scale, offset, *, cells_per_source_cell,
+                        upsample_below, factor, allowed_cell_sizes, rule,
+                        gradient_lambda=0.0):
+    import cv2
+
+    frame, _ = frame_view(window, scale, offset=offset)
+    f = int(factor) if scale < upsample_below else 1
+    G, c, (cx0, cy0, nx, ny), size = _frame_view_remap(
+        kind, float(scale), tuple(int(v) for v in offset), f, (WINDOW_HEIGHT, WINDOW_WIDTH),
+        float(cells_per_source_cell), tuple(int(v) for v in allowed_cell_sizes), rule,
+        float(gradient_lambda))
+    if f > 1:
+        frame = cv2.resize(frame, (f * size[0], f * size[1]), interpolation=cv2.INTER_LINEAR)
+    ny_map, nx_map = frame.shape[0] // c, frame.shape[1] // c
+    pad = max(1, -cx0, -cy0, cx0 + nx - nx_map, cy0 + ny - ny_map)
+    features = hog_frame_features if kind == "hog" else acf_frame_features
+    F = features(frame, [c], pad=pad).maps[c]
+    x = F[cy0 + pad:cy0 + pad + ny, cx0 + pad:cx0 + pad + nx].ravel()
+    return np.asarray(G @ x, dtype=np.float32)
+
+
 def hog_frame_view_features(window, scale: float, *, offset=(0, 0),
                             cells_per_source_cell: float = 0.7, upsample_below: float = 0.5,
-                            factor: int = 2, allowed_cell_sizes=HOG_CELL_SIZES,
+                            factor: int = 2, allowed_cell_sizes=FRAME_CELL_SIZES,
                             rule: str = "covariant") -> np.ndarray:
     """The canonical HOG features of ``window`` as the adapted detector reads them from a
     frame in which the window is ``scale`` times its size.
@@ -146,23 +180,37 @@ def hog_frame_view_features(window, scale: float, *, offset=(0, 0),
     (16, 8, 13) float32 ndarray, the layout of
     :func:`viewadapt.fullframe.hog_window_features`.
     """
-    import cv2
-
-    frame, _ = frame_view(window, scale, offset=offset)
-    f = int(factor) if scale < upsample_below else 1
-    G, c, (cx0, cy0, nx, ny), size = _frame_view_remap(
-        float(scale), tuple(int(v) for v in offset), f, (WINDOW_HEIGHT, WINDOW_WIDTH),
-        float(cells_per_source_cell), tuple(int(v) for v in allowed_cell_sizes), rule)
-    if f > 1:
-        frame = cv2.resize(frame, (f * size[0], f * size[1]), interpolation=cv2.INTER_LINEAR)
-    ny_map, nx_map = frame.shape[0] // c, frame.shape[1] // c
-    pad = max(1, -cx0, -cy0, cx0 + nx - nx_map, cy0 + ny - ny_map)
-    F = hog_frame_features(frame, [c], pad=pad).maps[c]
-    x = F[cy0 + pad:cy0 + pad + ny, cx0 + pad:cx0 + pad + nx].ravel()
-    return np.asarray(G @ x, dtype=np.float32).reshape(HOG_WEIGHT_SHAPE)
+    return _read_through_frame(
+        "hog", window, scale, offset, cells_per_source_cell=cells_per_source_cell,
+        upsample_below=upsample_below, factor=factor, allowed_cell_sizes=allowed_cell_sizes,
+        rule=rule).reshape(HOG_WEIGHT_SHAPE)
 
 
-def frame_view_copies(windows, *, seed=0, scales=FRAME_VIEW_SCALES, **kwargs) -> np.ndarray:
+def acf_frame_view_features(window, scale: float, *, offset=(0, 0),
+                            cells_per_source_cell: float = 0.7, upsample_below: float = 0.5,
+                            factor: int = 2, allowed_cell_sizes=FRAME_CELL_SIZES,
+                            rule: str = "covariant",
+                            gradient_lambda: float = ACF_GRADIENT_LAMBDA) -> np.ndarray:
+    """The canonical ACF channels of ``window`` as the adapted ACF detector reads them from
+    a frame in which the window is ``scale`` times its size: :func:`hog_frame_view_features`
+    for :func:`viewadapt.fullframe.build_adapted_trees_operator` (4-px source blocks, the
+    gradient rows of ``G`` scaled by ``s ** gradient_lambda``). A boosted-trees model's
+    ``decision_function`` of the result is that operator's score (tested).
+
+    Returns
+    -------
+    (10, 32, 16) float32 ndarray, the layout of
+    :func:`viewadapt.fullframe.acf_window_features`.
+    """
+    return _read_through_frame(
+        "acf", window, scale, offset, cells_per_source_cell=cells_per_source_cell,
+        upsample_below=upsample_below, factor=factor, allowed_cell_sizes=allowed_cell_sizes,
+        rule=rule, gradient_lambda=gradient_lambda).reshape(
+            _N_ACF, WINDOW_HEIGHT // ACF_SHRINK, WINDOW_WIDTH // ACF_SHRINK)
+
+
+def frame_view_copies(windows, *, seed=0, scales=FRAME_VIEW_SCALES, kind: str = "hog",
+                      **kwargs) -> np.ndarray:
     """One frame-view copy of each window: a random scale of ``scales`` and a random offset.
 
     Parameters
@@ -170,13 +218,18 @@ def frame_view_copies(windows, *, seed=0, scales=FRAME_VIEW_SCALES, **kwargs) ->
     windows : iterable of (128, 64[, 3]) ndarray
     seed : int or numpy Generator
     scales : sequence of float
+    kind : {"hog", "acf"}
     **kwargs
-        Passed to :func:`hog_frame_view_features`.
+        Passed to :func:`hog_frame_view_features` / :func:`acf_frame_view_features`.
 
     Returns
     -------
-    (N, 1664) float32 ndarray, rows ``hog_frame_view_features(...).ravel()``.
+    (N, 1664) (HOG) or (N, 5120) (ACF) float32 ndarray, rows of
+    ``hog_frame_view_features(...).ravel()`` / ``acf_frame_view_features(...).ravel()``.
     """
+    if kind not in ("hog", "acf"):
+        raise ValueError(f"kind must be 'hog' or 'acf', got {kind!r}")
+    read = hog_frame_view_features if kind == "hog" else acf_frame_view_features
     rng = np.random.default_rng(seed)
     scales = np.asarray(scales, dtype=np.float64)
     if scales.ndim != 1 or not len(scales) or not np.all(np.isfinite(scales) & (scales > 0)):
@@ -185,7 +238,9 @@ def frame_view_copies(windows, *, seed=0, scales=FRAME_VIEW_SCALES, **kwargs) ->
     for w in windows:
         s = float(scales[rng.integers(len(scales))])
         off = (int(rng.integers(HOG_CELL)), int(rng.integers(HOG_CELL)))
-        rows.append(hog_frame_view_features(w, s, offset=off, **kwargs).ravel())
+        rows.append(read(w, s, offset=off, **kwargs).ravel())
     if not rows:
-        return np.zeros((0, int(np.prod(HOG_WEIGHT_SHAPE))), np.float32)
+        n = int(np.prod(HOG_WEIGHT_SHAPE)) if kind == "hog" else _N_ACF * (
+            WINDOW_HEIGHT // ACF_SHRINK) * (WINDOW_WIDTH // ACF_SHRINK)
+        return np.zeros((0, n), np.float32)
     return np.stack(rows)

@@ -88,7 +88,7 @@ from .remap import CellGrid, cell_remap_matrix, feature_remap_matrix, orientatio
 from .windows import CandidateWindows, _map_points, person_boxes
 
 __all__ = [
-    "HOG_CELL", "HOG_CELL_SIZES", "ACF_SHRINK",
+    "HOG_CELL", "FRAME_CELL_SIZES", "ACF_SHRINK",
     "fast_orientation_channels",
     "fast_acf_pixel_channels",
     "acf_window_features",
@@ -111,8 +111,8 @@ __all__ = [
 
 #: Source-view cell size of the HOG detectors (8 px in the 64x128 window, 16 x 8 cells).
 HOG_CELL = 8
-#: Frame cell sizes the adapted HOG operator may choose from (:func:`choose_cell_sizes`).
-HOG_CELL_SIZES = (2, 3, 4, 6, 8, 12, 16)
+#: Frame cell sizes the adapted operators may choose from (:func:`choose_cell_sizes`).
+FRAME_CELL_SIZES = (2, 3, 4, 6, 8, 12, 16)
 #: Source-view ACF aggregation block (4 px, 32 x 16 blocks).
 ACF_SHRINK = 4
 #: Power-law exponent of the ACF gradient channels across scales (Dollár et al. 2014):
@@ -170,9 +170,10 @@ def fast_orientation_channels(image, *, n_bins: int = 9, gamma: bool = False) ->
     """Per-pixel oriented gradient magnitudes in float32 (OpenCV kernels, compiled channel pick).
 
     The same quantity as :func:`viewadapt.hog.orientation_channels`:
-    (optionally square-root gamma, then) central differences with reflect-101 borders, the colour channel of largest magnitude,
-    the magnitude split linearly between the two nearest of ``n_bins`` unsigned bins
-    centred at ``(b + 1/2) pi / n_bins``; in single precision.
+    (optionally square-root gamma, then) central differences with reflect-101 borders, the
+    colour channel of largest magnitude, the magnitude split linearly between the two
+    nearest of ``n_bins`` unsigned bins centred at ``(b + 1/2) pi / n_bins``; in single
+    precision.
 
     Parameters
     ----------
@@ -830,6 +831,13 @@ def _acf_remap(H, g, rule):
                          shape=(_N_ACF * n_out, n_in * _N_ACF))
 
 
+def _acf_gradient_rows() -> np.ndarray:
+    """(5120,) bool: the rows of an ACF ``G`` that give the gradient magnitude and
+    orientation channels (scaled by ``s ** lambda``, :data:`ACF_GRADIENT_LAMBDA`)."""
+    n_out = (WINDOW_HEIGHT // ACF_SHRINK) * (WINDOW_WIDTH // ACF_SHRINK)
+    return np.arange(_N_ACF * n_out) >= (_N_ACF - _N_ORIENT_ACF - 1) * n_out
+
+
 @dataclass
 class _FeatureMaker:
     """The frame features an operator reads (picklable, so operators can be cached)."""
@@ -1107,7 +1115,7 @@ class _RunTables:
 def build_adapted_linear_operator(windows: CandidateWindows, weights, bias: float = 0.0, *,
                                   features: str = "hog", tolerance: float = 0.5,
                                   cells_per_source_cell: float = 0.7,
-                                  allowed_cell_sizes=HOG_CELL_SIZES,
+                                  allowed_cell_sizes=FRAME_CELL_SIZES,
                                   rule: str = "covariant") -> AdaptedLinearOperator:
     """Precompute the adapted linear detector of every candidate window (eq. (7)).
 
@@ -1337,7 +1345,7 @@ class AdaptedTreesOperator(_OperatorBase):
 
 def build_adapted_trees_operator(windows: CandidateWindows, model, *, tolerance: float = 1.0,
                                  cells_per_source_cell: float = 0.7,
-                                 allowed_cell_sizes=(2, 3, 4, 6, 8, 12, 16),
+                                 allowed_cell_sizes=FRAME_CELL_SIZES,
                                  rule: str = "covariant",
                                  gradient_lambda: float = ACF_GRADIENT_LAMBDA,
                                  acf_kwargs=None) -> AdaptedTreesOperator:
@@ -1376,8 +1384,7 @@ def build_adapted_trees_operator(windows: CandidateWindows, model, *, tolerance:
         raise ValueError(f"gradient_lambda must be finite, got {gradient_lambda!r}")
     groups = _build_groups(windows, cell, tolerance)
     used = model.used_features_
-    n_out = (WINDOW_HEIGHT // ACF_SHRINK) * (WINDOW_WIDTH // ACF_SHRINK)
-    gradient_row = np.arange(_N_ACF * n_out) >= (_N_ACF - _N_ORIENT_ACF - 1) * n_out
+    gradient_row = _acf_gradient_rows()
     scale = windows.scale
     factor = np.ones(len(windows))
     for g in groups:

@@ -14,8 +14,8 @@ offset against the cell grid) and scored two ways with each model's HOG/SVM:
 
 Printed per scale: ``d' = (mean person score - mean background score) / background sd``.
 Models come from ``viewadapt bench frames`` (``OUT/models/source_detectors.pkl``), e.g. one
-trained with and one without ``--no-frame-view``. Use crops the models were not trained on.
-Not a test.
+trained with the default ``--frame-view hog`` and one with ``--frame-view none``. Use crops
+the models were not trained on. Not a test.
 """
 
 from __future__ import annotations

@@ -81,7 +81,7 @@ def _pyramid_pixels(size, upsample, step, per_level=lambda w, h: w * h):
 
 
 def run_runtime(data, *, n_frames=3, warp_windows=1000, heights=(1.65, 1.85), jobs=-1,
-                seed=0, quick=True, cache_dir=None, throughput_seconds=4.0, frame_view=True):
+                seed=0, quick=True, cache_dir=None, throughput_seconds=4.0, frame_view="hog"):
     """Time every method; return (rows, info)."""
     import cv2
     from joblib import Parallel, delayed
