@@ -46,6 +46,10 @@ __all__ = ["FRAME_VIEW_SCALES", "frame_view", "hog_frame_view_features",
 #: log-spaced (the surveillance frames' range; a grid so that ``G`` is built once each).
 FRAME_VIEW_SCALES = tuple(float(v) for v in np.round(np.geomspace(0.25, 1.5, 12), 4))
 
+#: Canonical feature layout per detector kind (``hog_window_features``, ``acf_window_features``).
+_SHAPES = {"hog": HOG_WEIGHT_SHAPE,
+           "acf": (_N_ACF, WINDOW_HEIGHT // ACF_SHRINK, WINDOW_WIDTH // ACF_SHRINK)}
+
 #: Reflected context around the window before shrinking, canonical px (3 source cells).
 _CONTEXT = 24
 
@@ -148,7 +152,7 @@ def _read_through_frame(kind, window, scale, offset, *, cells_per_source_cell,
     features = hog_frame_features if kind == "hog" else acf_frame_features
     F = features(frame, [c], pad=pad).maps[c]
     x = F[cy0 + pad:cy0 + pad + ny, cx0 + pad:cx0 + pad + nx].ravel()
-    return np.asarray(G @ x, dtype=np.float32)
+    return np.asarray(G @ x, dtype=np.float32).reshape(_SHAPES[kind])
 
 
 def hog_frame_view_features(window, scale: float, *, offset=(0, 0),
@@ -184,7 +188,7 @@ def hog_frame_view_features(window, scale: float, *, offset=(0, 0),
     return _read_through_frame(
         "hog", window, scale, offset, cells_per_source_cell=cells_per_source_cell,
         upsample_below=upsample_below, factor=factor, allowed_cell_sizes=allowed_cell_sizes,
-        rule=rule).reshape(HOG_WEIGHT_SHAPE)
+        rule=rule)
 
 
 def acf_frame_view_features(window, scale: float, *, offset=(0, 0),
@@ -206,8 +210,7 @@ def acf_frame_view_features(window, scale: float, *, offset=(0, 0),
     return _read_through_frame(
         "acf", window, scale, offset, cells_per_source_cell=cells_per_source_cell,
         upsample_below=upsample_below, factor=factor, allowed_cell_sizes=allowed_cell_sizes,
-        rule=rule, gradient_lambda=gradient_lambda).reshape(
-            _N_ACF, WINDOW_HEIGHT // ACF_SHRINK, WINDOW_WIDTH // ACF_SHRINK)
+        rule=rule, gradient_lambda=gradient_lambda)
 
 
 def frame_view_copies(windows, *, seed=0, scales=FRAME_VIEW_SCALES, kind: str = "hog",
@@ -241,7 +244,5 @@ def frame_view_copies(windows, *, seed=0, scales=FRAME_VIEW_SCALES, kind: str = 
         off = (int(rng.integers(HOG_CELL)), int(rng.integers(HOG_CELL)))
         rows.append(read(w, s, offset=off, **kwargs).ravel())
     if not rows:
-        n = int(np.prod(HOG_WEIGHT_SHAPE)) if kind == "hog" else _N_ACF * (
-            WINDOW_HEIGHT // ACF_SHRINK) * (WINDOW_WIDTH // ACF_SHRINK)
-        return np.zeros((0, n), np.float32)
+        return np.zeros((0, int(np.prod(_SHAPES[kind]))), np.float32)
     return np.stack(rows)
