@@ -220,12 +220,21 @@ def read_boxes(path, frame_paths) -> dict:
     return out
 
 
+#: default size limit of an operator cache directory, GiB (one paper camera's ACF operator
+#: is about 45 MB, so a 13-camera run with both detectors holds about 0.8 GB per model)
+DEFAULT_CACHE_LIMIT_GB = 2.0
+
+
 class OperatorCache:
     """Adapted operators on disk, keyed by (calibration, model, parameters).
 
     The key is a hash of the camera's ``K, R, t`` and image size, the model's fingerprint,
     the window and operator parameters and the library version, so a changed calibration
     or model never reuses a stale operator. Files are written atomically.
+
+    ``limit_gb`` caps the directory's operators: after each save the least recently used
+    ones (by modification time; a load refreshes it) are deleted until the rest fit, never
+    the one just written. ``None`` or 0: no limit.
     """
 
     #: bump whenever what an operator holds or computes changes (2: ACF gradient rows
@@ -234,8 +243,11 @@ class OperatorCache:
     #: copy of the HOG templates, in the run tables)
     VERSION = 5
 
-    def __init__(self, directory):
+    def __init__(self, directory, limit_gb: float | None = DEFAULT_CACHE_LIMIT_GB):
+        if limit_gb is not None and not (np.isfinite(limit_gb) and limit_gb >= 0):
+            raise ValueError(f"the cache limit must be >= 0 GB, got {limit_gb}")
         self.dir = Path(directory)
+        self.limit = int(limit_gb * 2**30) if limit_gb else None
 
     def key(self, parts: dict) -> str:
         import hashlib
@@ -253,12 +265,15 @@ class OperatorCache:
         import pickle
 
         p = self.path(parts)
-        if not p.is_file():
+        try:
+            op = pickle.loads(p.read_bytes())
+        except Exception:       # missing (or evicted by another process), truncated, foreign
             return None
         try:
-            return pickle.loads(p.read_bytes())
-        except Exception:       # a truncated or foreign file: rebuild
-            return None
+            p.touch()           # recently used: evicted last
+        except OSError:
+            pass
+        return op
 
     def save(self, parts: dict, operator) -> Path:
         import os
@@ -268,10 +283,39 @@ class OperatorCache:
         self.dir.mkdir(parents=True, exist_ok=True)
         p = self.path(parts)
         fd, tmp = tempfile.mkstemp(dir=self.dir, prefix=".tmp-", suffix=".pkl")
-        with os.fdopen(fd, "wb") as fh:
-            pickle.dump(operator, fh, protocol=pickle.HIGHEST_PROTOCOL)
-        os.replace(tmp, p)
+        try:
+            with os.fdopen(fd, "wb") as fh:
+                pickle.dump(operator, fh, protocol=pickle.HIGHEST_PROTOCOL)
+            os.replace(tmp, p)
+        except BaseException:   # a full disk: no half-written file left behind
+            Path(tmp).unlink(missing_ok=True)
+            raise
+        self.evict(keep=p)
         return p
+
+    def evict(self, keep=None) -> list:
+        """Delete the least recently used operators until the directory's fit the limit
+        (never ``keep``); return the deleted paths."""
+        if self.limit is None:
+            return []
+        files = []
+        for f in self.dir.glob("operator-*.pkl"):
+            try:
+                st = f.stat()
+            except FileNotFoundError:               # evicted meanwhile by another process
+                continue
+            files.append((st.st_mtime, st.st_size, f))
+        total = sum(size for _, size, _ in files)
+        gone = []
+        for _, size, f in sorted(files, key=lambda t: t[0]):
+            if total <= self.limit:
+                break
+            if keep is not None and f == Path(keep):
+                continue
+            f.unlink(missing_ok=True)
+            total -= size
+            gone.append(f)
+        return gone
 
 
 # ----------------------------------------------------------------------------- training
@@ -404,9 +448,13 @@ class FrameDetector:
     person_heights : sequence of float
     cache_dir : path or None
         Where :class:`OperatorCache` keeps the adapted operators.
+    cache_limit_gb : float or None
+        That directory's size limit (least recently used operators go first); None or 0:
+        no limit.
     """
 
     def __init__(self, camera, models, *, person_heights=(1.75,), cache_dir=None,
+                 cache_limit_gb: float | None = DEFAULT_CACHE_LIMIT_GB,
                  tolerance: float = 0.5, cells_per_source_cell: float = 0.7,
                  upsample_below: float = UPSAMPLE_BELOW,
                  threshold_hog: float = -1.0, threshold_acf: float = -1.0):
@@ -421,6 +469,7 @@ class FrameDetector:
                            upsample_below=float(upsample_below))
         self.thr = {"hog": threshold_hog, "acf": threshold_acf}
         self.cache_dir = cache_dir
+        self.cache_limit_gb = cache_limit_gb
         self.windows = select_candidate_windows(camera, self.size,
                                                 person_heights=self.params["person_heights"])
         self._ops = {}
@@ -434,7 +483,7 @@ class FrameDetector:
         t0 = time.perf_counter()
         key_parts = dict(camera=self.camera.to_dict(), kind=kind,
                          model=self.models.fingerprint(), **self.params)
-        cache = OperatorCache(self.cache_dir) if self.cache_dir else None
+        cache = OperatorCache(self.cache_dir, self.cache_limit_gb) if self.cache_dir else None
         op = cache.load(key_parts) if cache else None
         self.cache_hit[kind] = op is not None
         if op is None:

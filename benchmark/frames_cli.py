@@ -9,6 +9,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .frames import DEFAULT_CACHE_LIMIT_GB
+
 __all__ = ["register", "cmd_detect", "cmd_bench_frames", "cmd_bench_runtime"]
 
 
@@ -21,6 +23,26 @@ def _heights(text):
     if not vals or any(not np.isfinite(v) or v <= 0 for v in vals):
         raise argparse.ArgumentTypeError("person heights must be positive metres")
     return vals
+
+
+def _cache_limit(text):
+    try:
+        v = float(text)
+    except ValueError:
+        v = float("nan")
+    if not np.isfinite(v) or v < 0:
+        raise argparse.ArgumentTypeError(f"the cache limit must be >= 0 GB, got {text!r}")
+    return v
+
+
+def _add_cache_options(p):
+    p.add_argument("--cache", type=Path, default=None,
+                   help="operator cache directory (default OUT/cache)")
+    p.add_argument("--cache-limit", type=_cache_limit, default=DEFAULT_CACHE_LIMIT_GB,
+                   metavar="GB",
+                   help="size limit of the cache directory: the least recently used "
+                        f"operators are deleted first (default {DEFAULT_CACHE_LIMIT_GB:g}; "
+                        "0 = no limit)")
 
 
 def _metadata(args, **extra):
@@ -57,6 +79,7 @@ def cmd_detect(args) -> int:
 
     det = FrameDetector(cam, models, person_heights=args.heights,
                         cache_dir=args.cache or (args.out / "cache"),
+                        cache_limit_gb=args.cache_limit,
                         upsample_below=UPSAMPLE_BELOW if args.upsample_below is None
                         else args.upsample_below,
                         threshold_hog=args.threshold, threshold_acf=args.threshold)
@@ -122,13 +145,14 @@ def _group_by_camera(frames):
     return list(groups.values())
 
 
-def _detect_camera(group, models, methods, heights, cache_dir, tolerance,
+def _detect_camera(group, models, methods, heights, cache_dir, cache_limit_gb, tolerance,
                    cells_per_source_cell, upsample_below, progress=None):
     """Every method on the frames of one camera: (detections, seconds, windows)."""
     from .frames import FrameDetector
 
     fd = FrameDetector(group[0].camera, models, person_heights=heights, cache_dir=cache_dir,
-                       tolerance=tolerance, cells_per_source_cell=cells_per_source_cell,
+                       cache_limit_gb=cache_limit_gb, tolerance=tolerance,
+                       cells_per_source_cell=cells_per_source_cell,
                        upsample_below=upsample_below)
     for kind in ("hog", "acf"):                  # offline precomputation, not timed per frame
         if f"{kind}_adapted" in methods:
@@ -147,7 +171,8 @@ def _detect_camera(group, models, methods, heights, cache_dir, tolerance,
 
 
 def run_frames_benchmark(data, *, methods, seed=0, quick=False, max_frames=None,
-                         heights=(1.75,), cache_dir=None, models=None, progress=True,
+                         heights=(1.75,), cache_dir=None,
+                         cache_limit_gb=DEFAULT_CACHE_LIMIT_GB, models=None, progress=True,
                          tolerance=0.5, cells_per_source_cell=0.7, upsample_below=None,
                          jobs=1, frame_view="hog"):
     """Detect with every method on every frame; return (results dict, models, detections).
@@ -180,7 +205,8 @@ def run_frames_benchmark(data, *, methods, seed=0, quick=False, max_frames=None,
     groups = _group_by_camera(frames)
     order = [f for g in groups for f in g]
     kw = dict(models=models, methods=methods, heights=heights, cache_dir=cache_dir,
-              tolerance=tolerance, cells_per_source_cell=cells_per_source_cell,
+              cache_limit_gb=cache_limit_gb, tolerance=tolerance,
+              cells_per_source_cell=cells_per_source_cell,
               upsample_below=upsample_below)
     n_jobs = 1 if jobs is None else int(jobs)
     if n_jobs != 1 and len(groups) > 1:
@@ -236,22 +262,132 @@ def plot_det_figure(results, path_stem, title=""):
     plt.close(fig)
 
 
-def _accuracy_targets(results) -> list:
-    """The issue's accuracy targets, read off this run's log-average miss rates."""
+#: the accuracy targets: (baseline, test on (adapted, baseline) LAMR, wording)
+_TARGETS = (("warp", lambda a, b: a <= b + 0.03, "within 0.03 of (or below) image warping"),
+            ("pyramid", lambda a, b: a < b, "below the unadapted pyramid"))
+
+#: methods that train nothing: a seed study runs them once
+UNTRAINED_METHODS = ("opencv", "opencv_native")
+
+
+def _accuracy_targets(results, per_seed=None) -> list:
+    """The issue's accuracy targets, read off this run's log-average miss rates; with
+    ``per_seed`` ({seed: {method: LAMR}}, two seeds or more) judged on the seed means,
+    with how many seeds meet each on their own."""
+    many = per_seed is not None and len(per_seed) > 1
+    lamr = ({m: float(np.mean([r[m] for r in per_seed.values() if m in r]))
+             for m in results} if many else {m: r["lamr"] for m, r in results.items()})
     out = []
     for kind in ("hog", "acf"):
-        ad = results.get(f"{kind}_adapted")
-        if ad is None:
+        ad = f"{kind}_adapted"
+        if ad not in lamr:
             continue
-        for base, test, text in (
-                ("warp", lambda a, b: a <= b + 0.03, "within 0.03 of (or below) image warping"),
-                ("pyramid", lambda a, b: a < b, "below the unadapted pyramid")):
-            other = results.get(f"{kind}_{base}")
-            if other is not None:
-                ok = test(ad["lamr"], other["lamr"])
-                out.append(f"- {kind}_adapted LAMR {ad['lamr']:.3f} {text} "
-                           f"({other['lamr']:.3f}): {'met' if ok else 'NOT met'}")
-    return ["", "## Targets", ""] + out if out else []
+        for base, test, text in _TARGETS:
+            other = f"{kind}_{base}"
+            if other not in lamr:
+                continue
+            ok = test(lamr[ad], lamr[other])
+            line = (f"- {ad} {'mean ' if many else ''}LAMR {lamr[ad]:.3f} {text} "
+                    f"({lamr[other]:.3f}): {'met' if ok else 'NOT met'}")
+            if many:
+                n = sum(test(r[ad], r[other]) for r in per_seed.values())
+                line += f" (met at {n} of {len(per_seed)} seeds on their own)"
+            out.append(line)
+    if not out:
+        return []
+    head = ["", "## Targets", ""]
+    if many:
+        head += [f"Judged on the mean over the {len(per_seed)} training seeds "
+                 f"{', '.join(map(str, per_seed))} (seeds.md).", ""]
+    return head + out
+
+
+def seed_summary(per_seed) -> list:
+    """Markdown lines: each method's LAMR per training seed with mean, standard deviation
+    and range, and each detector's adapted - warping gap per seed. ``per_seed`` is
+    {seed: {method: LAMR}}; a method missing from a seed (one run only) is left out of
+    that seed's column."""
+    seeds = list(per_seed)
+    methods = list(dict.fromkeys(m for r in per_seed.values() for m in r))
+    lines = [f"## Log-average miss rate over {len(seeds)} training seeds", "",
+             "| method | " + " | ".join(f"seed {s}" for s in seeds)
+             + " | mean | sd | min - max |",
+             "|---|" + "---|" * (len(seeds) + 3)]
+
+    def stats(vals, sign=""):
+        v = np.asarray(vals, float)
+        sd = f"{v.std(ddof=1):.3f}" if v.size > 1 else "-"
+        return (f"{v.mean():{sign}.3f} | {sd} | {v.min():{sign}.3f} - "
+                f"{v.max():{sign}.3f}")
+
+    for m in methods:
+        vals = [per_seed[s].get(m) for s in seeds]
+        cells = " | ".join("-" if v is None else f"{v:.3f}" for v in vals)
+        lines.append(f"| {m} | {cells} | {stats([v for v in vals if v is not None])} |")
+    gaps = seed_gaps(per_seed)
+    if gaps:
+        lines += ["", "Adapted minus image warping (negative: adapted misses less; the "
+                  "target is at most +0.03):", "",
+                  "| detector | " + " | ".join(f"seed {s}" for s in seeds)
+                  + " | mean | sd | min - max |", "|---|" + "---|" * (len(seeds) + 3)]
+        for kind, g in gaps.items():
+            lines.append(f"| {kind} | " + " | ".join(f"{v:+.3f}" for v in g)
+                         + f" | {stats(g, '+')} |")
+    return lines
+
+
+def seed_gaps(per_seed) -> dict:
+    """{detector: [adapted - warping LAMR per seed]} for the detectors with both."""
+    out = {}
+    for kind in ("hog", "acf"):
+        if all(f"{kind}_{b}" in r for r in per_seed.values() for b in ("adapted", "warp")):
+            out[kind] = [r[f"{kind}_adapted"] - r[f"{kind}_warp"] for r in per_seed.values()]
+    return out
+
+
+def plot_seed_figure(per_seed, path_stem):
+    """Left: each method's LAMR at every seed (dots) and their mean (bar); right: the
+    adapted - warping gap per seed against the 0.03 target."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    seeds = list(per_seed)
+    methods = list(dict.fromkeys(m for r in per_seed.values() for m in r))
+    gaps = seed_gaps(per_seed)
+    fig, axes = plt.subplots(1, 2 if gaps else 1, figsize=(9 if gaps else 5.5, 3.8),
+                             squeeze=False, gridspec_kw={"width_ratios": [2, 1]} if gaps
+                             else None)
+    ax = axes[0, 0]
+    for i, m in enumerate(methods):
+        vals = np.array([per_seed[s][m] for s in seeds if m in per_seed[s]])
+        color = {"hog": "tab:blue", "acf": "tab:red"}.get(m.split("_")[0], "tab:gray")
+        ax.bar(i, vals.mean(), color=color, alpha=0.3, width=0.7)
+        ax.plot(np.full(vals.size, i) + np.linspace(-0.2, 0.2, vals.size), vals, "o",
+                color=color, ms=4)
+    ax.set_xticks(range(len(methods)), methods, rotation=30, ha="right", fontsize=8)
+    ax.set_ylabel("log-average miss rate")
+    ax.set_ylim(0, 1)
+    ax.set_title(f"{len(seeds)} training seeds: dots, mean: bar", fontsize=9)
+    ax.grid(True, axis="y", alpha=0.3)
+    if gaps:
+        ax = axes[0, 1]
+        for i, (kind, g) in enumerate(gaps.items()):
+            color = {"hog": "tab:blue", "acf": "tab:red"}[kind]
+            ax.plot(np.full(len(g), i) + np.linspace(-0.15, 0.15, len(g)), g, "o",
+                    color=color, ms=4)
+            ax.plot([i - 0.3, i + 0.3], [np.mean(g)] * 2, color=color, lw=2)
+        ax.axhline(0.03, color="k", ls="--", lw=1, label="target: +0.03")
+        ax.axhline(0.0, color="gray", lw=0.8)
+        ax.set_xticks(range(len(gaps)), [f"{k} adapted\n- warping" for k in gaps], fontsize=8)
+        ax.set_xlim(-0.6, len(gaps) - 0.4)
+        ax.set_ylabel("LAMR difference")
+        ax.legend(fontsize=8)
+        ax.grid(True, axis="y", alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(f"{path_stem}.png", dpi=150)
+    plt.close(fig)
 
 
 def _earlier_results(out: Path, data: Path) -> dict:
@@ -299,17 +435,32 @@ def cmd_bench_frames(args) -> int:
     from .frames import METHODS, SourceDetectors, evaluate_method
 
     _check_out(args.out)
+    if args.seeds < 1:
+        raise ValueError(f"--seeds must be at least 1, got {args.seeds}")
+    if args.seeds > 1 and (args.model or args.keep_other_methods):
+        raise ValueError("--seeds trains the detectors once per seed; it does not combine "
+                         "with --model or --keep-other-methods")
     methods = args.methods or list(METHODS)
     earlier = _earlier_results(args.out, args.data) if args.keep_other_methods else {}
     models = SourceDetectors.load(args.model) if args.model else None
+    seeds = [args.seed + i for i in range(args.seeds)]
     t0 = time.perf_counter()
+    kw = dict(quick=args.quick, max_frames=args.max_frames, heights=args.heights,
+              cache_dir=args.cache or (args.out / "cache"), cache_limit_gb=args.cache_limit,
+              tolerance=args.tolerance,
+              cells_per_source_cell=args.cells_per_source_cell,
+              upsample_below=args.upsample_below, jobs=args.jobs, frame_view=args.frame_view)
+    if len(seeds) > 1:
+        print(f"seed {seeds[0]} (1 of {len(seeds)})", flush=True)
     results, models, dets, frames, info = run_frames_benchmark(
-        args.data, methods=methods, seed=args.seed, quick=args.quick,
-        max_frames=args.max_frames, heights=args.heights,
-        cache_dir=args.cache or (args.out / "cache"), models=models,
-        tolerance=args.tolerance, cells_per_source_cell=args.cells_per_source_cell,
-        upsample_below=args.upsample_below, jobs=args.jobs,
-        frame_view=args.frame_view)
+        args.data, methods=methods, seed=seeds[0], models=models, **kw)
+    per_seed = {seeds[0]: {m: results[m] for m in methods}}
+    seed_models = {}
+    trained = [m for m in methods if m not in UNTRAINED_METHODS]
+    for i, seed in enumerate(seeds[1:], 2):
+        print(f"\nseed {seed} ({i} of {len(seeds)}; {', '.join(trained)})", flush=True)
+        per_seed[seed], seed_models[seed], *_ = run_frames_benchmark(
+            args.data, methods=trained, seed=seed, **kw)
     kept = [m for m in earlier if m not in methods]
     for m in kept:
         old, sec = earlier[m]
@@ -323,14 +474,23 @@ def cmd_bench_frames(args) -> int:
         print(f"kept from the earlier run in {args.out}: {', '.join(kept)}")
         methods = list(dict.fromkeys([*earlier, *methods]))     # the earlier run's order
     with atomic_output_dir(args.out) as tmp:
-        lines = ["| method | LAMR (1e-2..1e0 fppi) | s / frame |", "|---|---|---|"]
+        which = f", seed {seeds[0]}" if len(seeds) > 1 else ""
+        lines = [f"| method | LAMR{which} (1e-2..1e0 fppi) | s / frame |", "|---|---|---|"]
         csv = ["method,lamr,seconds_per_frame,n_frames,n_gt"]
         for m in methods:
             r = results[m]
             lines.append(f"| {m} | {r['lamr']:.3f} | {r['seconds_per_frame']:.3f} |")
             csv.append(f"{m},{r['lamr']:.5f},{r['seconds_per_frame']:.5f},"
                        f"{info['n_frames']},{info['n_gt']}")
-        lines += _accuracy_targets(results)
+        lamrs = {s: {m: r["lamr"] for m, r in res.items()} for s, res in per_seed.items()}
+        lines += _accuracy_targets(results, lamrs)
+        if len(seeds) > 1:
+            lines += [""] + seed_summary(lamrs)
+            (tmp / "seeds.md").write_text("\n".join(seed_summary(lamrs)) + "\n")
+            (tmp / "seeds.csv").write_text("seed,method,lamr,seconds_per_frame\n" + "".join(
+                f"{s},{m},{r['lamr']:.5f},{r['seconds_per_frame']:.5f}\n"
+                for s, res in per_seed.items() for m, r in res.items()))
+            plot_seed_figure(lamrs, tmp / "seeds")
         (tmp / "frames_summary.md").write_text("\n".join(lines) + "\n")
         (tmp / "frames_summary.csv").write_text("\n".join(csv) + "\n")
         (tmp / "det_curves.json").write_text(json.dumps(
@@ -344,12 +504,17 @@ def cmd_bench_frames(args) -> int:
                         title=f"{info['n_frames']} frames, {info['n_gt']} persons")
         (tmp / "models").mkdir()
         models.save(tmp / "models" / "source_detectors.pkl")
+        for seed, m in seed_models.items():
+            m.save(tmp / "models" / f"source_detectors_seed{seed}.pkl")
         (tmp / "run.json").write_text(json.dumps(_metadata(
             args, data=str(args.data), methods=methods, kept_from_earlier_run=kept, **info,
+            seeds=seeds,
             seconds=round(time.perf_counter() - t0, 1)), indent=2, default=str))
     print("\n".join(lines))
     print(f"\nwrote {args.out}/frames_summary.{{md,csv}}, det_frames.{{png,pdf}}, "
-          "models/source_detectors.pkl")
+          "models/source_detectors.pkl"
+          + (", seeds.{md,csv,png} (per seed; the rest is seed "
+             f"{seeds[0]}'s)" if len(seeds) > 1 else ""))
     return 0
 
 
@@ -366,6 +531,7 @@ def cmd_bench_runtime(args) -> int:
     table, info = run_runtime(args.data, n_frames=args.frames, warp_windows=args.warp_windows,
                               heights=args.heights, jobs=args.jobs, seed=args.seed,
                               quick=args.quick, cache_dir=args.cache,
+                              cache_limit_gb=args.cache_limit,
                               frame_view=args.frame_view)
     md = format_table(table, info)
     with atomic_output_dir(args.out) as tmp:
@@ -411,8 +577,7 @@ def register(sub, common) -> None:
     p.add_argument("--threshold", type=float, default=0.0, help="score threshold (default 0)")
     p.add_argument("--heights", type=_heights, default=(1.75,),
                    help="assumed person heights, metres, comma-separated (default 1.75)")
-    p.add_argument("--cache", type=Path, default=None,
-                   help="operator cache directory (default OUT/cache)")
+    _add_cache_options(p)
     p.add_argument("--upsample-below", type=float, default=None,
                    help="windows of persons smaller than 96 x this many px read the frame "
                         "upsampled 2x (default 0.5, i.e. 48 px; 0 = never)")
@@ -428,8 +593,7 @@ def register(sub, common) -> None:
                       help="dataset directory with crops and frames_coco.json")
     opts.add_argument("--heights", type=_heights, default=(1.75,),
                       help="assumed person heights, metres (default 1.75)")
-    opts.add_argument("--cache", type=Path, default=None,
-                      help="operator cache directory (default OUT/cache)")
+    _add_cache_options(opts)
     opts.add_argument("--quick", action="store_true", help="smaller detectors (tests)")
     opts.add_argument("--frame-view", choices=["hog", "acf", "both", "none"], default="hog",
                       help="which detectors also train on a frame-view copy of every crop "
@@ -457,6 +621,13 @@ def register(sub, common) -> None:
                         "upsampled 2x (default 0.5, i.e. 48 px; 0 = never)")
     p.add_argument("--model", type=Path, default=None,
                    help="reuse trained source detectors instead of training")
+    p.add_argument("--seeds", type=int, default=1,
+                   help="train and detect with this many training seeds (--seed, --seed + "
+                        "1, ...) and write each method's LAMR per seed, its mean and spread "
+                        "and the adapted - warping gap per seed (seeds.md, seeds.csv, "
+                        "seeds.png); the accuracy targets are then judged on the seed "
+                        "means. The DET figure and detections are the first seed's; "
+                        "OpenCV, which trains nothing, runs once (default 1)")
     p.add_argument("--keep-other-methods", action="store_true",
                    help="run only --methods and keep the other methods' results of the "
                         "earlier run in --out on the same --data (e.g. rerun the adapted "

@@ -375,6 +375,36 @@ def test_operator_cache_invalidates_on_calibration_change(tmp_path, frame):
     assert len(list(tmp_path.glob("operator-*.pkl"))) == 2
 
 
+def test_operator_cache_keeps_to_its_size_limit(tmp_path):
+    import os
+    import pickle
+
+    from benchmark.frames import OperatorCache
+
+    blob = np.zeros(1000)                                   # about 8 kB pickled
+    size = len(pickle.dumps(blob))
+    cache = OperatorCache(tmp_path, limit_gb=2.5 * size / 2**30)   # two fit
+    keys = [{"camera": i} for i in range(4)]
+    for i in (0, 1):
+        os.utime(cache.save(keys[i], blob + i), (1000 + i, 1000 + i))
+    assert cache.load(keys[0])[0] == 0                      # used now: evicted last
+    cache.save(keys[2], blob)
+    assert cache.load(keys[1]) is None                      # the least recently used went
+    assert cache.load(keys[0]) is not None and cache.load(keys[2]) is not None
+    # a limit below one operator keeps just the newest
+    small = OperatorCache(tmp_path, limit_gb=size / 4 / 2**30)
+    newest = small.save(keys[3], blob)
+    assert list(tmp_path.glob("operator-*.pkl")) == [newest]
+    # no limit: nothing is deleted
+    for limit in (None, 0):
+        free = OperatorCache(tmp_path, limit_gb=limit)
+        for k in keys:
+            free.save(k, blob)
+        assert free.evict() == [] and len(list(tmp_path.glob("operator-*.pkl"))) == 4
+    with pytest.raises(ValueError, match="cache limit"):
+        OperatorCache(tmp_path, limit_gb=-1)
+
+
 # ---------------------------------------------------------------------------- bad input
 
 

@@ -23,6 +23,8 @@ from pathlib import Path
 
 import numpy as np
 
+from benchmark.frames import DEFAULT_CACHE_LIMIT_GB
+
 __all__ = ["timing_camera", "run_runtime", "format_table"]
 
 
@@ -53,14 +55,14 @@ def _best(fn, repeat):
     return float(np.median(ts)), float(np.min(ts))
 
 
-def _worker(cache_dir, model_path, heights, method, frames, seconds):
+def _worker(cache_dir, cache_limit_gb, model_path, heights, method, frames, seconds):
     """Detect frames in a loop for ``seconds``; return the number done and the time."""
     _single_thread()
     from benchmark.frames import FrameDetector, SourceDetectors
 
     models = SourceDetectors.load(model_path)
     det = FrameDetector(timing_camera(), models, person_heights=heights, cache_dir=cache_dir,
-                        threshold_hog=0.0, threshold_acf=0.0)
+                        cache_limit_gb=cache_limit_gb, threshold_hog=0.0, threshold_acf=0.0)
     for kind in ("hog", "acf"):
         if method.startswith(kind + "_adapted"):
             det.operator(kind)
@@ -81,7 +83,8 @@ def _pyramid_pixels(size, upsample, step, per_level=lambda w, h: w * h):
 
 
 def run_runtime(data, *, n_frames=3, warp_windows=1000, heights=(1.65, 1.85), jobs=-1,
-                seed=0, quick=True, cache_dir=None, throughput_seconds=4.0, frame_view="hog"):
+                seed=0, quick=True, cache_dir=None, throughput_seconds=4.0, frame_view="hog",
+                cache_limit_gb=DEFAULT_CACHE_LIMIT_GB):
     """Time every method; return (rows, info)."""
     import cv2
     from joblib import Parallel, delayed
@@ -118,7 +121,7 @@ def run_runtime(data, *, n_frames=3, warp_windows=1000, heights=(1.65, 1.85), jo
         info["window_selection_s"] = round(time.perf_counter() - t, 2)
         n_win = len(det.windows)
         info["candidate_windows"] = n_win
-        cache = OperatorCache(cache_dir)
+        cache = OperatorCache(cache_dir, cache_limit_gb)
         for kind in ("hog", "acf"):
             t = time.perf_counter()
             op = det.operator(kind)
@@ -200,8 +203,8 @@ def run_runtime(data, *, n_frames=3, warp_windows=1000, heights=(1.65, 1.85), jo
         r["fps_all_cores"] = None
         if r["seconds_per_frame"] < 1.0 and n_jobs > 1:
             res = Parallel(n_jobs=n_jobs)(
-                delayed(_worker)(cache_dir, model_path, heights, r["method"], frames,
-                                 throughput_seconds) for _ in range(n_jobs))
+                delayed(_worker)(cache_dir, cache_limit_gb, model_path, heights, r["method"],
+                                 frames, throughput_seconds) for _ in range(n_jobs))
             r["fps_all_cores"] = sum(n for n, _ in res) / max(t for _, t in res)
         r["paper_fps"] = PAPER_FPS.get(r["method"])
     fps = {r["method"]: r["fps_1core"] for r in rows}
