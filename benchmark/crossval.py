@@ -227,7 +227,6 @@ def _task(det, s, t, fold, cfg, data, seed):
     X_plain = test_feats(src_rep)
     results["oracle" if es == et else "unadapted"] = scorer.plain(X_plain)
     if es != et:
-        H = elevation_homography(s, t, distance=cfg.distance, framing=cfg.framing)
         Xfine = test_feats(fine_rep)
         variants = ADAPT_VARIANTS if (cfg.ablations and kind in ("blocks", "linear")) else ["adapted"]
         for v in variants:

@@ -402,10 +402,10 @@ def _earlier_results(out: Path, data: Path) -> dict:
     if Path(old.get("data", "")).resolve() != Path(data).resolve():
         raise ValueError(f"--keep-other-methods: {out} holds results on {old.get('data')}, "
                          f"not on {data}")
-    secs = {}
-    for line in (out / "frames_summary.csv").read_text().splitlines()[1:]:
-        m, _, sec = line.split(",")[:3]
-        secs[m] = float(sec)
+    import pandas as pd
+
+    table = pd.read_csv(out / "frames_summary.csv")
+    secs = dict(zip(table["method"], table["seconds_per_frame"].astype(float)))
     return {m: (d, secs.get(m, float("nan"))) for m, d in read_json(det).items()}
 
 

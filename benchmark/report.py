@@ -10,8 +10,7 @@ import pandas as pd
 
 from viewadapt.metrics import det_curve_windows
 
-from .figures import save_figure
-from .summarize import FPPW_REFERENCE, PAPER_MISS_RATES
+from .summarize import PAPER_MISS_RATES
 
 __all__ = ["plot_det", "plot_sweep", "plot_score_shift", "write_report", "elevation_label"]
 

@@ -149,7 +149,6 @@ def make_toy_dataset(out, *, n_persons=9, n_scenes=3, n_instances=1,
     import cv2
 
     out = Path(out)
-    rng = np.random.default_rng(seed)
     scenes = {f"scene{j:02d}": _scene_textures(np.random.default_rng([seed, 1, j]))
               for j in range(n_scenes)}
     persons = {}

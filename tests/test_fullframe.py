@@ -3,7 +3,6 @@
 import cv2
 import numpy as np
 import pytest
-import scipy.sparse as sp
 
 from tests.tolerances import EXACT, FLOAT32
 from viewadapt.fullframe import (

@@ -23,7 +23,7 @@ from sklearn.base import BaseEstimator, ClassifierMixin, clone
 from sklearn.utils.validation import check_is_fitted, validate_data
 
 from .geometry import WINDOW_HEIGHT, WINDOW_WIDTH, elevation_homography
-from .hog import cells_to_blocks, normalize_blocks_l2hys
+from .hog import normalize_blocks_l2hys
 from .remap import CellGrid, feature_remap_matrix
 
 __all__ = [

@@ -37,7 +37,7 @@ from .fullframe import (
     acf_frame_features, choose_cell_sizes, hog_frame_features,
 )
 from .geometry import WINDOW_HEIGHT, WINDOW_WIDTH
-from .windows import CandidateWindows
+from .windows import window_scale
 
 __all__ = ["FRAME_VIEW_SCALES", "frame_view", "hog_frame_view_features",
            "acf_frame_view_features", "frame_view_copies"]
@@ -78,8 +78,7 @@ def _frame_view_remap(kind, scale, offset, f, image_shape, cells_per_source_cell
     Hm, size = _frame_view_geometry(scale, offset, f, image_shape)
     # frame px per canonical px, computed as the operator does (a boundary case such as
     # 8 * 0.7 / 0.7 must pick the same cell size)
-    s = CandidateWindows(np.zeros((1, 2)), np.ones(1), Hm[None], size,
-                         np.zeros((1, 2), int)).scale[0]
+    s = window_scale(Hm)[0]
     source_cell = HOG_CELL if kind == "hog" else ACF_SHRINK
     c = int(choose_cell_sizes([s], source_cell, cells_per_source_cell=cells_per_source_cell,
                               allowed=allowed_cell_sizes)[0])

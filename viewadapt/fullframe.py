@@ -83,8 +83,7 @@ from ._validation import check_image
 from .geometry import WINDOW_HEIGHT, WINDOW_WIDTH
 from .boosting import cascade_step
 from .nms import non_maximum_suppression
-from .geometry import homography_jacobian
-from .remap import CellGrid, cell_remap_matrix, feature_remap_matrix, orientation_remap_matrix
+from .remap import CellGrid, feature_remap_matrix
 from .windows import CandidateWindows, _map_points, person_boxes
 
 __all__ = [
@@ -342,15 +341,10 @@ def cell_sums(channels, c: int) -> np.ndarray:
     return out * np.float32(c * c)
 
 
-def _multi_cell_sums(channels, cell_sizes, *, from_pixels=None) -> dict:
-    """Cell sums of ``channels`` at every size in ``cell_sizes``; a size that is a multiple
-    of a smaller one is summed from that size's cells (same sums, fewer pixels read).
-
-    ``from_pixels(c)`` computes a size that is not (default :func:`cell_sums` of
-    ``channels``; then ``channels`` need only have the frame's shape)."""
-    if from_pixels is None:
-        def from_pixels(c):
-            return cell_sums(channels, c)
+def _multi_cell_sums(shape, cell_sizes, from_pixels) -> dict:
+    """Cell sums over a frame of ``shape`` (rows, columns) at every size in ``cell_sizes``:
+    ``from_pixels(c)`` computes a size from the pixels, a size that is a multiple of a
+    smaller one is summed from that size's cells (same sums, fewer pixels read)."""
     out = {}
     for c in sorted(set(int(c) for c in cell_sizes)):
         if c < 1:
@@ -360,7 +354,7 @@ def _multi_cell_sums(channels, cell_sizes, *, from_pixels=None) -> dict:
             out[c] = from_pixels(c)
         else:
             r = c // base
-            ny, nx = channels.shape[0] // c, channels.shape[1] // c
+            ny, nx = shape[0] // c, shape[1] // c
             out[c] = cell_sums(out[base][:ny * r, :nx * r], r)
     return out
 
@@ -393,7 +387,7 @@ def orientation_cell_maps(image, cell_sizes, *, n_bins: int = _N_HOG_BINS) -> di
         orientation_cell_sums(mag, ang, n_bins, c, out)
         return out
 
-    return _multi_cell_sums(mag, cell_sizes, from_pixels=from_pixels)
+    return _multi_cell_sums(mag.shape, cell_sizes, from_pixels)
 
 
 def _check_frame(image, image_size):
@@ -571,7 +565,7 @@ def acf_frame_features(image, cell_sizes, *, pad: int = 2, smooth_channels: floa
     M, N = P.shape[:2]
     tri = _triangle_kernel(smooth_channels)
     maps = {}
-    for c, A in _multi_cell_sums(P, cell_sizes).items():
+    for c, A in _multi_cell_sums(P.shape, cell_sizes, lambda c: cell_sums(P, c)).items():
         A = A * np.float32(1.0 / (c * c))
         if tri is not None:
             if min(A.shape[:2]) > 1:
@@ -810,24 +804,20 @@ def _acf_remap(H, g, rule):
     in_grid = CellGrid(g.shape[1], g.shape[0], c,
                        origin=(g.origin[0] * c - 0.5, g.origin[1] * c - 0.5))
     n_out, n_in = out_grid.n_cells, in_grid.n_cells
-    # S once (eq. (1), area-weighted means), A per output cell (eq. (3)-(4)); the same
-    # G = S (x) A as feature_remap_matrix(..., per_cell=True), for the 6 orientation
-    # channels, and S alone for L, U, V and the magnitude (viewadapt.adapt.acf_remap_matrix)
-    S = cell_remap_matrix(H, out_grid, in_grid, preserve="mean").tocoo()
-    nO = _N_ORIENT_ACF
-    A = orientation_remap_matrix(homography_jacobian(H, out_grid.centers()), nO, rule,
-                                 bin_offset=-0.5)                     # (n_out, nO, nO)
-    rows, cols, vals = [], [], []
-    for ch in range(_N_ACF - nO):
-        rows.append(ch * n_out + S.row)
-        cols.append(S.col * _N_ACF + ch)
-        vals.append(S.data)
-    ii, jj = np.meshgrid(np.arange(nO), np.arange(nO), indexing="ij")
-    v = S.data[:, None, None] * A[S.row]                              # (nnz, out bin, in bin)
-    rows.append(((_N_ACF - nO + ii[None]) * n_out + S.row[:, None, None]).ravel())
-    cols.append((S.col[:, None, None] * _N_ACF + _N_ACF - nO + jj[None]).ravel())
-    vals.append(v.ravel())
-    return sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
+    # G = S (x) diag(A_k, I) (area-weighted means; S alone for L, U, V and the magnitude,
+    # viewadapt.adapt.acf_remap_matrix), with the channels reordered: feature_remap_matrix
+    # has the bins first and rows (cell, channel), the ACF frame maps the plain channels
+    # first and the source features rows (channel, cell)
+    nO, n_plain = _N_ORIENT_ACF, _N_ACF - _N_ORIENT_ACF
+    G = feature_remap_matrix(H, out_grid, in_grid, n_bins=nO, rule=rule, per_cell=True,
+                             preserve="mean", bin_offset=-0.5, n_plain=n_plain).tocoo()
+    k, i = np.divmod(G.row, _N_ACF)
+    m, j = np.divmod(G.col, _N_ACF)
+
+    def acf_channel(ch):
+        return np.where(ch < nO, ch + n_plain, ch - nO)
+
+    return sp.csr_matrix((G.data, (acf_channel(i) * n_out + k, m * _N_ACF + acf_channel(j))),
                          shape=(_N_ACF * n_out, n_in * _N_ACF))
 
 

@@ -428,17 +428,18 @@ def feature_remap_matrix(H_out_to_in, out_grid: CellGrid, in_grid: CellGrid, *,
                        sp.csr_matrix(A), format="csr")
     A = orientation_remap_matrix(homography_jacobian(H, out_grid.centers()), n_bins, rule,
                                  bin_offset=bin_offset)
+    # entries (k, l, i, j) -> value S_kl * A_k[i, j] for the bins; S_kl on the diagonal of
+    # the plain channels
+    ii, jj = np.meshgrid(np.arange(n_bins), np.arange(n_bins), indexing="ij")
+    rows = [(S.row[:, None, None] * B + ii[None]).ravel()]
+    cols = [(S.col[:, None, None] * B + jj[None]).ravel()]
+    vals = [(S.data[:, None, None] * A[S.row]).ravel()]             # (nnz, n_bins, n_bins)
     if n_plain:
-        blocks = np.zeros((A.shape[0], B, B))
-        blocks[:, :n_bins, :n_bins] = A
-        blocks[:, n_bins:, n_bins:] = np.eye(n_plain)
-        A = blocks
-    # entries (k, l, i, j) -> value S_kl * A_k[i, j]
-    vals = S.data[:, None, None] * A[S.row]                           # (nnz, B, B)
-    ii, jj = np.meshgrid(np.arange(B), np.arange(B), indexing="ij")
-    rows = (S.row[:, None, None] * B + ii[None]).ravel()
-    cols = (S.col[:, None, None] * B + jj[None]).ravel()
-    vals = vals.ravel()
+        p = n_bins + np.arange(n_plain)
+        rows.append((S.row[:, None] * B + p).ravel())
+        cols.append((S.col[:, None] * B + p).ravel())
+        vals.append(np.repeat(S.data, n_plain))
+    rows, cols, vals = (np.concatenate(a) for a in (rows, cols, vals))
     nz = vals != 0
     return sp.csr_matrix((vals[nz], (rows[nz], cols[nz])),
                          shape=(out_grid.n_cells * B, in_grid.n_cells * B))

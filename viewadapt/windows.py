@@ -102,10 +102,8 @@ class CandidateWindows:
 
     @property
     def scale(self) -> np.ndarray:
-        """(N,) frame pixels per canonical-window pixel (head-to-feet image length / 96)."""
-        return np.linalg.norm(_map_points(self.homographies, _FEET)
-                              - _map_points(self.homographies, _HEAD), axis=1) \
-            / WINDOW_PERSON_HEIGHT_PX
+        """(N,) frame pixels per canonical-window pixel: :func:`window_scale`."""
+        return window_scale(self.homographies)
 
     def person_boxes(self) -> np.ndarray:
         """(N, 4) ``(x, y, w, h)`` image bounding box of each window's person box."""
@@ -132,6 +130,14 @@ def _map_points(H, points) -> np.ndarray:
     return out[:, 0] if single else out
 
 
+def window_scale(homographies) -> np.ndarray:
+    """(N,) frame pixels per canonical-window pixel under each homography: the image
+    length of the window's head-to-feet line / 96 (what picks a window's cell size)."""
+    H = np.asarray(homographies, dtype=np.float64).reshape(-1, 3, 3)
+    return np.linalg.norm(_map_points(H, _FEET) - _map_points(H, _HEAD), axis=1) \
+        / WINDOW_PERSON_HEIGHT_PX
+
+
 def person_boxes(homographies) -> np.ndarray:
     """Image bounding boxes ``(x, y, w, h)`` of :data:`PERSON_BOX_WINDOW` under each
     homography.
@@ -151,7 +157,7 @@ def person_boxes(homographies) -> np.ndarray:
     return np.concatenate([lo, hi - lo], axis=1)
 
 
-__all__.append("person_boxes")
+__all__ += ["person_boxes", "window_scale"]
 
 
 def _camera_ground_frame(camera: Camera):
