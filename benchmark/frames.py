@@ -225,6 +225,13 @@ def read_boxes(path, frame_paths) -> dict:
 DEFAULT_CACHE_LIMIT_GB = 2.0
 
 
+def check_cache_limit(limit_gb):
+    """``limit_gb`` if it is None or a finite number >= 0, else ValueError."""
+    if limit_gb is not None and not (np.isfinite(limit_gb) and limit_gb >= 0):
+        raise ValueError(f"the cache limit must be >= 0 GB, got {limit_gb}")
+    return limit_gb
+
+
 class OperatorCache:
     """Adapted operators on disk, keyed by (calibration, model, parameters).
 
@@ -244,10 +251,8 @@ class OperatorCache:
     VERSION = 5
 
     def __init__(self, directory, limit_gb: float | None = DEFAULT_CACHE_LIMIT_GB):
-        if limit_gb is not None and not (np.isfinite(limit_gb) and limit_gb >= 0):
-            raise ValueError(f"the cache limit must be >= 0 GB, got {limit_gb}")
         self.dir = Path(directory)
-        self.limit = int(limit_gb * 2**30) if limit_gb else None
+        self.limit = int(check_cache_limit(limit_gb) * 2**30) if limit_gb else None
 
     def key(self, parts: dict) -> str:
         import hashlib

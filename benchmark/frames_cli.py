@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .frames import DEFAULT_CACHE_LIMIT_GB
+from .frames import DEFAULT_CACHE_LIMIT_GB, check_cache_limit
 
 __all__ = ["register", "cmd_detect", "cmd_bench_frames", "cmd_bench_runtime"]
 
@@ -27,12 +27,10 @@ def _heights(text):
 
 def _cache_limit(text):
     try:
-        v = float(text)
+        return check_cache_limit(float(text))
     except ValueError:
-        v = float("nan")
-    if not np.isfinite(v) or v < 0:
-        raise argparse.ArgumentTypeError(f"the cache limit must be >= 0 GB, got {text!r}")
-    return v
+        raise argparse.ArgumentTypeError(f"the cache limit must be >= 0 GB, got {text!r}") \
+            from None
 
 
 def _add_cache_options(p):
@@ -229,6 +227,10 @@ def run_frames_benchmark(data, *, methods, seed=0, quick=False, max_frames=None,
     return results, models, dets, order, info
 
 
+#: figure colour of each detector family (the method name's first part)
+_FAMILY_COLORS = {"hog": "tab:blue", "acf": "tab:red", "opencv": "tab:gray"}
+
+
 def plot_det_figure(results, path_stem, title=""):
     """Miss rate against FPPI, log-log, the legend with each method's LAMR (Fig. 3)."""
     import matplotlib
@@ -236,7 +238,6 @@ def plot_det_figure(results, path_stem, title=""):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    styles = {"hog": ("tab:blue", ), "acf": ("tab:red", ), "opencv": ("tab:gray", )}
     dash = {"pyramid": "-", "warp": "--", "adapted": ":", "opencv": "-.", "native": "-."}
     fig, ax = plt.subplots(figsize=(5.5, 4.5))
     for m, r in sorted(results.items(), key=lambda kv: kv[1]["lamr"]):
@@ -245,7 +246,7 @@ def plot_det_figure(results, path_stem, title=""):
         fppi = np.r_[1e-3, r["fppi"]] if len(r["fppi"]) else np.array([1e-3, 10])
         mr = np.r_[1.0, r["miss_rate"]] if len(r["miss_rate"]) else np.array([1.0, 1.0])
         ax.step(np.maximum(fppi, 1e-3), mr, where="post", ls=ls, lw=2,
-                color=styles.get(fam, ("k",))[0], label=f"{100 * r['lamr']:.1f}% {m}")
+                color=_FAMILY_COLORS.get(fam, "k"), label=f"{100 * r['lamr']:.1f}% {m}")
     ax.set_xscale("log")
     ax.set_yscale("log")
     ax.set_xlim(1e-2, 1e1)
@@ -309,10 +310,13 @@ def seed_summary(per_seed) -> list:
     that seed's column."""
     seeds = list(per_seed)
     methods = list(dict.fromkeys(m for r in per_seed.values() for m in r))
+
+    def header(first):
+        return [f"| {first} | " + " | ".join(f"seed {s}" for s in seeds)
+                + " | mean | sd | min - max |", "|---|" + "---|" * (len(seeds) + 3)]
+
     lines = [f"## Log-average miss rate over {len(seeds)} training seeds", "",
-             "| method | " + " | ".join(f"seed {s}" for s in seeds)
-             + " | mean | sd | min - max |",
-             "|---|" + "---|" * (len(seeds) + 3)]
+             *header("method")]
 
     def stats(vals, sign=""):
         v = np.asarray(vals, float)
@@ -327,9 +331,7 @@ def seed_summary(per_seed) -> list:
     gaps = seed_gaps(per_seed)
     if gaps:
         lines += ["", "Adapted minus image warping (negative: adapted misses less; the "
-                  "target is at most +0.03):", "",
-                  "| detector | " + " | ".join(f"seed {s}" for s in seeds)
-                  + " | mean | sd | min - max |", "|---|" + "---|" * (len(seeds) + 3)]
+                  "target is at most +0.03):", "", *header("detector")]
         for kind, g in gaps.items():
             lines.append(f"| {kind} | " + " | ".join(f"{v:+.3f}" for v in g)
                          + f" | {stats(g, '+')} |")
@@ -362,7 +364,7 @@ def plot_seed_figure(per_seed, path_stem):
     ax = axes[0, 0]
     for i, m in enumerate(methods):
         vals = np.array([per_seed[s][m] for s in seeds if m in per_seed[s]])
-        color = {"hog": "tab:blue", "acf": "tab:red"}.get(m.split("_")[0], "tab:gray")
+        color = _FAMILY_COLORS.get(m.split("_")[0], "tab:gray")
         ax.bar(i, vals.mean(), color=color, alpha=0.3, width=0.7)
         ax.plot(np.full(vals.size, i) + np.linspace(-0.2, 0.2, vals.size), vals, "o",
                 color=color, ms=4)
@@ -374,7 +376,7 @@ def plot_seed_figure(per_seed, path_stem):
     if gaps:
         ax = axes[0, 1]
         for i, (kind, g) in enumerate(gaps.items()):
-            color = {"hog": "tab:blue", "acf": "tab:red"}[kind]
+            color = _FAMILY_COLORS[kind]
             ax.plot(np.full(len(g), i) + np.linspace(-0.15, 0.15, len(g)), g, "o",
                     color=color, ms=4)
             ax.plot([i - 0.3, i + 0.3], [np.mean(g)] * 2, color=color, lw=2)
@@ -485,8 +487,9 @@ def cmd_bench_frames(args) -> int:
         lamrs = {s: {m: r["lamr"] for m, r in res.items()} for s, res in per_seed.items()}
         lines += _accuracy_targets(results, lamrs)
         if len(seeds) > 1:
-            lines += [""] + seed_summary(lamrs)
-            (tmp / "seeds.md").write_text("\n".join(seed_summary(lamrs)) + "\n")
+            seed_lines = seed_summary(lamrs)
+            lines += ["", *seed_lines]
+            (tmp / "seeds.md").write_text("\n".join(seed_lines) + "\n")
             (tmp / "seeds.csv").write_text("seed,method,lamr,seconds_per_frame\n" + "".join(
                 f"{s},{m},{r['lamr']:.5f},{r['seconds_per_frame']:.5f}\n"
                 for s, res in per_seed.items() for m, r in res.items()))
