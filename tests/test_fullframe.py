@@ -325,6 +325,9 @@ def test_adapted_trees_equal_explicit_remap(windows, frame):
     cascade = op.scores(feats)
     full = op.scores(feats, method="full")
     assert np.allclose(cascade, full, rtol=1e-6, atol=1e-6)
+    # the compiled loop and the numpy blocks walk the same trees to the same cascade stops
+    assert np.allclose(cascade, op.scores(feats, method="blocks"), rtol=1e-6, atol=1e-6)
+    assert (cascade <= model.cascade_threshold).any()        # some windows stopped early
     # against G built for each snapped window over the whole frame grid
     from viewadapt.fullframe import _Group
 

@@ -75,7 +75,9 @@ def test_bench_frames_outputs(bench):
         assert 0 < c["lamr"] <= 1
         # the stored corners give the reported log-average miss rate
         assert log_average_miss_rate(c["fppi"], c["miss_rate"]) == pytest.approx(c["lamr"])
-    assert json.loads((bench / "run.json").read_text())["seed"] == 0
+    run = json.loads((bench / "run.json").read_text())
+    assert run["seed"] == 0 and run["training"]["frame_view"] == "both"
+    assert run["training"]["crops"] > 0
 
 
 def test_curve_corners_keep_every_miss_rate():
@@ -291,8 +293,12 @@ def test_runtime_table_end_to_end(toy, tmp_path):
     assert set(info["hog_scoring_forms_ms"]) >= {
         "runs: compiled loop over distinct positions (default)",
         "sparse, one row per distinct position"}
+    assert len(info["acf_scoring_forms_ms"]) == 2
     table = format_table(rows, info)
     assert "hog_adapted / hog_warp" in table and "## Targets" in table
+    # the table says how its detectors were trained and why the all-cores column is empty
+    assert info["training"]["frame_view"] == "both" and "frame_view=both" in table
+    assert "All cores not measured (--jobs 1)" in table
 
 
 def test_frame_view_copies_change_the_svm_and_the_separation_script_runs(toy, bench, capsys):
@@ -303,8 +309,14 @@ def test_frame_view_copies_change_the_svm_and_the_separation_script_runs(toy, be
     crops_only = train_source_detectors(load_dataset(toy), quick=True, frame_view="none")
     with_copies = SourceDetectors.load(bench / "models" / "source_detectors.pkl")
     assert not np.allclose(crops_only.hog_weights, with_copies.hog_weights)
-    # the default copies only the HOG/SVM's crops: the trees are the crops-only ones
-    assert np.array_equal(crops_only.acf.threshold_, with_copies.acf.threshold_)
+    # the default copies both detectors' crops: the trees differ from the crops-only ones
+    assert not (crops_only.acf.feature_.shape == with_copies.acf.feature_.shape
+                and np.array_equal(crops_only.acf.feature_, with_copies.acf.feature_)
+                and np.array_equal(crops_only.acf.threshold_, with_copies.acf.threshold_))
+    # "acf" copies the trees' crops alone: its SVM is the crops-only one, its trees the default's
+    acf_only = train_source_detectors(load_dataset(toy), quick=True, frame_view="acf")
+    assert np.array_equal(acf_only.hog_weights, crops_only.hog_weights)
+    assert np.array_equal(acf_only.acf.threshold_, with_copies.acf.threshold_)
     with pytest.raises(ValueError, match="frame_view must be one of"):
         train_source_detectors(load_dataset(toy), quick=True, frame_view="yes")
     assert separation_main(["--data", str(toy), "--model",
@@ -366,3 +378,18 @@ def test_seed_tables_and_targets():
     assert "| hog_adapted | 0.620 | 0.660 | 0.640 | 0.028 | 0.620 - 0.660 |" in table
     assert "| opencv | 0.800 | - | 0.800 | - | 0.800 - 0.800 |" in table
     assert "| hog | +0.020 | +0.060 | +0.040 | 0.028 | +0.020 - +0.060 |" in table
+
+
+def test_demo_frames_stage(toy, tmp_path):
+    """The demo's last stage: bench frames, then detect through a calibration file written
+    in the documented format, on every frame of the first frame's camera."""
+    from benchmark.frames import read_calibration
+    from viewadapt.cli import _demo_frames
+
+    assert _demo_frames(toy, tmp_path, ["--seed", "0"]) == 0
+    assert (tmp_path / "frames" / "det_frames.png").is_file()
+    frames = load_frames(toy)
+    cam = read_calibration(tmp_path / "frames" / "camera.json")
+    assert cam.to_dict() == frames[0].camera.to_dict()
+    same = [f for f in frames if f.camera.to_dict() == cam.to_dict()]
+    assert len(list((tmp_path / "detections" / "annotated").glob("*.png"))) == len(same) > 0

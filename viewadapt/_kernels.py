@@ -198,3 +198,41 @@ def acf_channels_out(luv, mag, dx, dy, n_orient, out):  # pragma: no cover - com
                 k_bin = 0
             for k in range(n_orient):
                 out[i, j, 4 + k] = m if k == k_bin else np.float32(0.0)
+
+
+@njit(cache=True, nogil=True, boundscheck=False)
+def tree_cascade_scores(x, pos_group, pos_origin, n_groups, indptr, offsets, weights, cols,
+                        thr, val, depth, cascade_threshold, use_cascade,
+                        out):  # pragma: no cover - compiled; tested through its callers
+    """Soft-cascade scores of remapped boosted trees, one position at a time.
+
+    Position ``p`` (group ``g = pos_group[p]``, patch origin ``o = pos_origin[p]`` in the
+    frame feature vector ``x``) walks the trees in order; at each inner node it computes
+    its remapped feature ``f = cols[t, node]`` as the float32 dot product of row
+    ``f * n_groups + g`` of the CSR ``(indptr, offsets, weights)`` with
+    ``x[o + offsets]``, branches on ``thr[t, node]`` and adds the leaf's ``val`` to a
+    float64 running score; with ``use_cascade`` it stops at the first running score
+    ``<= cascade_threshold`` and keeps that score (:func:`viewadapt.boosting.cascade_step`).
+    Writes ``out[p]``.
+    """
+    T = cols.shape[0]
+    for p in range(pos_group.shape[0]):
+        g = pos_group[p]
+        o = pos_origin[p]
+        score = 0.0
+        for t in range(T):
+            node = 0
+            for _ in range(depth):
+                f = cols[t, node]
+                if f < 0:
+                    break
+                key = f * n_groups + g
+                s = np.float32(0.0)
+                for k in range(indptr[key], indptr[key + 1]):
+                    s += x[o + offsets[k]] * weights[k]
+                node = 2 * node + 1 + (1 if s >= thr[t, node] else 0)
+            score += val[t, node]
+            if use_cascade and score <= cascade_threshold:
+                break
+        out[p] = score
+    return out

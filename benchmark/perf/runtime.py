@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmark.frames import DEFAULT_CACHE_LIMIT_GB
+from benchmark.frames import DEFAULT_CACHE_LIMIT_GB, DEFAULT_FRAME_VIEW
 
 __all__ = ["timing_camera", "run_runtime", "format_table"]
 
@@ -83,7 +83,8 @@ def _pyramid_pixels(size, upsample, step, per_level=lambda w, h: w * h):
 
 
 def run_runtime(data, *, n_frames=3, warp_windows=1000, heights=(1.65, 1.85), jobs=-1,
-                seed=0, quick=True, cache_dir=None, throughput_seconds=4.0, frame_view="hog",
+                seed=0, quick=True, cache_dir=None, throughput_seconds=4.0,
+                frame_view=DEFAULT_FRAME_VIEW,
                 cache_limit_gb=DEFAULT_CACHE_LIMIT_GB):
     """Time every method; return (rows, info)."""
     import cv2
@@ -111,7 +112,7 @@ def run_runtime(data, *, n_frames=3, warp_windows=1000, heights=(1.65, 1.85), jo
     cache_dir = Path(cache_dir) if cache_dir else tmpdir / "cache"
     model_path = tmpdir / "models.pkl"
     models.save(model_path)
-    rows, info = [], {}
+    rows, info = [], {"training": models.training}
     with _single_thread():
         cam = timing_camera(size)
         t = time.perf_counter()
@@ -166,6 +167,12 @@ def run_runtime(data, *, n_frames=3, warp_windows=1000, heights=(1.65, 1.85), jo
                  "gather: patch x template per window": _best(
                      lambda: hog.scores(f0, method="gather"), 2)[0]}
         info["hog_scoring_forms_ms"] = {k: round(1e3 * v, 2) for k, v in forms.items()}
+        a0 = acf.frame_features(frames[0])
+        forms = {"cascade: compiled loop, one position at a time (default)":
+                 _best(lambda: acf.scores(a0), R)[0],
+                 "blocks: numpy, blocks of trees over the positions still alive":
+                 _best(lambda: acf.scores(a0, method="blocks"), R)[0]}
+        info["acf_scoring_forms_ms"] = {k: round(1e3 * v, 2) for k, v in forms.items()}
         for kind, op in (("hog", hog), ("acf", acf)):
             r = adapted(op, kind)
             rows.append(dict(method=f"{kind}_adapted", seconds_per_frame=r["total_s"],
@@ -257,15 +264,21 @@ def format_table(rows, info) -> str:
         win = f"{row['windows']}" if row["windows"] else "-"
         out.append(f"| {row['method']} | {row['fps_1core']:.3g} | {allc} | {paper} | {win} | "
                    f"{row['feature_pixels']:.3g} | {row['how']}; {row['detail']} |")
-    out += ["", "## HOG scoring, forms of the same operator (one core)", "",
-            "| form | ms per frame |", "|---|---|"]
-    for k, v in info["hog_scoring_forms_ms"].items():
-        out.append(f"| {k} | {v} |")
+    out += ["", "## Scoring, forms of the same operator (one core, same scores)", "",
+            "| detector | form | ms per frame |", "|---|---|---|"]
+    for kind in ("hog", "acf"):
+        for k, v in info.get(f"{kind}_scoring_forms_ms", {}).items():
+            out.append(f"| {kind.upper()} | {k} | {v} |")
     out += ["", f"Precompute (one camera, one model): HOG {info['hog_precompute_s']} s, ACF "
             f"{info['acf_precompute_s']} s; cache hit HOG {info['hog_cache_hit_s']} s, ACF "
             f"{info['acf_cache_hit_s']} s; window selection {info['window_selection_s']} s.",
-            f"All cores = {info['cores']} processes; load average at the end "
-            f"{info['load_average']}.", "", "## Targets", ""]
+            (f"All cores = {info['cores']} processes, each detecting on its own frames"
+             if info["cores"] > 1 else "All cores not measured (--jobs 1)")
+            + "; load average at the end "
+            + ("n/a" if info["load_average"] is None else f"{info['load_average']:.2f}") + ".",
+            "Detectors trained with " + ", ".join(
+                f"{k}={v}" for k, v in info.get("training", {}).items()) + ".",
+            "", "## Targets", ""]
     for k, v in info["targets"].items():
         out.append(f"- {k}: {'met' if v else 'NOT met'}")
     return "\n".join(out) + "\n"
