@@ -159,8 +159,12 @@ def read_calibration(path) -> Camera:
                       np.asarray(d["t"], float).reshape(-1), size)
     if all(k in d for k in ("focal", "height", "tilt")):
         pp = d.get("principal_point", ((size[0] - 1) / 2, (size[1] - 1) / 2))
+        tilt = float(d["tilt"])
+        if not 0 <= tilt < 90:              # reported in the degrees the file is written in
+            raise ValueError(f"{path}: tilt must lie in [0, 90) degrees below the horizontal, "
+                             f"got {tilt:g}")
         return camera_from_pose(focal=d["focal"], principal_point=pp, height=float(d["height"]),
-                                tilt=np.radians(float(d["tilt"])),
+                                tilt=np.radians(tilt),
                                 roll=np.radians(float(d.get("roll", 0.0))), image_size=size)
     raise ValueError(f"{path}: give either K, R, t or focal, height, tilt")
 

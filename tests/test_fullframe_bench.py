@@ -270,8 +270,8 @@ def test_json_calibration_and_bad_cameras(tmp_path):
     assert len(select_candidate_windows(cam)) > 100
     j.write_text(json.dumps({"image_size": [384, 288], "focal": 300, "height": 4.5,
                              "tilt": -30}))
-    with pytest.raises(ValueError):
-        read_calibration(j)                       # tilt outside [0, 90) degrees
+    with pytest.raises(ValueError, match=r"tilt must lie in \[0, 90\) degrees.*got -30$"):
+        read_calibration(j)                       # in the file's units, not radians
     j.write_text("{not json")
     with pytest.raises(ValueError, match="cannot be parsed"):
         read_calibration(j)
