@@ -215,10 +215,10 @@ def _demo_frames(data: Path, out: Path, extra: list) -> int:
                "opencv_native"] + extra)
     if rc:
         return rc
-    cam = frames[0].camera
-    same = [f for f in frames if f.camera.to_dict() == cam.to_dict()]
+    cam = frames[0].camera.to_dict()
+    same = [f for f in frames if f.camera.to_dict() == cam]
     calib = out / "frames" / "camera.json"
-    calib.write_text(json.dumps(cam.to_dict(), indent=2))
+    calib.write_text(json.dumps(cam, indent=2))
     return main(["detect", "--calibration", str(calib), "--model",
                  str(out / "frames" / "models" / "source_detectors.pkl"),
                  "--out", str(out / "detections")] + [str(f.path) for f in same])

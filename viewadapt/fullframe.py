@@ -1276,26 +1276,27 @@ class AdaptedTreesOperator(_OperatorBase):
         return (pos_of, np.concatenate(pos_group), np.concatenate(pos_origin).astype(np.int64),
                 (n_groups, indptr, offsets, weights))
 
+    def _run_tables(self):
+        """:meth:`_gather_tables`, built once (offline by the builder; here for operators
+        made without it)."""
+        if getattr(self, "_tables", None) is None:
+            self._tables = self._gather_tables()
+        return self._tables
+
     def _compiled_cascade(self, features):
         from ._kernels import tree_cascade_scores
 
-        if getattr(self, "_tables", None) is None:
-            self._tables = self._gather_tables()
-        pos_of, pos_group, pos_origin, (n_groups, indptr, offsets, weights) = self._tables
-        x = np.ascontiguousarray(features.vector(self.cell_sizes), dtype=np.float32)
+        pos_of, pos_group, pos_origin, (n_groups, indptr, offsets, weights) = self._run_tables()
         thr = self.model.cascade_threshold
         out = np.empty(len(pos_group))
-        tree_cascade_scores(x, pos_group, pos_origin, n_groups, indptr, offsets, weights,
-                            np.ascontiguousarray(self._cols, dtype=np.int64),
-                            np.ascontiguousarray(self._thr, dtype=np.float64),
-                            np.ascontiguousarray(self._val, dtype=np.float64), self._depth,
-                            0.0 if thr is None else float(thr), thr is not None, out)
+        tree_cascade_scores(features.vector(self.cell_sizes), pos_group, pos_origin, n_groups,
+                            indptr, offsets, weights, self._cols, self._thr, self._val,
+                            self._depth, 0.0 if thr is None else float(thr), thr is not None,
+                            out)
         return out[pos_of]
 
     def _lazy_cascade(self, features):
-        if getattr(self, "_tables", None) is None:
-            self._tables = self._gather_tables()
-        pos_of, pos_group, pos_origin, (n_groups, indptr, offsets, weights) = self._tables
+        pos_of, pos_group, pos_origin, (n_groups, indptr, offsets, weights) = self._run_tables()
         x = features.vector(self.cell_sizes)
         n_pos = len(pos_group)
         cols, thr, val = self._cols, self._thr, self._val
