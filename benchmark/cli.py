@@ -65,6 +65,10 @@ def _config(args, ds):
         cfg.target = args.target
     if getattr(args, "detectors", None):
         cfg.detectors = tuple(args.detectors)
+    if getattr(args, "object_models", None):
+        cfg.object_models = tuple(args.object_models)
+    if getattr(args, "no_upper_bound", False):
+        cfg.upper_bound = False
     if getattr(args, "quick", False):
         cfg.acf_estimators, cfg.acf_stages = 32, (16, 32)
         cfg.acf_max_bins, cfg.acf_max_features = 32, 0.25
@@ -243,6 +247,9 @@ def register(sub, common) -> None:
                            help="address of a Dask scheduler to run the folds on")
     data_opts.add_argument("--quick", action="store_true",
                            help="smaller boosted detectors and negative sets (tests, demos)")
+    data_opts.add_argument("--object-models", nargs="+", choices=["plane", "body"],
+                           default=None, help="object models of the adapted and image-warping "
+                           "rows (default both: the person plane and the mean body)")
 
     p = bsub.add_parser("crossval", parents=[common, data_opts],
                         help="nine-fold cross-validation (Fig. 5 and beyond)",
@@ -252,6 +259,9 @@ def register(sub, common) -> None:
                    help="source elevations (default 0,pi/8,pi/4)")
     p.add_argument("--detectors", nargs="+", choices=["hog", "hog_local", "acf", "opencv"],
                    default=None, help="detectors (default all four)")
+    p.add_argument("--no-upper-bound", action="store_true",
+                   help="skip the exact-geometry rows (each test positive adapted through its "
+                        "own rendered correspondences; HOG detectors, needs depth maps)")
     p.set_defaults(func=cmd_crossval)
 
     p = bsub.add_parser("sweep", parents=[common, data_opts],

@@ -12,7 +12,15 @@ scenes. Methods:
                    models on cells, ``N(G x)`` for block-normalised HOG, ``G[used] x`` for trees;
 ``adapted[...]``   ablations: ``S only`` (no angle remapping), ``paper eq.3`` (literal rule),
                    ``single A`` (one ``A`` for the window, as in the paper);
+``adapted[body]``  ``G`` through the mean-body object model instead of the person plane
+                   (:mod:`viewadapt.objectmodel`; ``[body, S only]``, ``[body, paper eq.3]``
+                   with the other angle rules);
 ``image warping``  every test window warped into the source view (Li et al. 2008);
+                   ``image warping[body]`` through the mean-body model;
+``exact geometry`` a diagnostic upper bound: each test *positive* adapted through ``G`` from
+                   its own rendered correspondences (the generator's depth maps), the
+                   negatives as ``adapted`` (``exact geometry[paper eq.3]``: the literal
+                   rule on the exact Jacobians, negatives as ``adapted[paper eq.3]``);
 ``synthesised``    source training crops and negatives warped into the target view, retrained
                    (needs no target data either);
 ``oracle``         trained on the target view (the ``s == t`` row).
@@ -30,12 +38,13 @@ from viewadapt.adapt import (
     remap_features,
 )
 from viewadapt.geometry import elevation_homography
+from viewadapt.objectmodel import correspondence_mapping, crop_view_mapping, object_model
 
-from .data import Dataset
+from .data import Dataset, manifest_camera, read_depth_map
 from .features import FeatureCache, background_windows, person_windows
 from .folds import Fold, make_folds
 
-__all__ = ["CrossvalConfig", "DETECTORS", "ADAPT_VARIANTS", "run_crossval"]
+__all__ = ["CrossvalConfig", "DETECTORS", "ADAPT_VARIANTS", "EXACT_VARIANTS", "run_crossval"]
 
 #: detector -> (source representation, fine target representation, kind)
 DETECTORS = {
@@ -44,13 +53,28 @@ DETECTORS = {
     "acf": ("acf", "acf", "trees"),                 # ACF channels, boosted trees
     "opencv": ("gamma_cells8", "gamma_cells4", "pretrained"),  # OpenCV's people detector
 }
-#: method name -> (angle rule, per-cell A)
+#: method name -> (angle rule, per-cell A, object model)
 ADAPT_VARIANTS = {
-    "adapted": ("covariant", True),
-    "adapted[S only]": ("none", True),
-    "adapted[paper eq.3]": ("paper", True),
-    "adapted[single A]": ("covariant", False),
+    "adapted": ("covariant", True, "plane"),
+    "adapted[S only]": ("none", True, "plane"),
+    "adapted[paper eq.3]": ("paper", True, "plane"),
+    "adapted[single A]": ("covariant", False, "plane"),
+    "adapted[body]": ("covariant", True, "body"),
+    "adapted[body, S only]": ("none", True, "body"),
+    "adapted[body, paper eq.3]": ("paper", True, "body"),
 }
+#: variants every detector kind runs; linear kinds run all with ``ablations``
+CORE_VARIANTS = ("adapted", "adapted[body]")
+#: upper-bound rows -> (angle rule, the variant whose negatives they share)
+EXACT_VARIANTS = {"exact geometry": ("covariant", "adapted"),
+                  "exact geometry[paper eq.3]": ("paper", "adapted[paper eq.3]")}
+
+
+def variant_names(kind: str, cfg) -> list:
+    """The adapted variants a detector kind runs under ``cfg``."""
+    names = [v for v in ADAPT_VARIANTS if cfg.ablations and kind in ("blocks", "linear")
+             or v in CORE_VARIANTS]
+    return [v for v in names if ADAPT_VARIANTS[v][2] in cfg.object_models]
 
 
 @dataclass
@@ -60,6 +84,10 @@ class CrossvalConfig:
     detectors: tuple = ("hog", "hog_local", "acf", "opencv")
     ablations: bool = True
     synthesised: bool = True
+    #: object models of the adapted and image-warping rows ("plane", "body")
+    object_models: tuple = ("plane", "body")
+    #: the exact-geometry rows (HOG detectors; needs the dataset's depth maps)
+    upper_bound: bool = True
     target_cell_size: int = 4
     C: float = 0.01
     mining_rounds: int = 1
@@ -182,11 +210,63 @@ class _Scorer:
 
 
 def _remap(det, H, variant, cfg):
-    rule, per_cell = ADAPT_VARIANTS[variant]
+    """``G`` of a variant; ``H`` is the source -> target homography or point mapping."""
+    rule, per_cell, _ = ADAPT_VARIANTS[variant]
+    return remap_for(det, H, rule, per_cell, cfg)
+
+
+def remap_for(det, H, rule, per_cell, cfg):
+    """``G`` for detector ``det`` through ``H`` (a homography or a point mapping)."""
     if DETECTORS[det][2] == "trees":
         return acf_remap_matrix(H, rule=rule, per_cell=per_cell)
     return hog_remap_matrix(H, target_cell_size=cfg.target_cell_size, rule=rule,
                             per_cell=per_cell)
+
+
+def view_maps(s, t, cfg) -> dict:
+    """Source -> target maps of the crops per object model: {"plane": H, "body": mapping}."""
+    out = {}
+    for m in cfg.object_models:
+        if m == "plane":
+            out[m] = elevation_homography(s, t, distance=cfg.distance, framing=cfg.framing)
+        else:
+            out[m] = crop_view_mapping(object_model(m), s, t, distance=cfg.distance,
+                                       framing=cfg.framing)
+    return out
+
+
+def warp_field(mapping, H, size=(64, 128)) -> np.ndarray:
+    """(h, w, 2) float32 target pixel of every source pixel centre (for ``cv2.remap``):
+    ``mapping`` where defined, the homography ``H`` where not."""
+    from viewadapt.geometry import apply_homography
+
+    w, h = size
+    ys, xs = np.mgrid[0:h, 0:w].astype(np.float64)
+    p = np.stack([xs, ys], -1)
+    m = np.asarray(mapping(p), dtype=np.float64)
+    bad = ~np.isfinite(m).all(-1)
+    m[bad] = apply_homography(H, p[bad])
+    return m.astype(np.float32)
+
+
+def exact_remaps(det, s, t, rows, data, cfg, rule):
+    """``G`` of each target positive in ``rows`` from its own correspondences (source crop
+    of the same instance at ``s``): its depth maps, cameras and plane homographies."""
+    import json
+
+    inst = data["instances"]
+    es, et = data["index"][s], data["index"][t]
+    out = []
+    for r in rows.itertuples(index=False):
+        src = inst[(r.person_id, r.scene_id, int(r.instance), es)]
+        tgt = inst[(r.person_id, r.scene_id, int(r.instance), et)]
+        Hs = np.array(json.loads(src["H_window_to_image"]))
+        Ht = np.array(json.loads(tgt["H_window_to_image"]))
+        m = correspondence_mapping(read_depth_map(data["root"], src), manifest_camera(src),
+                                   read_depth_map(data["root"], tgt), manifest_camera(tgt),
+                                   fallback=Ht @ np.linalg.inv(Hs))
+        out.append(remap_for(det, m, rule, True, cfg))
+    return out
 
 
 def _fold_masks(meta, fold: Fold, train: bool):
@@ -228,10 +308,20 @@ def _task(det, s, t, fold, cfg, data, seed):
     results["oracle" if es == et else "unadapted"] = scorer.plain(X_plain)
     if es != et:
         Xfine = test_feats(fine_rep)
-        variants = ADAPT_VARIANTS if (cfg.ablations and kind in ("blocks", "linear")) else ["adapted"]
-        for v in variants:
+        for v in variant_names(kind, cfg):
             results[v] = scorer.adapted(Xfine, data["G"][(det, s, t, v)])
-        results["image warping"] = scorer.plain(test_feats(src_rep, f"warp{s:.6f}"))
+        for m in cfg.object_models:
+            name = "image warping" if m == "plane" else f"image warping[{m}]"
+            results[name] = scorer.plain(test_feats(src_rep, _warp_key(s, m)))
+        if _wants_exact(det, cfg, data):
+            n_pos = int(mp.sum())
+            rows = pos_t[mp]
+            for name, (rule, neg_variant) in EXACT_VARIANTS.items():
+                if neg_variant not in results:
+                    continue
+                Gs = exact_remaps(det, s, t, rows, data, cfg, rule)
+                pos = np.array([scorer.adapted(Xfine[i:i + 1], G)[0] for i, G in enumerate(Gs)])
+                results[name] = np.r_[pos, np.asarray(results[neg_variant])[n_pos:]]
         if cfg.synthesised and kind != "pretrained":
             Xp, Xn = train_feats(src_rep, es, f"synth{t:.6f}")
             clf = _fit(det, cfg, _features(det, Xp), _features(det, Xn), seed)
@@ -242,6 +332,16 @@ def _task(det, s, t, fold, cfg, data, seed):
                                        target_elevation=t, fold=fold.name,
                                        score=np.asarray(sc, np.float64)))
     return pd.concat(frames, ignore_index=True)
+
+
+def _warp_key(s, model):
+    return f"warp{s:.6f}" + ("" if model == "plane" else f"|{model}")
+
+
+def _wants_exact(det, cfg, data) -> bool:
+    """The exact-geometry rows: HOG-cell detectors, when the dataset has depth maps."""
+    return cfg.upper_bound and DETECTORS[det][2] in ("blocks", "linear", "pretrained") and \
+        data.get("instances") is not None
 
 
 def prepare(ds: Dataset, cfg: CrossvalConfig, cache: FeatureCache, elevations=None) -> dict:
@@ -275,24 +375,33 @@ def prepare(ds: Dataset, cfg: CrossvalConfig, cache: FeatureCache, elevations=No
         for s in sources:
             if idx[s] == et:
                 continue
+            maps = view_maps(s, cfg.target, cfg)
             H = elevation_homography(s, cfg.target, distance=cfg.distance,
                                      framing=cfg.framing)
-            for ws in (pw[cfg.target], bw[cfg.target]):
-                want(ws.warped(H, f"warp{s:.6f}"), et, f"warp{s:.6f}", src_rep)
+            for m, M in maps.items():
+                key = _warp_key(s, m)
+                for ws in (pw[cfg.target], bw[cfg.target]):
+                    warped = ws.warped(H, key) if m == "plane" else \
+                        ws.remapped(warp_field(M, H), key)
+                    want(warped, et, key, src_rep)
             if cfg.synthesised and kind != "pretrained":
                 Hinv = np.linalg.inv(H)
                 for ws in (pw[s], bw[s]):
                     want(ws.warped(Hinv, f"synth{cfg.target:.6f}"), idx[s],
                          f"synth{cfg.target:.6f}", src_rep)
-            variants = ADAPT_VARIANTS if (cfg.ablations and kind in ("blocks", "linear")) \
-                else ["adapted"]
-            for v in variants:
-                G[(det, s, cfg.target, v)] = _remap(det, H, v, cfg)
+            for v in variant_names(kind, cfg):
+                G[(det, s, cfg.target, v)] = _remap(det, maps[ADAPT_VARIANTS[v][2]], v, cfg)
     for ws, i, suffix, reps in requests.values():
         got = cache.get_many(ws, sorted(reps))
         for rep, X in got.items():
             feat[(rep, ws.key.split("|")[0], i, suffix)] = X
-    return {"index": idx, "meta": meta, "feat": feat, "G": G}
+    p = ds.persons
+    instances = None
+    if cfg.upper_bound and "depth_path" in p.columns and (p["depth_path"] != "").all():
+        instances = {(r["person_id"], r["scene_id"], int(r["instance"]),
+                      int(r["elevation_index"])): r for r in p.to_dict("records")}
+    return {"index": idx, "meta": meta, "feat": feat, "G": G, "instances": instances,
+            "root": ds.root}
 
 
 def run_crossval(ds: Dataset, cfg: CrossvalConfig, cache: FeatureCache, *,

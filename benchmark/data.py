@@ -16,7 +16,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-__all__ = ["DatasetError", "Dataset", "load_dataset", "read_image", "read_json",
+__all__ = ["DatasetError", "Dataset", "load_dataset", "read_image", "read_json", "read_depth_map",
+           "manifest_camera",
            "REQUIRED_COLUMNS"]
 
 REQUIRED_COLUMNS = ("path", "kind", "person_id", "scene_id", "instance", "elevation",
@@ -66,6 +67,35 @@ class Dataset:
 
     def path(self, rel: str) -> Path:
         return self.root / rel
+
+
+def manifest_camera(row):
+    """The :class:`viewadapt.geometry.Camera` of a manifest row (its ``K``, ``R``, ``t``)."""
+    from viewadapt.geometry import Camera
+
+    return Camera(np.array(json.loads(row["K"])), np.array(json.loads(row["R"])),
+                  np.array(json.loads(row["t"])), (int(row["width"]), int(row["height"])))
+
+
+def read_depth_map(root, row) -> np.ndarray:
+    """The depth map of a person crop's manifest row (``depth_path``, beside the images).
+
+    Uses the generator's reader (``generator.manifest.read_depth``: arrays only, checked
+    shape); a missing or bad file is a :class:`DatasetError` naming it.
+    """
+    from generator.manifest import read_depth
+
+    rel = row["depth_path"] if isinstance(row, dict) else getattr(row, "depth_path")
+    if not rel:
+        raise DatasetError(f"{root}: crop {row['path']} has no depth map; rerun "
+                           "`viewadapt generate` with the same --out to add them")
+    try:
+        return read_depth(Path(root) / rel, (int(row["height"]), int(row["width"])))
+    except FileNotFoundError:
+        raise DatasetError(f"{root}: depth map {rel} is missing (`viewadapt dataset "
+                           "verify`)") from None
+    except ValueError as exc:
+        raise DatasetError(str(exc)) from None
 
 
 def read_json(path, *, error=ValueError):

@@ -110,6 +110,22 @@ class WindowSet:
         items = [(p, (Hi, H) if crop_first else Hi @ H) for p, Hi in self.items]
         return WindowSet(f"{self.key}|{suffix}", items, self.meta)
 
+    def remapped(self, field, key_suffix: str) -> "WindowSet":
+        """The same windows resampled through a dense map: ``out(p) = win(field[p])``.
+
+        ``field`` is (64 x 128 x 2) target-window coordinates per source pixel (e.g. from an
+        object model, :func:`benchmark.crossval.warp_field`); each window is cut out first
+        and resampled on its own, borders replicated, as :meth:`warped` with ``crop_first``.
+        """
+        F = np.ascontiguousarray(field, dtype=np.float32)
+        if F.shape != (WINDOW_HEIGHT, WINDOW_WIDTH, 2) or not np.isfinite(F).all():
+            raise ValueError(f"field must be a finite ({WINDOW_HEIGHT}, {WINDOW_WIDTH}, 2) "
+                             f"map, got {F.shape}")
+        h = hashlib.sha1(np.round(F.astype(np.float64), 4).tobytes()).hexdigest()[:8]
+        suffix = f"{key_suffix}|cropfirst|M{h}"
+        items = [(p, (Hi, F)) for p, Hi in self.items]
+        return WindowSet(f"{self.key}|{suffix}", items, self.meta)
+
     def images(self, root: Path):
         cache = {}
         for rel, H in self.items:
@@ -121,7 +137,13 @@ class WindowSet:
                 T, Hw = H
                 x, y = int(round(T[0, 2])), int(round(T[1, 2]))
                 win = np.ascontiguousarray(img[y:y + WINDOW_HEIGHT, x:x + WINDOW_WIDTH])
-                yield warp_to_source_view(win, Hw)
+                if Hw.ndim == 3:                           # a dense map (object model)
+                    import cv2
+
+                    yield cv2.remap(win, Hw[..., 0], Hw[..., 1], cv2.INTER_LINEAR,
+                                    borderMode=cv2.BORDER_REPLICATE)
+                else:
+                    yield warp_to_source_view(win, Hw)
                 continue
             if np.allclose(H[2], [0, 0, 1]) and np.allclose(H[:2, :2], np.eye(2)) and \
                     float(H[0, 2]).is_integer() and float(H[1, 2]).is_integer():

@@ -90,7 +90,13 @@ def summarize(scores: pd.DataFrame, *, fppw: float = 1e-2, n_boot: int = 1000,
 DEFAULT_PAIRS = (("adapted", "unadapted"), ("image warping", "unadapted"),
                  ("adapted", "image warping"), ("synthesised", "unadapted"),
                  ("synthesised", "adapted"), ("adapted[S only]", "adapted"),
-                 ("adapted[paper eq.3]", "adapted"), ("adapted[single A]", "adapted"))
+                 ("adapted[paper eq.3]", "adapted"), ("adapted[single A]", "adapted"),
+                 ("adapted[body]", "adapted"), ("adapted[body]", "adapted[paper eq.3]"),
+                 ("adapted[body]", "synthesised"), ("adapted[body]", "unadapted"),
+                 ("adapted[body, paper eq.3]", "adapted[body]"),
+                 ("image warping[body]", "image warping"),
+                 ("exact geometry", "adapted"), ("exact geometry", "adapted[body]"),
+                 ("exact geometry[paper eq.3]", "exact geometry"))
 
 
 def paired_differences(scores: pd.DataFrame, *, pairs=DEFAULT_PAIRS, fppw: float = 1e-2,

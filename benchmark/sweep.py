@@ -15,16 +15,20 @@ import pandas as pd
 from viewadapt.geometry import elevation_homography
 
 from .crossval import (
-    DETECTORS, CrossvalConfig, _features, _fit, _fold_masks, _remap, _Scorer, prepare, task_seed,
+    ADAPT_VARIANTS, DETECTORS, CrossvalConfig, _features, _fit, _fold_masks, _remap, _Scorer,
+    prepare, task_seed, view_maps,
 )
 from .data import Dataset
 from .features import FeatureCache
 from .folds import make_folds
 from .summarize import operating_threshold
 
-__all__ = ["run_sweep", "averaged_remap", "sweep_summary"]
+__all__ = ["run_sweep", "averaged_remap", "sweep_summary", "SWEEP_VARIANTS"]
 
 _MAX_ELEVATION = np.pi / 2 - 1e-3
+#: the adapted variants swept side by side (angle rule x object model), in plot order
+SWEEP_VARIANTS = ("adapted", "adapted[paper eq.3]", "adapted[S only]", "adapted[body]",
+                  "adapted[body, paper eq.3]", "adapted[body, S only]")
 
 
 def averaged_remap(det, source, estimate, sigma, cfg, n_nodes: int = 5):
@@ -48,8 +52,14 @@ def averaged_remap(det, source, estimate, sigma, cfg, n_nodes: int = 5):
 
 
 def run_sweep(ds: Dataset, cfg: CrossvalConfig, cache: FeatureCache, *, detector="hog",
-              source=0.0, step=np.pi / 72, sigma=0.1, progress=True) -> pd.DataFrame:
+              source=0.0, step=np.pi / 72, sigma=0.1, variants=SWEEP_VARIANTS,
+              progress=True) -> pd.DataFrame:
     """Per fold, method and estimate: the test windows' scores.
+
+    Every variant of ``variants`` (names of :data:`benchmark.crossval.ADAPT_VARIANTS`: an
+    angle rule and an object model; those whose model is not in ``cfg.object_models`` are
+    left out) is adapted to each estimate and scored by the same fold models, so the
+    curves differ only in the rule and model. The prior-averaged curve uses ``adapted``.
 
     Returns
     -------
@@ -68,8 +78,14 @@ def run_sweep(ds: Dataset, cfg: CrossvalConfig, cache: FeatureCache, *, detector
     src_rep, fine_rep, kind = DETECTORS[detector]
     es, et = data["index"][source], data["index"][cfg.target]
     estimates = np.arange(0.0, _MAX_ELEVATION, step)
-    Gs = {("adapted", e): _remap(detector, elevation_homography(
-        source, e, distance=cfg.distance, framing=cfg.framing), "adapted", cfg) for e in estimates}
+    variants = [v for v in variants if ADAPT_VARIANTS[v][2] in cfg.object_models]
+    if not variants:
+        raise ValueError("no sweep variant left: --object-models excludes all of them")
+    Gs = {}
+    for e in tqdm(estimates, desc="sweep: remapping", disable=not progress):
+        maps = view_maps(source, float(e), cfg)
+        for v in variants:
+            Gs[(v, e)] = _remap(detector, maps[ADAPT_VARIANTS[v][2]], v, cfg)
     if sigma > 0:
         for e in estimates:
             Gs[(f"adapted, prior σ={sigma:g}", e)] = averaged_remap(detector, source, e, sigma, cfg)
@@ -116,6 +132,15 @@ def run_sweep(ds: Dataset, cfg: CrossvalConfig, cache: FeatureCache, *, detector
     return pd.concat(rows, ignore_index=True)
 
 
+def _rule_model(method: str) -> tuple[str, str]:
+    """(angle rule, object model) of a sweep method name ("" for the unadapted rows)."""
+    base = method.split(",")[0] if method.startswith("adapted, prior") else method
+    if base in ADAPT_VARIANTS:
+        rule, _, model = ADAPT_VARIANTS[base]
+        return rule, model
+    return "", ""
+
+
 def sweep_summary(rows: pd.DataFrame, fppw: float = 1e-2) -> pd.DataFrame:
     """Miss rate at ``fppw`` per (method, estimate), scores pooled over folds (as in the
     cross-validation summary), plus the mean and std of the per-fold miss rates."""
@@ -127,7 +152,9 @@ def sweep_summary(rows: pd.DataFrame, fppw: float = 1e-2) -> pd.DataFrame:
         for _, f in d.groupby("fold"):
             fl, fs = f["label"].to_numpy(), f["score"].to_numpy(np.float64)
             fold_mr.append(1 - (fs[fl == 1] >= operating_threshold(fs[fl == 0], fppw)).mean())
-        out.append({"method": method, "estimate": est, "n_pos": int((lab == 1).sum()),
+        rule, model = _rule_model(method)
+        out.append({"method": method, "rule": rule, "object_model": model, "estimate": est,
+                    "n_pos": int((lab == 1).sum()),
                     "mr_at_fppw_0.01": 1 - (sc[lab == 1] >= thr).mean(),
                     "fold_mean": float(np.mean(fold_mr)), "fold_std": float(np.std(fold_mr))})
     return pd.DataFrame(out)

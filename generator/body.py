@@ -228,6 +228,19 @@ class PersonMesh:
         pts += [v for (v, f, m, vis) in self.parts.values() if vis]
         return np.concatenate(pts)
 
+    def indexed(self) -> tuple[np.ndarray, np.ndarray]:
+        """Every visible part as one indexed mesh: (V, 3) vertices, (F, 3) int64 faces."""
+        parts = [(self.vertices, self.faces)]
+        if self.hair_visible:
+            parts.append((self.hair_vertices, self.hair_faces))
+        parts += [(v, f) for (v, f, m, vis) in self.parts.values() if vis]
+        verts, faces, n = [], [], 0
+        for v, f in parts:
+            verts.append(v)
+            faces.append(np.asarray(f, dtype=np.int64) + n)
+            n += len(v)
+        return np.concatenate(verts), np.concatenate(faces)
+
     def triangles(self) -> np.ndarray:
         """(T, 3, 3) every visible triangle, for masks."""
         tris = [self.vertices[self.faces]]

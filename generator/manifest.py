@@ -8,6 +8,10 @@ Layout of a dataset directory ``DIR``::
     DIR/person/<scene>/<person>_i<instance>_e<elevation_index>.png
     DIR/background/<scene>/bg_i<k>_e<elevation_index>.png
     DIR/frames/<scene>/frame_<k>.png
+    DIR/depth/<scene>/<person>_i<instance>_e<elevation_index>.npz
+                                 per person crop: the body's depth map (camera z, metres,
+                                 NaN off the body) on the crop's pixel grid, from the posed
+                                 mesh and the recorded camera (viewadapt.surface)
     DIR/.parts/<unit>.json       per work unit: its manifest rows (written after its images)
 
 Every file is written to a temporary name beside it and moved in with ``os.replace``, so a
@@ -30,7 +34,7 @@ import numpy as np
 __all__ = ["MANIFEST_COLUMNS", "atomic_write_bytes", "atomic_write_text", "part_path",
            "read_part", "write_part", "png_is_complete", "assemble_manifest",
            "read_manifest", "VerifyReport", "verify_dataset", "json_matrix", "versions",
-           "spec_hashes"]
+           "spec_hashes", "write_depth", "read_depth", "depth_is_complete"]
 
 #: Column order of manifest.parquet / manifest.csv.
 MANIFEST_COLUMNS = [
@@ -40,7 +44,7 @@ MANIFEST_COLUMNS = [
     "sky_horizon", "sky_zenith", "area_light_strength", "n_area_lights", "exposure",
     "K", "R", "t", "H_window_to_image", "H_plane_to_image", "box_silhouette", "framing",
     "distance", "person_height", "n_persons", "width", "height", "seed", "render_seed",
-    "renderer", "samples", "supersample",
+    "renderer", "samples", "supersample", "depth_path",
 ]
 
 
@@ -107,6 +111,60 @@ def png_is_complete(path) -> bool:
     except OSError:
         return False
     return head == _PNG_SIG and tail[4:8] == b"IEND"
+
+
+# --------------------------------------------------------------------------- depth maps
+
+
+def write_depth(path, depth) -> None:
+    """Write a crop's depth map (float32, NaN off the body) atomically as ``.npz``."""
+    import io
+
+    d = np.asarray(depth, dtype=np.float32)
+    if d.ndim != 2:
+        raise ValueError(f"a depth map is 2-D, got shape {d.shape}")
+    buf = io.BytesIO()
+    np.savez_compressed(buf, depth=d)
+    atomic_write_bytes(path, buf.getvalue())
+
+
+def read_depth(path, shape=None) -> np.ndarray:
+    """A crop's depth map (float32 (h, w), NaN off the body).
+
+    Raises ``ValueError`` naming the file if it is unreadable, holds anything but one
+    float 2-D ``depth`` array (arrays only: nothing is unpickled), has a non-positive
+    depth, or its shape differs from ``shape`` (``(height, width)``) when given.
+    """
+    import zipfile
+
+    try:
+        with np.load(path, allow_pickle=False) as z:
+            if set(z.files) != {"depth"}:
+                raise ValueError(f"{path}: a depth file holds one array 'depth', found "
+                                 f"{sorted(z.files)}")
+            d = z["depth"]
+    except FileNotFoundError:
+        raise
+    except (OSError, zipfile.BadZipFile, EOFError) as exc:
+        raise ValueError(f"{path}: unreadable depth file ({exc})") from None
+    if d.ndim != 2 or d.dtype.kind != "f":
+        raise ValueError(f"{path}: depth must be a float 2-D array, got {d.dtype} {d.shape}")
+    if shape is not None and d.shape != tuple(shape):
+        raise ValueError(f"{path}: depth map is {d.shape[1]}x{d.shape[0]}, the crop is "
+                         f"{shape[1]}x{shape[0]}")
+    finite = d[np.isfinite(d)]
+    if np.isinf(d).any() or (finite <= 0).any():
+        raise ValueError(f"{path}: depth must be positive or NaN")
+    return d
+
+
+def depth_is_complete(path, shape) -> bool:
+    """True if ``path`` holds a valid depth map of ``shape``."""
+    try:
+        read_depth(path, shape)
+    except (ValueError, FileNotFoundError):
+        return False
+    return True
 
 
 # --------------------------------------------------------------------------- metadata
@@ -242,6 +300,26 @@ class VerifyReport:
         return "\n".join(lines)
 
 
+def _depth_ok(out: Path, row, rep: VerifyReport) -> bool:
+    """Person crops: their depth map is listed, present and of the crop's size."""
+    if row.kind != "person":
+        return True
+    rel = getattr(row, "depth_path", "")
+    if not rel:
+        rep.problems.append((row.path, "no depth map listed (rerun `viewadapt generate` with "
+                                       "the same --out to add them)"))
+        return False
+    try:
+        read_depth(out / rel, (row.height, row.width))
+    except FileNotFoundError:
+        rep.problems.append((rel, "missing"))
+        return False
+    except ValueError as exc:
+        rep.problems.append((rel, str(exc).split(": ", 1)[-1]))
+        return False
+    return True
+
+
 def verify_dataset(out, *, decode: bool = True, check_plan: bool = True) -> VerifyReport:
     """Check a dataset directory: every manifest row's image exists, is a complete PNG that
     decodes to the recorded size; no duplicate or stray files; nothing planned is missing.
@@ -293,6 +371,8 @@ def verify_dataset(out, *, decode: bool = True, check_plan: bool = True) -> Veri
                     rep.problems.append((row.path, f"size {img.shape[1]}x{img.shape[0]}, "
                                                    f"manifest says {row.width}x{row.height}"))
                     continue
+            if not _depth_ok(out, row, rep):
+                continue
             rep.n_ok += 1
         listed = set(df["path"])
         for sub in ("person", "background", "frames"):
@@ -306,6 +386,13 @@ def verify_dataset(out, *, decode: bool = True, check_plan: bool = True) -> Veri
                         what = ("leftover temporary file" if f.name.startswith(".")
                                 else "not in the manifest")
                         rep.problems.append((rel, what))
+        depths = set(df["depth_path"]) - {""} if "depth_path" in df.columns else set()
+        if (out / "depth").is_dir():
+            for f in (out / "depth").rglob("*"):
+                if f.is_file() and f.relative_to(out).as_posix() not in depths:
+                    rep.problems.append((f.relative_to(out).as_posix(),
+                                         "leftover temporary file" if f.name.startswith(".")
+                                         else "not in the manifest"))
     if check_plan and df is not None:
         try:
             from .pipeline import planned_paths

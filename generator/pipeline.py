@@ -12,8 +12,10 @@ Execution engines:
 manifest always covers every finished unit of the whole plan, so the last shard to finish
 (or a plain rerun) writes the complete manifest.
 
-Resuming: a unit whose part file exists is skipped; inside an unfinished unit every image
-already on disk (a complete PNG) is kept and only the rest is rendered.
+Resuming: a unit whose part file and files exist is skipped; inside an unfinished unit
+every image already on disk (a complete PNG) is kept and only the rest is rendered. Person
+crops also get a depth map of the posed body (``depth/``, numpy, no rendering): a dataset
+rendered before depth maps existed gets them from a rerun, without re-rendering.
 """
 
 from __future__ import annotations
@@ -28,18 +30,20 @@ from pathlib import Path
 import numpy as np
 
 from viewadapt.geometry import Camera, window_to_image_homography, window_to_plane
+from viewadapt.surface import surface_depth
 
 from .layout import layout_scene
 from .manifest import (
-    assemble_manifest, atomic_write_text, json_matrix, png_is_complete, read_part,
-    spec_hashes, versions, write_part,
+    assemble_manifest, atomic_write_text, depth_is_complete, json_matrix, png_is_complete,
+    read_part, spec_hashes, versions, write_depth, write_part,
 )
 from .sampling import (
     GeneratorConfig, Plan, WorkUnit, image_relpath, plan_dataset, select_shard,
 )
 from .specs import default_roster_path, default_scene_dir, load_roster, load_scenes
 
-__all__ = ["generate", "GenerateResult", "run_unit", "planned_paths", "dataset_metadata"]
+__all__ = ["generate", "GenerateResult", "run_unit", "planned_paths", "dataset_metadata",
+           "depth_relpath"]
 
 
 @dataclass
@@ -123,6 +127,21 @@ def planned_paths(meta: dict) -> list[str]:
     return [p for u in plan.units for p in unit_paths(u)]
 
 
+def unit_depth_paths(unit: WorkUnit) -> list[str]:
+    """Depth maps of a person unit's crops (one per image; none for other units)."""
+    if unit.kind != "person":
+        return []
+    return [depth_relpath(p) for p in unit_paths(unit)]
+
+
+def depth_relpath(image_path: str) -> str:
+    """``person/<scene>/<name>.png`` -> ``depth/<scene>/<name>.npz``."""
+    head, rest = image_path.split("/", 1)
+    if head != "person" or not rest.endswith(".png"):
+        raise ValueError(f"only person crops have depth maps, got {image_path!r}")
+    return f"depth/{rest[:-4]}.npz"
+
+
 def unit_paths(unit: WorkUnit) -> list[str]:
     out = []
     for s in unit.samples:
@@ -192,6 +211,7 @@ def _base_row(config: GeneratorConfig, kind, path, scene_id, lighting, cam: Came
               height, seed, render_seed, samples) -> dict:
     row = {c: None for c in ("person_id", "pose", "box_silhouette", "H_window_to_image",
                              "H_plane_to_image")}
+    row["depth_path"] = ""
     row.update(path=path, kind=kind, scene_id=scene_id, K=json_matrix(cam.K),
                R=json_matrix(cam.R), t=json_matrix(cam.t), width=int(width),
                height=int(height), seed=int(seed), render_seed=int(render_seed),
@@ -211,7 +231,7 @@ def _remove_stale_temporaries(out: Path, unit: WorkUnit) -> None:
     only ever run by one worker at a time, so these cannot be in flight)."""
     from .manifest import part_path
 
-    for rel in unit_paths(unit):
+    for rel in unit_paths(unit) + unit_depth_paths(unit):
         p = out / rel
         if p.parent.is_dir():
             for tmp in p.parent.glob(f".{p.stem}.*"):
@@ -267,6 +287,8 @@ def run_unit(payload: dict) -> dict:
         for s in unit.samples:
             mesh = body.build(person, s.pose, s.gait_phase, s.pose_jitter)
             pts = person_to_world(mesh.all_points(), s.ground_xy, s.rotation)
+            verts, faces = mesh.indexed()
+            verts = person_to_world(verts, s.ground_xy, s.rotation)
             renderer.set_persons([(mesh, person, s.ground_xy, s.rotation)])
             renderer.set_lighting(s.lighting)
             for e, (cam, H) in enumerate(zip(s.cameras, s.homographies)):
@@ -279,8 +301,12 @@ def run_unit(payload: dict) -> dict:
                                     instance=s.instance, elevation_index=e)
                 rs = _render_seed(s.seed, e)
                 render_to(rel, cam, w, h, config.samples, rs)
+                drel = depth_relpath(rel)
+                if not depth_is_complete(out / drel, (h, w)):
+                    write_depth(out / drel, surface_depth(verts, faces, cam, (h, w)))
                 row = _base_row(config, "person", rel, spec.id, s.lighting, cam, w, h,
                                 s.seed, rs, config.samples)
+                row["depth_path"] = drel
                 box = silhouette_box(pts, cam, w, h)
                 row.update(person_id=person.id, instance=s.instance,
                            elevation=float(config.elevations[e]), elevation_index=e,
@@ -421,7 +447,8 @@ def generate(config: GeneratorConfig, seed: int, out, *, jobs: int = 1, shard=No
     pending = []
     for u in units:
         part = read_part(out, u.uid)
-        if part is not None and all((out / p).is_file() for p in unit_paths(u)):
+        if part is not None and all((out / p).is_file()
+                                    for p in unit_paths(u) + unit_depth_paths(u)):
             continue
         pending.append(u)
     n_done_images = sum(u.n_images for u in units) - sum(u.n_images for u in pending)

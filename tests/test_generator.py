@@ -18,7 +18,7 @@ from generator.layout import (
 )
 from generator.manifest import (
     MANIFEST_COLUMNS, assemble_manifest, png_is_complete, read_manifest, verify_dataset,
-    write_part,
+    write_depth, write_part,
 )
 from generator.sampling import (
     GeneratorConfig, blackbody_rgb, derive_seed, frame_camera, image_relpath, parse_shard,
@@ -349,7 +349,7 @@ def test_config_round_trips_through_json():
 
 def _fake_dataset(out: Path, plan):
     """Write PNGs and part files for a plan without rendering (grey images)."""
-    from generator.pipeline import dataset_metadata, unit_paths
+    from generator.pipeline import dataset_metadata, depth_relpath, unit_paths
     from generator.specs import default_roster_path, default_scene_dir
 
     out.mkdir(parents=True, exist_ok=True)
@@ -369,7 +369,12 @@ def _fake_dataset(out: Path, plan):
             row.update(path=rel, kind=u.kind, scene_id=u.scene_id, instance=0,
                        elevation_index=0, width=size[0], height=size[1], seed=1,
                        render_seed=1, samples=1, supersample=1, n_area_lights=0,
-                       n_persons=0, person_id="", box_silhouette="")
+                       n_persons=0, person_id="", box_silhouette="", depth_path="")
+            if u.kind == "person":
+                depth = np.full((size[1], size[0]), np.nan, np.float32)
+                depth[20:110, 24:40] = 10.0
+                row["depth_path"] = depth_relpath(rel)
+                write_depth(out / row["depth_path"], depth)
             rows.append(row)
         coco = ({"images": [{"file_name": r["path"], "width": r["width"],
                              "height": r["height"]} for r in rows], "annotations": []}
@@ -397,8 +402,16 @@ def test_manifest_assembly_and_verify_find_damage(tmp_path, tiny_plan):
     (out / paths[1]).unlink()
     (out / paths[2]).write_bytes(b"\x89PNG\r\n\x1a\n" + b"x" * 100 + b"\0\0\0\0IEND\xaeB`\x82")
     (out / "person" / "plaza" / ".p001_i0_e0.png.abc.tmp").write_bytes(b"partial")
+    # depth maps: one of the wrong size, one deleted, one a pickled object array
+    depths = [d for d in df["depth_path"] if d]
+    write_depth(out / depths[5], np.ones((4, 4), np.float32))
+    (out / depths[6]).unlink()
+    np.savez(out / depths[7], depth=np.array([{"x": 1}], dtype=object))
     rep = verify_dataset(out)
     found = dict(rep.problems)
+    assert "crop is 64x128" in found[depths[5]]
+    assert found[depths[6]] == "missing"
+    assert "unreadable" in found[depths[7]] or "pickle" in found[depths[7]].lower()
     assert "truncated" in found[paths[0]]
     assert found[paths[1]] == "missing"
     assert "unreadable" in found[paths[2]]

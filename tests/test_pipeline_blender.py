@@ -72,13 +72,22 @@ def test_crossval_outputs_schema_and_figures(results):
                 "mr_at_fppw_0.01", "mr_at_fppw_0.01_std", "lamr"):
         assert col in s.columns
     assert set(s["detector"]) == {"hog", "acf"}
-    assert {"unadapted", "adapted", "image warping", "synthesised", "oracle"} <= set(s["method"])
+    assert {"unadapted", "adapted", "image warping", "synthesised", "oracle",
+            "adapted[body]", "image warping[body]", "exact geometry",
+            "exact geometry[paper eq.3]"} <= set(s["method"])
+    assert "exact geometry" not in set(s.loc[s["detector"] == "acf", "method"])
     assert s["mr_at_fppw_0.01"].between(0, 1).all()
+    sw = pd.read_csv(results / "sweep_summary.csv")
+    assert {"adapted", "adapted[paper eq.3]", "adapted[S only]", "adapted[body]"} <= \
+        set(sw["method"])
+    assert set(sw.loc[sw["method"] == "adapted[body]", "object_model"]) == {"body"}
+    assert set(sw.loc[sw["method"] == "adapted[paper eq.3]", "rule"]) == {"paper"}
     for name in ("det_hog.png", "det_hog.pdf", "det_acf.png", "det_acf.pdf", "sweep.png",
                  "sweep.pdf", "score_shift.png", "remap_illustration.png", "report.md",
                  "summary.md", "paired_differences.csv", "sweep_summary.csv", "run.json"):
         assert (results / name).is_file() and (results / name).stat().st_size > 0, name
-    assert "sweep.png" in (results / "report.md").read_text()
+    report = (results / "report.md").read_text()
+    assert "sweep.png" in report and "crossing" in report
 
 
 @pytest.fixture(scope="module")
@@ -120,3 +129,41 @@ def test_detect_on_rendered_frames_with_a_yaml_calibration(rendered, frames_benc
     assert (det["x"] + det["w"] > 0).all() and (det["x"] < w).all()
     assert (det["y"] + det["h"] > 0).all() and (det["y"] < h).all()
     assert len(list((out / "annotated").glob("*.png"))) == 1
+
+
+def test_depth_maps_agree_with_projected_body_vertices(rendered):
+    """The projection check on a rendered set: body vertices the source crop sees land,
+    through the stored depth maps, where the recorded target camera projects them."""
+    from benchmark.data import manifest_camera
+    from generator.annotate import person_to_world
+    from generator.body import BodyModel
+    from generator.manifest import read_depth
+    from generator.sampling import GeneratorConfig, plan_dataset
+    from generator.specs import load_roster, load_scenes
+    from viewadapt.mapping import GridMapping
+    from viewadapt.surface import project_with_depth, view_correspondence
+
+    man = read_manifest(rendered)
+    meta = json.loads((rendered / "dataset.json").read_text())
+    plan = plan_dataset(GeneratorConfig.from_dict(meta["config"]), meta["seed"],
+                        scenes=load_scenes(), persons=load_roster())
+    unit = next(u for u in plan.units if u.kind == "person")
+    s = unit.samples[0]
+    mesh = BodyModel().build(plan.persons[s.person_id], s.pose, s.gait_phase, s.pose_jitter)
+    verts = person_to_world(mesh.vertices, s.ground_xy, s.rotation)
+    rows = man[(man["person_id"] == s.person_id) & (man["scene_id"] == s.scene_id)
+               & (man["instance"] == s.instance)].sort_values("elevation_index")
+    src, tgt = rows.iloc[0], rows.iloc[-1]
+    ds_ = read_depth(rendered / src["depth_path"])
+    dt_ = read_depth(rendered / tgt["depth_path"])
+    cs, ct = manifest_camera(src), manifest_camera(tgt)
+    uv, vis = view_correspondence(ds_, cs, dt_, ct)
+    ps, zs = project_with_depth(verts, cs)
+    pt, _ = project_with_depth(verts, ct)
+    d = np.asarray(ds_, float)
+    seen = np.abs(GridMapping(np.stack([d, d], -1))(ps)[:, 0] - zs) < 3e-3
+    q = GridMapping(np.where(vis[..., None], uv, np.nan))(ps)
+    ok = seen & np.isfinite(q).all(1)
+    assert ok.sum() > 200
+    err = np.linalg.norm(q[ok] - pt[ok], axis=1)
+    assert err.max() <= 0.5, (np.median(err), err.max())

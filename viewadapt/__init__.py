@@ -12,6 +12,9 @@ Modules (public names are re-exported here):
 * :mod:`viewadapt.hog`, :mod:`viewadapt.acf` -- features with their linear part exposed.
 * :mod:`viewadapt.featuremap` -- dense per-frame feature maps.
 * :mod:`viewadapt.remap` -- ``S``, ``A``, ``G``.
+* :mod:`viewadapt.mapping` -- ``G`` from any point mapping (the homography is a special case).
+* :mod:`viewadapt.surface`, :mod:`viewadapt.objectmodel` -- depth maps and exact
+  correspondences of meshes; the person plane and a mean-body object model.
 * :mod:`viewadapt.adapt` -- classifier adaptation and the adapted-classifier wrapper.
 * :mod:`viewadapt.warp` -- the image-warping baseline.
 * :mod:`viewadapt.classifiers`, :mod:`viewadapt.boosting` -- linear SVM, boosted trees.
@@ -40,6 +43,12 @@ from .geometry import *  # noqa: F401,F403
 from .geometry import __all__ as _geometry_all
 from .hog import *  # noqa: F401,F403
 from .hog import __all__ as _hog_all
+from .mapping import *  # noqa: F401,F403
+from .mapping import __all__ as _mapping_all
+from .objectmodel import *  # noqa: F401,F403
+from .objectmodel import __all__ as _objectmodel_all
+from .surface import *  # noqa: F401,F403
+from .surface import __all__ as _surface_all
 from .metrics import *  # noqa: F401,F403
 from .metrics import __all__ as _metrics_all
 from .nms import *  # noqa: F401,F403
@@ -53,4 +62,5 @@ from .windows import __all__ as _windows_all
 
 __all__ = sorted(set(_acf_all + _adapt_all + _boosting_all + _classifiers_all
                      + _featuremap_all + _geometry_all + _hog_all + _metrics_all + _nms_all
-                     + _remap_all + _warp_all + _fullframe_all + _windows_all))
+                     + _remap_all + _warp_all + _fullframe_all + _windows_all
+                     + _mapping_all + _objectmodel_all + _surface_all))

@@ -236,3 +236,57 @@ def tree_cascade_scores(x, pos_group, pos_origin, n_groups, indptr, offsets, wei
                 break
         out[p] = score
     return out
+
+
+@njit(cache=True, nogil=True, boundscheck=False)
+def rasterize_depth(uv, z, faces, x0, y0, step, out):  # pragma: no cover - compiled
+    """Z-buffer of triangles on a regular sample grid.
+
+    ``uv`` (V, 2) projected vertices (pixels), ``z`` (V,) their camera depths (> 0),
+    ``faces`` (F, 3). Sample ``(i, j)`` sits at pixel ``(x0 + j step, y0 + i step)``;
+    ``out`` (n_y, n_x) starts at +inf and receives the nearest depth of a triangle covering
+    the sample, ``1 / z`` interpolated with the screen-space barycentrics (exact for a
+    planar triangle under perspective).
+    """
+    ny, nx = out.shape
+    for f in range(faces.shape[0]):
+        a = faces[f, 0]
+        b = faces[f, 1]
+        c = faces[f, 2]
+        ax = uv[a, 0]
+        ay = uv[a, 1]
+        bx = uv[b, 0]
+        by = uv[b, 1]
+        cx = uv[c, 0]
+        cy = uv[c, 1]
+        den = (bx - ax) * (cy - ay) - (cx - ax) * (by - ay)
+        if den == 0.0:
+            continue
+        ia = 1.0 / z[a]
+        ib = 1.0 / z[b]
+        ic = 1.0 / z[c]
+        j0 = int(np.ceil((min(ax, bx, cx) - x0) / step))
+        j1 = int(np.floor((max(ax, bx, cx) - x0) / step))
+        i0 = int(np.ceil((min(ay, by, cy) - y0) / step))
+        i1 = int(np.floor((max(ay, by, cy) - y0) / step))
+        if j0 < 0:
+            j0 = 0
+        if i0 < 0:
+            i0 = 0
+        if j1 > nx - 1:
+            j1 = nx - 1
+        if i1 > ny - 1:
+            i1 = ny - 1
+        for i in range(i0, i1 + 1):
+            py = y0 + i * step
+            for j in range(j0, j1 + 1):
+                px = x0 + j * step
+                wb = ((px - ax) * (cy - ay) - (cx - ax) * (py - ay)) / den
+                wc = ((bx - ax) * (py - ay) - (px - ax) * (by - ay)) / den
+                wa = 1.0 - wb - wc
+                if wa < -1e-9 or wb < -1e-9 or wc < -1e-9:
+                    continue
+                d = 1.0 / (wa * ia + wb * ib + wc * ic)
+                if d < out[i, j]:
+                    out[i, j] = d
+    return out

@@ -24,6 +24,7 @@ from sklearn.utils.validation import check_is_fitted, validate_data
 
 from .geometry import WINDOW_HEIGHT, WINDOW_WIDTH, elevation_homography
 from .hog import normalize_blocks_l2hys
+from .mapping import mapping_remap_matrix
 from .remap import CellGrid, feature_remap_matrix
 
 __all__ = [
@@ -60,6 +61,13 @@ def adapt_linear_weights(weights, G) -> np.ndarray:
     return np.asarray(G.T @ w).ravel()
 
 
+def _remap_matrix(H_st, out_grid, in_grid, **kw):
+    """``G`` through a homography, or through a general mapping when ``H_st`` is callable."""
+    if callable(H_st):
+        return mapping_remap_matrix(H_st, out_grid, in_grid, folds="drop", **kw)
+    return feature_remap_matrix(H_st, out_grid, in_grid, **kw)
+
+
 def hog_remap_matrix(H_st, *, source_cell_size: int = 8, target_cell_size: int = 8,
                      window=(WINDOW_WIDTH, WINDOW_HEIGHT), n_bins: int = 9,
                      rule: str = "covariant", per_cell: bool = True) -> sp.csr_matrix:
@@ -67,8 +75,11 @@ def hog_remap_matrix(H_st, *, source_cell_size: int = 8, target_cell_size: int =
 
     Parameters
     ----------
-    H_st : (3, 3) array_like
-        Source-window pixels -> target-window pixels.
+    H_st : (3, 3) array_like or callable
+        Source-window pixels -> target-window pixels: a homography (the planar model) or
+        any point mapping (:mod:`viewadapt.mapping`, e.g. from
+        :func:`viewadapt.objectmodel.crop_view_mapping`); a mapping's pieces that fold over
+        are dropped.
     source_cell_size, target_cell_size : int
         Cell sizes of the classifier (source) and of the target features (a finer target
         grid, e.g. 4 px, resamples more accurately).
@@ -79,9 +90,9 @@ def hog_remap_matrix(H_st, *, source_cell_size: int = 8, target_cell_size: int =
         ``hog_cells(...).ravel()``.
     """
     w, h = window
-    return feature_remap_matrix(H_st, CellGrid.for_window(w, h, source_cell_size),
-                                CellGrid.for_window(w, h, target_cell_size),
-                                n_bins=n_bins, rule=rule, per_cell=per_cell)
+    return _remap_matrix(H_st, CellGrid.for_window(w, h, source_cell_size),
+                         CellGrid.for_window(w, h, target_cell_size),
+                         n_bins=n_bins, rule=rule, per_cell=per_cell)
 
 
 def _bin_major_permutation(n_cells: int, n_bins: int) -> sp.csr_matrix:
@@ -94,7 +105,8 @@ def _bin_major_permutation(n_cells: int, n_bins: int) -> sp.csr_matrix:
 def acf_remap_matrix(H_st, *, shrink: int = 4, window=(WINDOW_WIDTH, WINDOW_HEIGHT),
                      n_color: int = 4, n_orients: int = 6, rule: str = "covariant",
                      per_cell: bool = True) -> sp.csr_matrix:
-    """``G`` for ACF channels of one window, layout ``(channel, y, x)``.
+    """``G`` for ACF channels of one window, layout ``(channel, y, x)``; ``H_st`` a
+    homography or a point mapping, as for :func:`hog_remap_matrix`.
 
     The first ``n_color`` channels (LUV and gradient magnitude) are per-pixel averages
     over each ``shrink`` block and are resampled by area-weighted means (``S`` with
@@ -109,10 +121,10 @@ def acf_remap_matrix(H_st, *, shrink: int = 4, window=(WINDOW_WIDTH, WINDOW_HEIG
     w, h = window
     grid = CellGrid.for_window(w, h, shrink)
     n = grid.n_cells
-    S = feature_remap_matrix(H_st, grid, grid, n_bins=1, preserve="mean")
+    S = _remap_matrix(H_st, grid, grid, n_bins=1, preserve="mean")
     # ACF orientation bin k is centred on k pi / n_orients (viewadapt.acf)
-    GO = feature_remap_matrix(H_st, grid, grid, n_bins=n_orients, rule=rule,
-                              per_cell=per_cell, preserve="mean", bin_offset=-0.5)
+    GO = _remap_matrix(H_st, grid, grid, n_bins=n_orients, rule=rule,
+                       per_cell=per_cell, preserve="mean", bin_offset=-0.5)
     P = _bin_major_permutation(n, n_orients)
     GO = P @ GO @ P.T                                  # -> (bin, cell) layout
     return sp.block_diag([S] * n_color + [GO], format="csr")

@@ -36,6 +36,8 @@ __all__ = [
     "map_angles",
     "orientation_remap_matrix",
     "feature_remap_matrix",
+    "quad_overlap_matrix",
+    "assemble_remap_matrix",
     "ANGLE_RULES",
 ]
 
@@ -228,15 +230,48 @@ def cell_remap_matrix(H_out_to_in, out_grid: CellGrid, in_grid: CellGrid, *,
     ``ValueError``.
     """
     H = check_homography(H_out_to_in, "H_out_to_in")
-    if preserve not in ("sum", "mean"):
-        raise ValueError(f"preserve must be 'sum' or 'mean', got {preserve!r}")
     corners = out_grid.corners()                                  # (K, 4, 2)
     flat = corners.reshape(-1, 2)
     _check_orientation(H, np.vstack([flat, out_grid.centers()]))
     uvw = flat @ H[:, :2].T + H[:, 2]
     quads = (uvw[:, :2] / uvw[:, 2:3]).reshape(-1, 4, 2)          # (K, 4, 2), CCW kept
+    return quad_overlap_matrix(quads, np.arange(len(quads)), out_grid.n_cells, in_grid,
+                               preserve=preserve)
 
-    # candidate (output cell, input cell) pairs from the projected bounding boxes
+
+def quad_overlap_matrix(quads, owner, n_out: int, in_grid: CellGrid, *,
+                        preserve: str = "sum") -> sp.csr_matrix:
+    """``S`` from output-cell pieces already mapped into the input view.
+
+    Row ``k`` of ``S`` collects, for every quadrilateral ``quads[p]`` with ``owner[p] == k``,
+    its exact overlap with each input cell: ``S_kl = sum_p area(d_l & q_p) / area(d_l)``
+    (``preserve="sum"``, eq. (1)) or the same normalised by the row's covered area
+    (``"mean"``). :func:`cell_remap_matrix` passes one projected quadrilateral per output
+    cell; :func:`viewadapt.mapping.mapping_cell_remap_matrix` passes the mapped pieces of
+    subdivided cells.
+
+    Parameters
+    ----------
+    quads : (P, 4, 2) array_like
+        Vertices in the input view's pixel coordinates (any simple quadrilateral; each is
+        clipped exactly against the input cells).
+    owner : (P,) int array_like
+        Output cell of each quadrilateral, in ``[0, n_out)``.
+    n_out : int
+    in_grid : CellGrid
+    preserve : {"sum", "mean"}
+
+    Returns
+    -------
+    S : (n_out, in_grid.n_cells) scipy.sparse.csr_matrix
+    """
+    if preserve not in ("sum", "mean"):
+        raise ValueError(f"preserve must be 'sum' or 'mean', got {preserve!r}")
+    quads = np.asarray(quads, dtype=np.float64).reshape(-1, 4, 2)
+    owner = np.asarray(owner, dtype=np.int64).reshape(-1)
+    if len(owner) != len(quads):
+        raise ValueError(f"owner has {len(owner)} entries for {len(quads)} quadrilaterals")
+    # candidate (piece, input cell) pairs from the mapped bounding boxes
     c = float(in_grid.cell_size)
     ox, oy = in_grid.origin
     lo = np.floor((quads.min(axis=1) - (ox, oy)) / c).astype(np.int64)
@@ -248,7 +283,7 @@ def cell_remap_matrix(H_out_to_in, out_grid: CellGrid, in_grid: CellGrid, *,
     npairs = nxs * nys
     k_idx = np.repeat(np.arange(len(quads)), npairs)
     if k_idx.size == 0:
-        return sp.csr_matrix((out_grid.n_cells, in_grid.n_cells))
+        return sp.csr_matrix((n_out, in_grid.n_cells))
     start = np.repeat(np.cumsum(npairs) - npairs, npairs)
     local = np.arange(k_idx.size) - start
     ly, lx = np.divmod(local, nxs[k_idx])
@@ -258,13 +293,13 @@ def cell_remap_matrix(H_out_to_in, out_grid: CellGrid, in_grid: CellGrid, *,
     poly, cnt = clip_polygons_to_rects(quads[k_idx], np.full(k_idx.size, 4), rects)
     area = polygon_areas(poly, cnt)
     keep = area > 1e-12 * in_grid.cell_area
-    rows, cols, area = k_idx[keep], (iy * in_grid.n_x + ix)[keep], area[keep]
+    rows, cols, area = owner[k_idx][keep], (iy * in_grid.n_x + ix)[keep], area[keep]
     if preserve == "sum":
         vals = area / in_grid.cell_area
     else:
-        covered = np.bincount(rows, weights=area, minlength=out_grid.n_cells)
+        covered = np.bincount(rows, weights=area, minlength=n_out)
         vals = area / covered[rows]
-    return sp.csr_matrix((vals, (rows, cols)), shape=(out_grid.n_cells, in_grid.n_cells))
+    return sp.csr_matrix((vals, (rows, cols)), shape=(n_out, in_grid.n_cells))
 
 
 # ---------------------------------------------------------------------- A (eq. 3-4)
@@ -410,24 +445,62 @@ def feature_remap_matrix(H_out_to_in, out_grid: CellGrid, in_grid: CellGrid, *,
         ``D = n_bins + n_plain``; acting on features flattened as ``(cell, channel)``
         (row-major ``(n_y, n_x, D)``).
     """
-    S = cell_remap_matrix(H_out_to_in, out_grid, in_grid, preserve=preserve).tocoo()
+    S = cell_remap_matrix(H_out_to_in, out_grid, in_grid, preserve=preserve)
     H = check_homography(H_out_to_in, "H_out_to_in")
-    if int(n_plain) != n_plain or n_plain < 0:
-        raise ValueError(f"n_plain must be a non-negative integer, got {n_plain!r}")
-    n_plain = int(n_plain)
-    B = n_bins + n_plain
+    n_plain = _check_n_plain(n_plain)
     if n_bins == 1 or rule == "none":
-        return sp.kron(S, sp.identity(B), format="csr")
+        return assemble_remap_matrix(S, None, n_bins=n_bins, n_plain=n_plain)
     if not per_cell:
         if anchor is None:
             x0, y0, x1, y1 = out_grid.bounds()
             anchor = ((x0 + x1) / 2, (y0 + y1) / 2)
-        A = orientation_remap_matrix(homography_jacobian(H, np.asarray(anchor, float)),
-                                     n_bins, rule, bin_offset=bin_offset)
+        J = homography_jacobian(H, np.asarray(anchor, float))
+    else:
+        J = homography_jacobian(H, out_grid.centers())
+    A = orientation_remap_matrix(J, n_bins, rule, bin_offset=bin_offset)
+    return assemble_remap_matrix(S, A, n_bins=n_bins, n_plain=n_plain)
+
+
+def _check_n_plain(n_plain) -> int:
+    if int(n_plain) != n_plain or n_plain < 0:
+        raise ValueError(f"n_plain must be a non-negative integer, got {n_plain!r}")
+    return int(n_plain)
+
+
+def assemble_remap_matrix(S, A, *, n_bins: int, n_plain: int = 0) -> sp.csr_matrix:
+    """``G = S (x) diag(A, I)`` from a cell resampling ``S`` and orientation resampling ``A``.
+
+    Parameters
+    ----------
+    S : (K, L) sparse matrix
+        Output cells x input cells.
+    A : None, (n_bins, n_bins) or (K, n_bins, n_bins) array_like
+        ``None``: no orientation remapping (``A = I``); one matrix for every output cell
+        (the paper's single ``A``); or one per output cell, ``G[(k, i), (l, j)] = S_kl
+        A_k[i, j]``.
+    n_bins : int
+        Orientation bins per cell.
+    n_plain : int
+        Channels without orientation after the bins, remapped by ``S`` alone.
+
+    Returns
+    -------
+    G : (K (n_bins + n_plain), L (n_bins + n_plain)) scipy.sparse.csr_matrix, acting on
+        features flattened as ``(cell, channel)``.
+    """
+    n_plain = _check_n_plain(n_plain)
+    B = n_bins + n_plain
+    S = sp.coo_matrix(S)
+    if A is None:
+        return sp.kron(S, sp.identity(B), format="csr")
+    A = np.asarray(A, dtype=np.float64)
+    if A.ndim == 2:
+        if A.shape != (n_bins, n_bins):
+            raise ValueError(f"A must be ({n_bins}, {n_bins}), got {A.shape}")
         return sp.kron(S, sp.block_diag([A, sp.identity(n_plain)]) if n_plain else
                        sp.csr_matrix(A), format="csr")
-    A = orientation_remap_matrix(homography_jacobian(H, out_grid.centers()), n_bins, rule,
-                                 bin_offset=bin_offset)
+    if A.shape != (S.shape[0], n_bins, n_bins):
+        raise ValueError(f"per-cell A must be ({S.shape[0]}, {n_bins}, {n_bins}), got {A.shape}")
     # entries (k, l, i, j) -> value S_kl * A_k[i, j] for the bins; S_kl on the diagonal of
     # the plain channels
     ii, jj = np.meshgrid(np.arange(n_bins), np.arange(n_bins), indexing="ij")
@@ -442,4 +515,4 @@ def feature_remap_matrix(H_out_to_in, out_grid: CellGrid, in_grid: CellGrid, *,
     rows, cols, vals = (np.concatenate(a) for a in (rows, cols, vals))
     nz = vals != 0
     return sp.csr_matrix((vals[nz], (rows[nz], cols[nz])),
-                         shape=(out_grid.n_cells * B, in_grid.n_cells * B))
+                         shape=(S.shape[0] * B, S.shape[1] * B))
