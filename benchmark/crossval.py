@@ -249,14 +249,15 @@ def warp_field(mapping, H, size=(64, 128)) -> np.ndarray:
     return m.astype(np.float32)
 
 
-def exact_remaps(det, s, t, rows, data, cfg, rule):
-    """``G`` of each target positive in ``rows`` from its own correspondences (source crop
-    of the same instance at ``s``): its depth maps, cameras and plane homographies."""
+def exact_remaps(det, s, t, rows, data, cfg, rules):
+    """``{rule: [G per row]}``: ``G`` of each target positive in ``rows`` from its own
+    correspondences (source crop of the same instance at ``s``: its depth maps, cameras and
+    plane homographies), each instance's mapping built once for every rule."""
     import json
 
     inst = data["instances"]
     es, et = data["index"][s], data["index"][t]
-    out = []
+    out = {r: [] for r in rules}
     for r in rows.itertuples(index=False):
         src = inst[(r.person_id, r.scene_id, int(r.instance), es)]
         tgt = inst[(r.person_id, r.scene_id, int(r.instance), et)]
@@ -265,7 +266,8 @@ def exact_remaps(det, s, t, rows, data, cfg, rule):
         m = correspondence_mapping(read_depth_map(data["root"], src), manifest_camera(src),
                                    read_depth_map(data["root"], tgt), manifest_camera(tgt),
                                    fallback=Ht @ np.linalg.inv(Hs))
-        out.append(remap_for(det, m, rule, True, cfg))
+        for rule in rules:
+            out[rule].append(remap_for(det, m, rule, True, cfg))
     return out
 
 
@@ -316,11 +318,11 @@ def _task(det, s, t, fold, cfg, data, seed):
         if _wants_exact(det, cfg, data):
             n_pos = int(mp.sum())
             rows = pos_t[mp]
-            for name, (rule, neg_variant) in EXACT_VARIANTS.items():
-                if neg_variant not in results:
-                    continue
-                Gs = exact_remaps(det, s, t, rows, data, cfg, rule)
-                pos = np.array([scorer.adapted(Xfine[i:i + 1], G)[0] for i, G in enumerate(Gs)])
+            todo = {n: v for n, v in EXACT_VARIANTS.items() if v[1] in results}
+            Gs = exact_remaps(det, s, t, rows, data, cfg, sorted({r for r, _ in todo.values()}))
+            for name, (rule, neg_variant) in todo.items():
+                pos = np.array([scorer.adapted(Xfine[i:i + 1], G)[0]
+                                for i, G in enumerate(Gs[rule])])
                 results[name] = np.r_[pos, np.asarray(results[neg_variant])[n_pos:]]
         if cfg.synthesised and kind != "pretrained":
             Xp, Xn = train_feats(src_rep, es, f"synth{t:.6f}")

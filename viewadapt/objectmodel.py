@@ -30,7 +30,7 @@ from .geometry import (
     window_to_image_homography,
 )
 from .mapping import GridMapping, homography_mapping
-from .surface import project_with_depth, surface_depth
+from .surface import hidden_by, project_with_depth, surface_depth
 
 __all__ = ["PlaneModel", "SurfaceOfRevolution", "OBJECT_MODELS", "object_model",
            "view_mapping", "crop_view_mapping", "correspondence_mapping"]
@@ -144,9 +144,9 @@ def view_mapping(model, source_camera: Camera, target_camera: Camera, *,
         Sample spacing of the returned :class:`~viewadapt.mapping.GridMapping` (surface
         models), pixels.
     source_H, target_H : (3, 3) array_like, optional
-        Window -> image homographies of the person plane, when they are not
-        ``window_to_image_homography(camera, ground, person_height)`` (crops framed
-        otherwise). The plane model's mapping is ``target_H @ inv(source_H)``.
+        Plane model only: window -> image homographies of the person plane, when they are
+        not ``window_to_image_homography(camera, ground, person_height)``; its mapping is
+        ``target_H @ inv(source_H)``.
     tolerance : float
         Metres by which the model must be in front of a point to hide it in the target view.
 
@@ -155,11 +155,11 @@ def view_mapping(model, source_camera: Camera, target_camera: Camera, *,
     A callable mapping: a homography mapping for the plane, else a ``GridMapping`` that is
     NaN where the model hides the point in the target view or the window leaves the grid.
     """
-    Hs = (window_to_image_homography(source_camera, source_ground, person_height)
-          if source_H is None else np.asarray(source_H, float))
-    Ht = (window_to_image_homography(target_camera, target_ground, person_height)
-          if target_H is None else np.asarray(target_H, float))
     if isinstance(model, PlaneModel):
+        Hs = (window_to_image_homography(source_camera, source_ground, person_height)
+              if source_H is None else np.asarray(source_H, float))
+        Ht = (window_to_image_homography(target_camera, target_ground, person_height)
+              if target_H is None else np.asarray(target_H, float))
         return homography_mapping(Ht @ np.linalg.inv(Hs))
     if not isinstance(model, SurfaceOfRevolution):
         raise TypeError(f"unknown object model {model!r}")
@@ -189,25 +189,20 @@ def view_mapping(model, source_camera: Camera, target_camera: Camera, *,
     sz = target_camera.image_size or (int(np.nanmax(uv[..., 0])) + 2,
                                       int(np.nanmax(uv[..., 1])) + 2)
     dt = surface_depth(V + Pt, F, target_camera, (sz[1], sz[0]))
-    j = np.rint(np.nan_to_num(uv[..., 0], nan=-1)).astype(np.int64)
-    i = np.rint(np.nan_to_num(uv[..., 1], nan=-1)).astype(np.int64)
-    inside = (j >= 0) & (j < sz[0]) & (i >= 0) & (i < sz[1])
-    d_there = np.full(depth.shape, np.nan)
-    d_there[inside] = dt[i[inside], j[inside]]
-    hidden = np.isfinite(d_there) & (d_there < zt - tolerance)
+    hidden, _ = hidden_by(dt, uv, zt, tolerance)
     uv[hidden] = np.nan
     return GridMapping(uv, origin, step)
 
 
-def _framed_camera(elevation, distance, person_height, framing):
+def _framed_camera(elevation, distance, person_height, framing) -> Camera:
+    """The crop camera at ``elevation``, its intrinsics reframed as ``framing`` frames it."""
     cam = crop_camera(elevation, distance=distance, person_height=person_height)
     if framing == "plane":
-        return cam, crop_homography(elevation, distance=distance, person_height=person_height)
-    H = crop_homography(elevation, distance=distance, person_height=person_height,
-                        framing=framing)
-    N = H @ np.linalg.inv(crop_homography(elevation, distance=distance,
-                                          person_height=person_height))
-    return Camera(N @ cam.K, cam.R, cam.t, cam.image_size), H
+        return cam
+    kw = dict(distance=distance, person_height=person_height)
+    N = crop_homography(elevation, framing=framing, **kw) @ np.linalg.inv(
+        crop_homography(elevation, **kw))
+    return Camera(N @ cam.K, cam.R, cam.t, cam.image_size)
 
 
 def crop_view_mapping(model, source_elevation: float, target_elevation: float, *,
@@ -220,10 +215,9 @@ def crop_view_mapping(model, source_elevation: float, target_elevation: float, *
         return homography_mapping(elevation_homography(
             source_elevation, target_elevation, distance=distance,
             person_height=person_height, framing=framing))
-    cs, Hs = _framed_camera(source_elevation, distance, person_height, framing)
-    ct, Ht = _framed_camera(target_elevation, distance, person_height, framing)
-    return view_mapping(model, cs, ct, person_height=person_height, step=step,
-                        source_H=Hs, target_H=Ht)
+    cs = _framed_camera(source_elevation, distance, person_height, framing)
+    ct = _framed_camera(target_elevation, distance, person_height, framing)
+    return view_mapping(model, cs, ct, person_height=person_height, step=step)
 
 
 def correspondence_mapping(depth_source, camera_source: Camera, depth_target,

@@ -18,7 +18,8 @@ import numpy as np
 from ._validation import check_finite
 from .geometry import Camera
 
-__all__ = ["surface_depth", "backproject", "view_correspondence", "project_with_depth"]
+__all__ = ["surface_depth", "backproject", "view_correspondence", "project_with_depth",
+           "hidden_by"]
 
 
 def _check_grid(shape, origin, step):
@@ -142,13 +143,21 @@ def view_correspondence(depth_source, camera_source: Camera, depth_target,
         raise ValueError(f"tolerance must be positive metres, got {tolerance!r}")
     X = backproject(ds, camera_source)
     uv, z = project_with_depth(X, camera_target)
-    h, w = dt.shape
+    hidden, inside = hidden_by(dt, uv, z, tolerance)
+    return uv, inside & ~hidden
+
+
+def hidden_by(depth, uv, z, tolerance: float):
+    """Which points, at pixels ``uv`` and camera depths ``z`` of a view, a surface with
+    depth map ``depth`` (that view's pixel grid) hides: its depth at the nearest pixel is
+    nearer than the point by more than ``tolerance``. Returns ``(hidden, inside)`` bool
+    arrays (``inside``: the point lands in the image)."""
+    d = np.asarray(depth, dtype=np.float64)
+    h, w = d.shape
     on = np.isfinite(uv).all(axis=-1)
     j = np.rint(np.where(on, uv[..., 0], -1)).astype(np.int64)
     i = np.rint(np.where(on, uv[..., 1], -1)).astype(np.int64)
     inside = on & (j >= 0) & (j < w) & (i >= 0) & (i < h)
-    d_there = np.full(ds.shape, np.nan)
-    d_there[inside] = dt[i[inside], j[inside]]
-    hidden = np.isfinite(d_there) & (d_there < z - tolerance)
-    visible = inside & ~hidden
-    return uv, visible
+    d_there = np.full(on.shape, np.nan)
+    d_there[inside] = d[i[inside], j[inside]]
+    return np.isfinite(d_there) & (d_there < z - tolerance), inside
