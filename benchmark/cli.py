@@ -98,7 +98,7 @@ def _scheduler(args):
 def cmd_crossval(args) -> int:
     import matplotlib.pyplot as plt
 
-    from viewadapt.cli import _check_out, atomic_output_dir
+    from viewadapt.files import atomic_output_dir, check_output_dir
 
     from .crossval import config_dict, run_crossval
     from .data import load_dataset
@@ -107,7 +107,7 @@ def cmd_crossval(args) -> int:
     from .report import plot_det, plot_score_shift, write_report
     from .summarize import paired_differences, summarize
 
-    _check_out(args.out)
+    check_output_dir(args.out)
     ds = load_dataset(args.data)
     check_results_dir(args.out, ds.fingerprint)
     cfg = _config(args, ds)
@@ -183,7 +183,7 @@ def _markdown(summary) -> str:
 def cmd_sweep(args) -> int:
     import matplotlib.pyplot as plt
 
-    from viewadapt.cli import _check_out, atomic_output_dir
+    from viewadapt.files import atomic_output_dir, check_output_dir
 
     from .data import load_dataset
     from .features import FeatureCache
@@ -191,7 +191,7 @@ def cmd_sweep(args) -> int:
     from .report import plot_sweep, write_report
     from .sweep import run_sweep, sweep_summary
 
-    _check_out(args.out)
+    check_output_dir(args.out)
     ds = load_dataset(args.data)
     check_results_dir(args.out, ds.fingerprint)
     cfg = _config(args, ds)

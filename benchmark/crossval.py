@@ -109,7 +109,7 @@ class CrossvalConfig:
     extra: dict = field(default_factory=dict)
 
 
-def _features(det, X):
+def classifier_features(det, X):
     """Classifier input from a representation's features (descriptor for ``hog``)."""
     if DETECTORS[det][2] in ("blocks", "pretrained"):
         return cells_to_descriptor(X.astype(np.float64))
@@ -128,7 +128,7 @@ def _make_classifier(det, cfg: CrossvalConfig, seed):
                              max_hard_negatives=cfg.max_hard_negatives, random_state=seed)
 
 
-def _fit(det, cfg, Xpos, Xneg, seed):
+def fit_detector(det, cfg, Xpos, Xneg, seed):
     X = np.vstack([Xpos, Xneg])
     y = np.r_[np.ones(len(Xpos), int), np.zeros(len(Xneg), int)]
     clf = _make_classifier(det, cfg, seed)
@@ -166,7 +166,7 @@ def _opencv_weights():
     return opencv_people_detector()
 
 
-class _Scorer:
+class Scorer:
     """Scores with a trained (or pretrained) source-view model, in every method's way."""
 
     def __init__(self, det, clf=None):
@@ -176,7 +176,7 @@ class _Scorer:
             self.w, self.b = _opencv_weights()
 
     def plain(self, X):
-        Z = _features(self.det, X)
+        Z = classifier_features(self.det, X)
         if self.kind == "pretrained":
             return Z @ self.w + self.b
         return self.clf.decision_function(Z)
@@ -209,7 +209,7 @@ class _Scorer:
         return self.clf.decision_function(Z)
 
 
-def _remap(det, H, variant, cfg):
+def variant_remap(det, H, variant, cfg):
     """``G`` of a variant; ``H`` is the source -> target homography or point mapping."""
     rule, per_cell, _ = ADAPT_VARIANTS[variant]
     return remap_for(det, H, rule, per_cell, cfg)
@@ -271,7 +271,7 @@ def exact_remaps(det, s, t, rows, data, cfg, rules):
     return out
 
 
-def _fold_masks(meta, fold: Fold, train: bool):
+def fold_masks(meta, fold: Fold, train: bool):
     persons = fold.train_persons if train else fold.test_persons
     scenes = fold.train_scenes if train else fold.test_scenes
     in_scene = meta["scene_id"].isin(scenes).to_numpy()
@@ -285,7 +285,7 @@ def _task(det, s, t, fold, cfg, data, seed):
     src_rep, fine_rep, kind = DETECTORS[det]
     es, et = data["index"][s], data["index"][t]
     pos_t, neg_t = data["meta"][("person", et)], data["meta"][("background", et)]
-    mp, mn = _fold_masks(pos_t, fold, False), _fold_masks(neg_t, fold, False)
+    mp, mn = fold_masks(pos_t, fold, False), fold_masks(neg_t, fold, False)
     test_meta = pd.concat([pos_t[mp], neg_t[mn]], ignore_index=True)
     F = data["feat"]
 
@@ -293,19 +293,19 @@ def _task(det, s, t, fold, cfg, data, seed):
         return np.vstack([F[(rep, "person", et, key)][mp], F[(rep, "background", et, key)][mn]])
 
     def train_feats(rep, e, key=""):
-        pm = _fold_masks(data["meta"][("person", e)], fold, True)
-        nm = _fold_masks(data["meta"][("background", e)], fold, True)
+        pm = fold_masks(data["meta"][("person", e)], fold, True)
+        nm = fold_masks(data["meta"][("background", e)], fold, True)
         return F[(rep, "person", e, key)][pm], F[(rep, "background", e, key)][nm]
 
     results = {}
     if kind == "pretrained":
-        scorer = _Scorer(det)
+        scorer = Scorer(det)
     else:
         Xp, Xn = train_feats(src_rep, es)
         if len(Xp) == 0 or len(Xn) == 0:
             raise ValueError(f"fold {fold.name}: no training {'positives' if len(Xp) == 0 else 'negatives'}"
                              f" at elevation {s:.3f}")
-        scorer = _Scorer(det, _fit(det, cfg, _features(det, Xp), _features(det, Xn), seed))
+        scorer = Scorer(det, fit_detector(det, cfg, classifier_features(det, Xp), classifier_features(det, Xn), seed))
     X_plain = test_feats(src_rep)
     results["oracle" if es == et else "unadapted"] = scorer.plain(X_plain)
     if es != et:
@@ -326,8 +326,8 @@ def _task(det, s, t, fold, cfg, data, seed):
                 results[name] = np.r_[pos, np.asarray(results[neg_variant])[n_pos:]]
         if cfg.synthesised and kind != "pretrained":
             Xp, Xn = train_feats(src_rep, es, f"synth{t:.6f}")
-            clf = _fit(det, cfg, _features(det, Xp), _features(det, Xn), seed)
-            results["synthesised"] = _Scorer(det, clf).plain(X_plain)
+            clf = fit_detector(det, cfg, classifier_features(det, Xp), classifier_features(det, Xn), seed)
+            results["synthesised"] = Scorer(det, clf).plain(X_plain)
     frames = []
     for method, sc in results.items():
         frames.append(test_meta.assign(detector=det, method=method, source_elevation=s,
@@ -392,7 +392,7 @@ def prepare(ds: Dataset, cfg: CrossvalConfig, cache: FeatureCache, elevations=No
                     want(ws.warped(Hinv, f"synth{cfg.target:.6f}"), idx[s],
                          f"synth{cfg.target:.6f}", src_rep)
             for v in variant_names(kind, cfg):
-                G[(det, s, cfg.target, v)] = _remap(det, maps[ADAPT_VARIANTS[v][2]], v, cfg)
+                G[(det, s, cfg.target, v)] = variant_remap(det, maps[ADAPT_VARIANTS[v][2]], v, cfg)
     for ws, i, suffix, reps in requests.values():
         got = cache.get_many(ws, sorted(reps))
         for rep, X in got.items():

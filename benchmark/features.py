@@ -41,10 +41,10 @@ def _window_features(w, reps) -> dict:
     """Features of one window in each representation of ``reps``.
 
     Oriented gradients and ACF channels come from the float32 OpenCV paths of
-    :mod:`viewadapt.fullframe` (the same quantities as :mod:`viewadapt.hog` /
+    :mod:`viewadapt.detect` (the same quantities as :mod:`viewadapt.hog` /
     :mod:`viewadapt.acf` up to rounding, tested there; ~3x faster per window).
     """
-    from viewadapt.fullframe import acf_window_features, cell_sums, fast_orientation_channels
+    from viewadapt.detect import acf_window_features, cell_sums, fast_orientation_channels
     from viewadapt.hog import hog_descriptor, locally_normalize_channels
 
     out, O = {}, {}

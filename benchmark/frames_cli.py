@@ -1,4 +1,4 @@
-"""``viewadapt detect``, ``viewadapt bench frames`` and ``viewadapt bench runtime``."""
+"""``viewadapt bench frames`` and ``viewadapt bench runtime``."""
 
 from __future__ import annotations
 
@@ -9,129 +9,19 @@ from pathlib import Path
 
 import numpy as np
 
-from .frames import (
-    DEFAULT_CACHE_LIMIT_GB, DEFAULT_FRAME_VIEW, FRAME_VIEW_CHOICES, check_cache_limit,
+from viewadapt.detect import (
+    CELLS_PER_SOURCE_CELL, DEFAULT_CACHE_LIMIT_GB, FAMILY_COLORS, HOG_TOLERANCE, UPSAMPLE_BELOW,
+    plot_det_figure,
 )
+from viewadapt.detect.command import add_cache_options, person_heights
+from viewadapt.geometry import PERSON_HEIGHT_M
 
-__all__ = ["register", "cmd_detect", "cmd_bench_frames", "cmd_bench_runtime"]
+from .frames import DEFAULT_FRAME_VIEW, FRAME_VIEW_CHOICES
 
-
-def _heights(text):
-    try:
-        vals = tuple(float(v) for v in text.split(","))
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"cannot read person heights {text!r} "
-                                         "(metres, comma-separated)") from None
-    if not vals or any(not np.isfinite(v) or v <= 0 for v in vals):
-        raise argparse.ArgumentTypeError("person heights must be positive metres")
-    return vals
-
-
-def _cache_limit(text):
-    try:
-        return check_cache_limit(float(text))
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"the cache limit must be >= 0 GB, got {text!r}") \
-            from None
-
-
-def _add_cache_options(p):
-    p.add_argument("--cache", type=Path, default=None,
-                   help="operator cache directory (default OUT/cache)")
-    p.add_argument("--cache-limit", type=_cache_limit, default=DEFAULT_CACHE_LIMIT_GB,
-                   metavar="GB",
-                   help="size limit of the cache directory: the least recently used "
-                        f"operators are deleted first (default {DEFAULT_CACHE_LIMIT_GB:g}; "
-                        "0 = no limit)")
-
-
-def _metadata(args, **extra):
-    from viewadapt.cli import _metadata as meta
-
-    return meta(args, **extra)
+__all__ = ["register", "cmd_bench_frames", "cmd_bench_runtime", "plot_det_figure"]
 
 
 # --------------------------------------------------------------------------------- detect
-
-
-def cmd_detect(args) -> int:
-    """Detect persons in frames of one calibrated camera."""
-    import cv2
-
-    from viewadapt.cli import _check_out, atomic_output_dir
-
-    from .data import read_image
-    from .frames import (
-        FrameDetector, FrameRecord, SourceDetectors, evaluate_method, read_boxes,
-        read_calibration,
-    )
-
-    _check_out(args.out)
-    cam = read_calibration(args.calibration)
-    models = SourceDetectors.load(args.model)
-    paths = [Path(p) for p in args.frames]
-    for p in paths:
-        if not p.is_file():
-            raise FileNotFoundError(f"frame {p} does not exist")
-    boxes = read_boxes(args.boxes, paths) if args.boxes else None
-    dets = []
-    from .frames import UPSAMPLE_BELOW
-
-    det = FrameDetector(cam, models, person_heights=args.heights,
-                        cache_dir=args.cache or (args.out / "cache"),
-                        cache_limit_gb=args.cache_limit,
-                        upsample_below=UPSAMPLE_BELOW if args.upsample_below is None
-                        else args.upsample_below,
-                        threshold_hog=args.threshold, threshold_acf=args.threshold)
-    method = f"{args.detector}_adapted"
-    rows, coco_img, coco_ann = [], [], []
-    t0 = time.perf_counter()
-    with atomic_output_dir(args.out) as tmp:
-        (tmp / "annotated").mkdir()
-        for i, p in enumerate(paths):
-            img = read_image(p)
-            if (img.shape[1], img.shape[0]) != tuple(cam.image_size):
-                raise ValueError(f"frame {p} is {img.shape[1]}x{img.shape[0]} px, the "
-                                 f"calibration is for {cam.image_size[0]}x{cam.image_size[1]}")
-            d = det.detect(method, img)
-            dets.append(d)
-            coco_img.append({"id": i + 1, "file_name": str(p), "width": img.shape[1],
-                             "height": img.shape[0]})
-            vis = img[:, :, ::-1].copy()
-            for x, y, w, h, s in d:
-                rows.append({"frame": str(p), "x": x, "y": y, "w": w, "h": h, "score": s})
-                coco_ann.append({"id": len(coco_ann) + 1, "image_id": i + 1, "category_id": 1,
-                                 "bbox": [float(x), float(y), float(w), float(h)],
-                                 "score": float(s)})
-                cv2.rectangle(vis, (int(round(x)), int(round(y))),
-                              (int(round(x + w)), int(round(y + h))), (0, 255, 0), 1)
-            cv2.imwrite(str(tmp / "annotated" / f"{i:05d}_{p.stem}.png"), vis)
-        import pandas as pd
-
-        pd.DataFrame(rows, columns=["frame", "x", "y", "w", "h", "score"]).to_csv(
-            tmp / "detections.csv", index=False)
-        (tmp / "detections_coco.json").write_text(json.dumps(
-            {"images": coco_img, "annotations": coco_ann,
-             "categories": [{"id": 1, "name": "person"}]}))
-        evaluation = None
-        if boxes is not None:
-            records = [FrameRecord(p, i + 1, "", cam, *boxes[p.name])
-                       for i, p in enumerate(paths)]
-            ev = evaluate_method(dets, records)
-            evaluation = {"lamr": ev["lamr"], "n_gt": int(sum(len(r.gt) for r in records)),
-                          "fppi": ev["fppi"].tolist(), "miss_rate": ev["miss_rate"].tolist()}
-            (tmp / "evaluation.json").write_text(json.dumps(evaluation))
-            plot_det_figure({method: ev}, tmp / "det",
-                            title=f"{len(paths)} frames, {evaluation['n_gt']} persons")
-        (tmp / "metadata.json").write_text(json.dumps(_metadata(
-            args, detector=method, windows=len(det.windows), frames=len(paths),
-            seconds=round(time.perf_counter() - t0, 2), camera=cam.to_dict()), indent=2))
-    print(f"{len(rows)} detections in {len(paths)} frames ({len(det.windows)} candidate "
-          f"windows); wrote {args.out}/detections.csv, detections_coco.json, annotated/")
-    if evaluation is not None:
-        print(f"against {evaluation['n_gt']} boxes of {args.boxes}: log-average miss rate "
-              f"{evaluation['lamr']:.3f} over 1e-2..1e0 FPPI (evaluation.json, det.png)")
-    return 0
 
 
 # --------------------------------------------------------------------------- bench frames
@@ -148,15 +38,15 @@ def _group_by_camera(frames):
 def _detect_camera(group, models, methods, heights, cache_dir, cache_limit_gb, tolerance,
                    cells_per_source_cell, upsample_below, progress=None):
     """Every method on the frames of one camera: (detections, seconds, windows)."""
-    from .frames import FrameDetector
+    from .frames import FrameMethods
 
-    fd = FrameDetector(group[0].camera, models, person_heights=heights, cache_dir=cache_dir,
+    fd = FrameMethods(group[0].camera, models, person_heights=heights, cache_dir=cache_dir,
                        cache_limit_gb=cache_limit_gb, tolerance=tolerance,
                        cells_per_source_cell=cells_per_source_cell,
                        upsample_below=upsample_below)
     for kind in ("hog", "acf"):                  # offline precomputation, not timed per frame
         if f"{kind}_adapted" in methods:
-            fd.operator(kind)
+            fd.adapted.operator(kind)
     dets = {m: [] for m in methods}
     secs = {m: 0.0 for m in methods}
     for f in group:
@@ -171,9 +61,10 @@ def _detect_camera(group, models, methods, heights, cache_dir, cache_limit_gb, t
 
 
 def run_frames_benchmark(data, *, methods, seed=0, quick=False, max_frames=None,
-                         heights=(1.75,), cache_dir=None,
+                         heights=(PERSON_HEIGHT_M,), cache_dir=None,
                          cache_limit_gb=DEFAULT_CACHE_LIMIT_GB, models=None, progress=True,
-                         tolerance=0.5, cells_per_source_cell=0.7, upsample_below=None,
+                         tolerance=HOG_TOLERANCE, cells_per_source_cell=CELLS_PER_SOURCE_CELL,
+                         upsample_below=None,
                          jobs=1, frame_view=DEFAULT_FRAME_VIEW):
     """Detect with every method on every frame; return (results dict, models, detections).
 
@@ -184,7 +75,7 @@ def run_frames_benchmark(data, *, methods, seed=0, quick=False, max_frames=None,
     from tqdm.auto import tqdm
 
     from .data import load_dataset
-    from .frames import UPSAMPLE_BELOW, evaluate_method, load_frames, train_source_detectors
+    from .frames import evaluate_method, load_frames, train_source_detectors
 
     if upsample_below is None:
         upsample_below = UPSAMPLE_BELOW
@@ -227,42 +118,6 @@ def run_frames_benchmark(data, *, methods, seed=0, quick=False, max_frames=None,
     info = dict(n_frames=len(order), windows_per_camera=[o[2] for o in out],
                 n_gt=int(sum(len(f.gt) for f in order)))
     return results, models, dets, order, info
-
-
-#: figure colour of each detector family (the method name's first part)
-_FAMILY_COLORS = {"hog": "tab:blue", "acf": "tab:red", "opencv": "tab:gray"}
-
-
-def plot_det_figure(results, path_stem, title=""):
-    """Miss rate against FPPI, log-log, the legend with each method's LAMR (Fig. 3)."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    dash = {"pyramid": "-", "warp": "--", "adapted": ":", "opencv": "-.", "native": "-."}
-    fig, ax = plt.subplots(figsize=(5.5, 4.5))
-    for m, r in sorted(results.items(), key=lambda kv: kv[1]["lamr"]):
-        fam = m.split("_")[0]
-        ls = dash.get(m.split("_")[-1], "-")
-        fppi = np.r_[1e-3, r["fppi"]] if len(r["fppi"]) else np.array([1e-3, 10])
-        mr = np.r_[1.0, r["miss_rate"]] if len(r["miss_rate"]) else np.array([1.0, 1.0])
-        ax.step(np.maximum(fppi, 1e-3), mr, where="post", ls=ls, lw=2,
-                color=_FAMILY_COLORS.get(fam, "k"), label=f"{100 * r['lamr']:.1f}% {m}")
-    ax.set_xscale("log")
-    ax.set_yscale("log")
-    ax.set_xlim(1e-2, 1e1)
-    ax.set_ylim(5e-2, 1.0)
-    ax.set_xlabel("false positives per image")
-    ax.set_ylabel("miss rate")
-    ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=8, loc="lower left", title="log-average miss rate")
-    if title:
-        ax.set_title(title, fontsize=9)
-    fig.tight_layout()
-    fig.savefig(f"{path_stem}.png", dpi=150)
-    fig.savefig(f"{path_stem}.pdf")
-    plt.close(fig)
 
 
 #: the accuracy targets: (baseline, test on (adapted, baseline) LAMR, wording)
@@ -366,7 +221,7 @@ def plot_seed_figure(per_seed, path_stem):
     ax = axes[0, 0]
     for i, m in enumerate(methods):
         vals = np.array([per_seed[s][m] for s in seeds if m in per_seed[s]])
-        color = _FAMILY_COLORS.get(m.split("_")[0], "tab:gray")
+        color = FAMILY_COLORS.get(m.split("_")[0], "tab:gray")
         ax.bar(i, vals.mean(), color=color, alpha=0.3, width=0.7)
         ax.plot(np.full(vals.size, i) + np.linspace(-0.2, 0.2, vals.size), vals, "o",
                 color=color, ms=4)
@@ -378,7 +233,7 @@ def plot_seed_figure(per_seed, path_stem):
     if gaps:
         ax = axes[0, 1]
         for i, (kind, g) in enumerate(gaps.items()):
-            color = _FAMILY_COLORS[kind]
+            color = FAMILY_COLORS[kind]
             ax.plot(np.full(len(g), i) + np.linspace(-0.15, 0.15, len(g)), g, "o",
                     color=color, ms=4)
             ax.plot([i - 0.3, i + 0.3], [np.mean(g)] * 2, color=color, lw=2)
@@ -434,11 +289,13 @@ def _frame_key(f) -> str:
 
 
 def cmd_bench_frames(args) -> int:
-    from viewadapt.cli import _check_out, atomic_output_dir
+    from viewadapt.files import atomic_output_dir, check_output_dir, run_metadata
 
-    from .frames import METHODS, SourceDetectors, evaluate_method
+    from viewadapt.detect import SourceDetectors
 
-    _check_out(args.out)
+    from .frames import METHODS, evaluate_method
+
+    check_output_dir(args.out)
     if args.seeds < 1:
         raise ValueError(f"--seeds must be at least 1, got {args.seeds}")
     if args.seeds > 1 and (args.model or args.keep_other_methods):
@@ -511,8 +368,8 @@ def cmd_bench_frames(args) -> int:
         models.save(tmp / "models" / "source_detectors.pkl")
         for seed, m in seed_models.items():
             m.save(tmp / "models" / f"source_detectors_seed{seed}.pkl")
-        (tmp / "run.json").write_text(json.dumps(_metadata(
-            args, data=str(args.data), methods=methods, kept_from_earlier_run=kept, **info,
+        (tmp / "run.json").write_text(json.dumps(run_metadata(
+            args.seed, data=str(args.data), methods=methods, kept_from_earlier_run=kept, **info,
             seeds=seeds, training=models.training,
             seconds=round(time.perf_counter() - t0, 1)), indent=2, default=str))
     print("\n".join(lines))
@@ -527,11 +384,11 @@ def cmd_bench_frames(args) -> int:
 
 
 def cmd_bench_runtime(args) -> int:
-    from viewadapt.cli import _check_out, atomic_output_dir
+    from viewadapt.files import atomic_output_dir, check_output_dir, run_metadata
 
     from .perf.runtime import format_table, run_runtime
 
-    _check_out(args.out)
+    check_output_dir(args.out)
     t0 = time.perf_counter()
     table, info = run_runtime(args.data, n_frames=args.frames, warp_windows=args.warp_windows,
                               heights=args.heights, jobs=args.jobs, seed=args.seed,
@@ -544,8 +401,8 @@ def cmd_bench_runtime(args) -> int:
         import pandas as pd
 
         pd.DataFrame(table).to_csv(tmp / "runtime.csv", index=False)
-        (tmp / "run.json").write_text(json.dumps(_metadata(
-            args, data=str(args.data), **info, seconds=round(time.perf_counter() - t0, 1)),
+        (tmp / "run.json").write_text(json.dumps(run_metadata(
+            args.seed, data=str(args.data), **info, seconds=round(time.perf_counter() - t0, 1)),
             indent=2, default=str))
     print(md)
     return 0
@@ -566,45 +423,20 @@ def _bench_subparsers(sub, common):
 
 
 def register(sub, common) -> None:
-    """Add ``detect`` and ``bench frames`` / ``bench runtime`` to the ``viewadapt`` parser."""
-    p = sub.add_parser(
-        "detect", parents=[common], help="detect persons in calibrated frames",
-        description="Viewpoint-adapted detection over world-space windows of one calibrated "
-                    "camera. The calibration file is YAML or JSON with image_size and either "
-                    "K, R, t (OpenCV convention, world Z up, ground Z = 0) or focal, height "
-                    "(m), tilt (degrees below horizontal) [, principal_point, roll]. Writes "
-                    "detections.csv, detections_coco.json and annotated/*.png.")
-    p.add_argument("frames", nargs="+", type=Path, help="frame images (PNG, JPEG)")
-    p.add_argument("--calibration", type=Path, required=True, help="calibration YAML/JSON")
-    p.add_argument("--model", type=Path, required=True,
-                   help="source detectors (models/source_detectors.pkl of `bench frames`)")
-    p.add_argument("--detector", choices=["hog", "acf"], default="hog")
-    p.add_argument("--threshold", type=float, default=0.0, help="score threshold (default 0)")
-    p.add_argument("--heights", type=_heights, default=(1.75,),
-                   help="assumed person heights, metres, comma-separated (default 1.75)")
-    _add_cache_options(p)
-    p.add_argument("--upsample-below", type=float, default=None,
-                   help="windows of persons smaller than 96 x this many px read the frame "
-                        "upsampled 2x (default 0.5, i.e. 48 px; 0 = never)")
-    p.add_argument("--boxes", type=Path, default=None,
-                   help="optional ground truth to evaluate against: CSV with frame,x,y,w,h"
-                        "[,occlusion] or COCO JSON; writes evaluation.json and det.png "
-                        "(miss rate vs FPPI, log-average miss rate)")
-    p.set_defaults(func=cmd_detect)
-
+    """Add ``bench frames`` and ``bench runtime`` to the ``viewadapt`` parser."""
     bsub = _bench_subparsers(sub, common)
     opts = argparse.ArgumentParser(add_help=False)
     opts.add_argument("--data", type=Path, required=True,
                       help="dataset directory with crops and frames_coco.json")
-    opts.add_argument("--heights", type=_heights, default=(1.75,),
-                      help="assumed person heights, metres (default 1.75)")
-    _add_cache_options(opts)
+    opts.add_argument("--heights", type=person_heights, default=(PERSON_HEIGHT_M,),
+                      help=f"assumed person heights, metres (default {PERSON_HEIGHT_M:g})")
+    add_cache_options(opts)
     opts.add_argument("--quick", action="store_true", help="smaller detectors (tests)")
     opts.add_argument("--frame-view", choices=list(FRAME_VIEW_CHOICES),
                       default=DEFAULT_FRAME_VIEW,
                       help="which detectors also train on a frame-view copy of every crop "
                            "(the crop as the adapted detector reads it from a frame; "
-                           f"viewadapt.frameview): default {DEFAULT_FRAME_VIEW}; none = crops "
+                           f"viewadapt.detect.frameview): default {DEFAULT_FRAME_VIEW}; none = crops "
                            "alone. Ignored with --model")
     p = bsub.add_parser("frames", parents=[common, opts],
                         help="miss rate vs FPPI on calibrated frames (Fig. 3)",
@@ -616,15 +448,16 @@ def register(sub, common) -> None:
                    choices=["hog_adapted", "hog_warp", "hog_pyramid", "opencv",
                             "opencv_native", "acf_adapted", "acf_warp", "acf_pyramid"])
     p.add_argument("--max-frames", type=int, default=None)
-    p.add_argument("--tolerance", type=float, default=0.5,
+    p.add_argument("--tolerance", type=float, default=HOG_TOLERANCE,
                    help="shape tolerance (HOG frame cells) for windows sharing an adapted "
-                        "template; 0 = an exact template per window (default 0.5)")
-    p.add_argument("--cells-per-source-cell", type=float, default=0.7,
+                        f"template; 0 = an exact template per window (default {HOG_TOLERANCE:g})")
+    p.add_argument("--cells-per-source-cell", type=float, default=CELLS_PER_SOURCE_CELL,
                    help="frame cells per source cell along each axis when choosing a "
-                        "window's frame cell size (default 0.7)")
+                        f"window's frame cell size (default {CELLS_PER_SOURCE_CELL:g})")
     p.add_argument("--upsample-below", type=float, default=None,
                    help="windows of persons smaller than 96 x this many px read the frame "
-                        "upsampled 2x (default 0.5, i.e. 48 px; 0 = never)")
+                        f"upsampled 2x (default {UPSAMPLE_BELOW:g}, i.e. "
+                        f"{96 * UPSAMPLE_BELOW:.0f} px; 0 = never)")
     p.add_argument("--model", type=Path, default=None,
                    help="reuse trained source detectors instead of training")
     p.add_argument("--seeds", type=int, default=1,

@@ -131,8 +131,10 @@ def sweep_table(summary: pd.DataFrame, true_elevation: float = np.pi / 4) -> pd.
 
 
 def plot_score_shift(scores: pd.DataFrame, detector="hog", source=0.0):
-    """Positive scores and the top 1% of negatives per method: does warping also lift the
-    negatives? (A finding of our pilot: stretched clutter looks more person-like.)"""
+    """Violin plot of the test persons' scores and of the top 1 % of background scores for
+    each of ``unadapted``, ``image warping``, ``adapted`` and ``synthesised`` (those present),
+    one detector and source elevation: does a method that lifts the persons' scores lift the
+    background's too? Measured shifts: ``docs/findings.md`` (angle rules and the body model)."""
     plt = _mpl()
     d = scores[(scores["detector"] == detector) & (np.isclose(scores["source_elevation"], source))]
     methods = [m for m in ("unadapted", "image warping", "adapted", "synthesised")

@@ -15,8 +15,8 @@ import pandas as pd
 from viewadapt.geometry import elevation_homography
 
 from .crossval import (
-    ADAPT_VARIANTS, DETECTORS, CrossvalConfig, _features, _fit, _fold_masks, _remap, _Scorer,
-    prepare, task_seed, view_maps,
+    ADAPT_VARIANTS, DETECTORS, CrossvalConfig, Scorer, classifier_features, fit_detector,
+    fold_masks, prepare, task_seed, variant_remap, view_maps,
 )
 from .data import Dataset
 from .features import FeatureCache
@@ -40,14 +40,14 @@ def averaged_remap(det, source, estimate, sigma, cfg, n_nodes: int = 5):
         e = estimate + sigma * xi
         if not 0 <= e < _MAX_ELEVATION:
             continue
-        G = _remap(det, elevation_homography(source, e, distance=cfg.distance,
-                                             framing=cfg.framing), "adapted", cfg)
+        G = variant_remap(det, elevation_homography(source, e, distance=cfg.distance,
+                                                    framing=cfg.framing), "adapted", cfg)
         acc = G * wi if acc is None else acc + G * wi
         tot += wi
     if acc is None:
-        return _remap(det, elevation_homography(source, min(max(estimate, 0), _MAX_ELEVATION),
-                                                distance=cfg.distance, framing=cfg.framing),
-                      "adapted", cfg)
+        e = min(max(estimate, 0), _MAX_ELEVATION)
+        return variant_remap(det, elevation_homography(source, e, distance=cfg.distance,
+                                                       framing=cfg.framing), "adapted", cfg)
     return acc / tot
 
 
@@ -85,7 +85,7 @@ def run_sweep(ds: Dataset, cfg: CrossvalConfig, cache: FeatureCache, *, detector
     for e in tqdm(estimates, desc="sweep: remapping", disable=not progress):
         maps = view_maps(source, float(e), cfg)
         for v in variants:
-            Gs[(v, e)] = _remap(detector, maps[ADAPT_VARIANTS[v][2]], v, cfg)
+            Gs[(v, e)] = variant_remap(detector, maps[ADAPT_VARIANTS[v][2]], v, cfg)
     if sigma > 0:
         for e in estimates:
             Gs[(f"adapted, prior σ={sigma:g}", e)] = averaged_remap(detector, source, e, sigma, cfg)
@@ -100,16 +100,16 @@ def run_sweep(ds: Dataset, cfg: CrossvalConfig, cache: FeatureCache, *, detector
     # per fold: the trained scorer and its test windows (rows of fine / plain)
     tests, scorers = [], []
     for fold, seed in tqdm(list(zip(folds, seeds)), desc="sweep: training", disable=not progress):
-        pm = _fold_masks(data["meta"][("person", es)], fold, True)
-        nm = _fold_masks(data["meta"][("background", es)], fold, True)
+        pm = fold_masks(data["meta"][("person", es)], fold, True)
+        nm = fold_masks(data["meta"][("background", es)], fold, True)
         if kind == "pretrained":
-            scorers.append(_Scorer(detector))
+            scorers.append(Scorer(detector))
         else:
-            scorers.append(_Scorer(detector, _fit(
-                detector, cfg, _features(detector, F[(src_rep, "person", es, "")][pm]),
-                _features(detector, F[(src_rep, "background", es, "")][nm]), int(seed))))
-        tests.append(np.flatnonzero(np.r_[_fold_masks(meta_p, fold, False),
-                                          _fold_masks(meta_n, fold, False)]))
+            Xp = classifier_features(detector, F[(src_rep, "person", es, "")][pm])
+            Xn = classifier_features(detector, F[(src_rep, "background", es, "")][nm])
+            scorers.append(Scorer(detector, fit_detector(detector, cfg, Xp, Xn, int(seed))))
+        tests.append(np.flatnonzero(np.r_[fold_masks(meta_p, fold, False),
+                                          fold_masks(meta_n, fold, False)]))
     used = np.unique(np.concatenate(tests))       # background windows serve three folds
     rows = []
 

@@ -22,12 +22,13 @@ from viewadapt.geometry import (
     PERSON_HEIGHT_M, WINDOW_HEIGHT, WINDOW_WIDTH, Camera, crop_camera, window_to_image_homography,
 )
 
-__all__ = ["make_toy_dataset"]
+__all__ = ["make_toy_dataset", "scene_textures", "render_scene", "person_figure"]
 
 WALL_Y = 6.0  # the back wall stands 6 m behind the person, facing the camera
 
 
-def _scene_textures(rng, size=512):
+def scene_textures(rng, size=512):
+    """Ground and wall textures of a toy scene (procedural noise and stripes)."""
     import cv2
 
     base = rng.uniform(40, 200, 3)
@@ -56,7 +57,7 @@ def _scene_textures(rng, size=512):
     return np.clip(ground, 0, 255), np.clip(wall, 0, 255)
 
 
-def _render_scene(cam: Camera, size, ground, wall, texel=0.02):
+def render_scene(cam: Camera, size, ground, wall, texel=0.02):
     """Ray-cast the ground plane (Z = 0) and the wall (Y = WALL_Y) into an image."""
     import cv2
 
@@ -83,7 +84,7 @@ def _render_scene(cam: Camera, size, ground, wall, texel=0.02):
     return np.where(use_ground[..., None], g, wl)
 
 
-def _person_figure(rng, scale=4):
+def person_figure(rng, scale=4):
     """RGBA figure in the canonical window at ``scale`` x resolution (96 px tall at 1x)."""
     import cv2
 
@@ -149,11 +150,11 @@ def make_toy_dataset(out, *, n_persons=9, n_scenes=3, n_instances=1,
     import cv2
 
     out = Path(out)
-    scenes = {f"scene{j:02d}": _scene_textures(np.random.default_rng([seed, 1, j]))
+    scenes = {f"scene{j:02d}": scene_textures(np.random.default_rng([seed, 1, j]))
               for j in range(n_scenes)}
     persons = {}
     for i in range(n_persons):
-        fig, mask = _person_figure(np.random.default_rng([seed, 2, i]))
+        fig, mask = person_figure(np.random.default_rng([seed, 2, i]))
         # low contrast: pull the figure's colours towards mid-grey
         persons[f"person{i:03d}"] = (128 + contrast * (fig - 128), mask)
     rows = []
@@ -175,7 +176,7 @@ def make_toy_dataset(out, *, n_persons=9, n_scenes=3, n_instances=1,
                 g2, w2 = np.roll(ground, (int(shift[0] * 50), int(shift[1] * 50)), (0, 1)), wall
                 for ei, e in enumerate(elevations):
                     cam = crop_camera(e, distance=distance, azimuth=azim)
-                    bg = _render_scene(cam, (WINDOW_WIDTH, WINDOW_HEIGHT), g2, w2)
+                    bg = render_scene(cam, (WINDOW_WIDTH, WINDOW_HEIGHT), g2, w2)
                     img, m = _composite(bg, cam, fig, mask, 4)
                     ys, xs = np.nonzero(m > 0.5)
                     box = [int(xs.min()), int(ys.min()), int(xs.max() - xs.min() + 1),
@@ -200,7 +201,7 @@ def make_toy_dataset(out, *, n_persons=9, n_scenes=3, n_instances=1,
                 K = c0.K.copy()
                 K[0, 2], K[1, 2] = (w - 1) / 2, (h - 1) / 2
                 cam = Camera(K, c0.R, c0.t, (w, h))
-                img = _render_scene(cam, (w, h), g2, wall)
+                img = render_scene(cam, (w, h), g2, wall)
                 Hw = window_to_image_homography(cam, (0, 0))
                 save(f"background/{sid}/bg_i{k}_e{ei}.png", img, [seed, 6, len(rows)],
                      kind="background", person_id="",

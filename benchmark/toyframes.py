@@ -26,7 +26,7 @@ import pandas as pd
 
 from viewadapt.geometry import camera_from_pose, window_to_image_homography
 
-from .toydata import _person_figure, _render_scene, _scene_textures, make_toy_dataset
+from .toydata import person_figure, render_scene, scene_textures, make_toy_dataset
 
 __all__ = ["make_toy_frames", "make_toy_frame_dataset"]
 
@@ -93,9 +93,9 @@ def make_toy_frames(out, *, n_scenes: int = 2, frames_per_scene: int = 2,
     images, anns, rows = [], [], []
     for si in range(n_scenes):
         sid = f"fscene{si:02d}"
-        ground, wall = _scene_textures(np.random.default_rng([seed, 11, si]))
+        ground, wall = scene_textures(np.random.default_rng([seed, 11, si]))
         cam = scene_camera(np.random.default_rng([seed, 12, si]), frame_size)
-        bg = _render_scene(cam, frame_size, ground, wall)
+        bg = render_scene(cam, frame_size, ground, wall)
         for k in range(frames_per_scene):
             rng = np.random.default_rng([seed, 13, si, k])
             n = int(rng.integers(persons_per_frame[0], persons_per_frame[1] + 1))
@@ -120,7 +120,7 @@ def make_toy_frames(out, *, n_scenes: int = 2, frames_per_scene: int = 2,
             img = bg.copy()
             masks = []
             for xy, hgt, pid in placed:
-                fig, mask = _person_figure(np.random.default_rng([seed, 14, pid]))
+                fig, mask = person_figure(np.random.default_rng([seed, 14, pid]))
                 fig = 128 + contrast * (fig - 128)
                 img, m = _composite_at(img, cam, fig, mask, xy, hgt)
                 masks.append(m)

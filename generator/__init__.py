@@ -6,13 +6,17 @@ person-free backgrounds and calibrated surveillance frames.
 
 Modules (describe first, render second):
 
-* :mod:`generator.specs` -- scene and person specs (``assets/``) -> validated dataclasses.
+* :mod:`generator.specs` -- scene and person specs (``assets/``) -> validated dataclasses
+  (read with :mod:`generator.specreader`).
 * :mod:`generator.layout` -- scenes expanded into primitives; ray casting.
 * :mod:`generator.sampling` -- config, presets, seeds, the sampling plan and its cameras.
 * :mod:`generator.annotate` -- silhouette boxes, frame visibility/occlusion.
-* :mod:`generator.manifest` -- dataset directory, manifest, verification.
-* :mod:`generator.body` -- posed, clothed anny meshes (imports torch/anny lazily).
-* :mod:`generator.blender` -- the Cycles renderer (the only module importing ``bpy``).
+* :mod:`generator.manifest` -- dataset directory, manifest, part files, depth maps.
+* :mod:`generator.verify` -- checking a dataset directory (``viewadapt dataset verify``).
+* :mod:`generator.body` -- posed, clothed anny meshes (imports torch/anny lazily); its gait
+  cycle and rotations in :mod:`generator.kinematics`.
+* :mod:`generator.blender` -- the Cycles renderer (the only module importing ``bpy``); the
+  values it sets are computed in :mod:`generator.blendparams`.
 * :mod:`generator.pipeline` -- workers, process pool / Dask, shards, resume.
 * :mod:`generator.preview`, :mod:`generator.cli`, :mod:`generator.bench`.
 
@@ -20,11 +24,12 @@ Modules (describe first, render second):
 """
 
 from .layout import Primitive, SceneLayout, layout_scene, ray_cast, segments_clear
-from .manifest import read_manifest, verify_dataset
+from .manifest import read_manifest
 from .sampling import (
     PRESETS, GeneratorConfig, Plan, derive_seed, plan_dataset, preset_config,
 )
 from .specs import PersonSpec, SceneSpec, SpecError, load_roster, load_scene, load_scenes
+from .verify import verify_dataset
 
 __all__ = [
     "GeneratorConfig", "PRESETS", "preset_config", "plan_dataset", "Plan", "derive_seed",

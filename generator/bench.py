@@ -33,22 +33,22 @@ def run_benchmark(*, persons: int = 6, scenes: int = 3, samples: int | None = No
     plan = plan_dataset(sub, 0, scenes=load_scenes(), persons=load_roster())
     tmp = tempfile.TemporaryDirectory(prefix="viewadapt-bench-") if out is None else None
     out = Path(out or tmp.name)
-    ncpu = pipeline._cpu_count()
+    ncpu = pipeline.cpu_count()
     threads = threads or ncpu
-    pipeline._STATE.setdefault("threads", threads)
+    pipeline.STATE.setdefault("threads", threads)
     t0 = time.perf_counter()
-    pipeline._state(sub, threads)                     # Blender + anny start-up
+    pipeline.worker_state(sub, threads)               # Blender + anny start-up
     warm = time.perf_counter() - t0
     per_kind: dict[str, list] = {"person": [0, 0.0], "background": [0, 0.0], "frame": [0, 0.0]}
     seen_scenes = set()
     for u in plan.units:
         payload = {"unit": u, "scene": plan.scenes[u.scene_id],
                    "persons": {pid: plan.persons[pid]
-                               for pid in pipeline._unit_person_ids(u)},
+                               for pid in pipeline.unit_person_ids(u)},
                    "config": sub, "out": str(out), "threads": threads}
         if u.scene_id not in seen_scenes:             # scene build is a one-off per scene
             t1 = time.perf_counter()
-            pipeline._STATE["renderer"].load_scene(pipeline._layout(plan.scenes[u.scene_id]))
+            pipeline.STATE["renderer"].load_scene(pipeline.scene_layout(plan.scenes[u.scene_id]))
             warm += time.perf_counter() - t1
             seen_scenes.add(u.scene_id)
         res = pipeline.run_unit(payload)

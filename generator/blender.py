@@ -2,14 +2,9 @@
 
 It translates what :mod:`generator.sampling`, :mod:`generator.layout` and
 :mod:`generator.body` computed in numpy -- primitives, person meshes, lights, cameras -- into
-a Blender scene and renders it. It decides nothing about geometry.
-
-Cameras: an OpenCV camera (``x`` right, ``y`` down, ``z`` forward, ``x ~ K (R X + t)``) becomes
-a Blender camera (looking down ``-Z``, ``+Y`` up) with world rotation
-``R^T diag(1, -1, -1)``, horizontal sensor fit, ``lens = f_x * sensor_width / W`` and shifts
-``shift_x = ((W - 1) / 2 - c_x) / W``, ``shift_y = (c_y - (H - 1) / 2) / W`` (pixel centres at
-integer coordinates; Blender shifts are fractions of the fitted sensor side). A test renders
-an emissive sphere and checks its centroid against ``Camera.project`` (< 0.5 px).
+a Blender scene and renders it. It decides nothing about geometry; the values it sets
+(settings, camera parameters, sun orientation, meshes' arrays, poses, colours) come from
+:mod:`generator.blendparams`, which also documents the camera conversion.
 
 Memory: person meshes have a fixed topology and are updated in place
 (``foreach_set``), materials are created once per slot and only their node values change;
@@ -19,13 +14,11 @@ scene meshes are rebuilt only when the scene changes.
 from __future__ import annotations
 
 import math
-import os
-import tempfile
-from pathlib import Path
+import sys as _sys
 
 import numpy as np
 
-import sys as _sys
+from viewadapt.files import atomic_path
 
 # A process started by one that had imported bpy (multiprocessing/Dask workers inherit
 # sys.path) sees Blender's scripts/modules/bpy before the real module; drop those entries
@@ -42,37 +35,20 @@ except ImportError as exc:  # pragma: no cover - exercised where bpy is missing
         "generator.blender needs Blender's Python module (bpy 5.0, Python 3.11): "
         f"pip install -e '.[generator]' ({exc})") from exc
 
+from .blendparams import (
+    GARMENT_PATTERNS, OUTSIDE_MATERIAL, camera_to_blender, garment_params, mesh_arrays,
+    pattern_texture, person_pose, person_roughness, scene_parts, scene_settings, slot_colors,
+    sun_matrix,
+)
 from .body import MATERIAL_SLOTS, PersonMesh, sphere_mesh
 from .layout import SceneLayout
-from .meshes import layout_meshes, quad_triangles, room_shell, world_uv
 from .specs import MaterialSpec, PersonSpec
 
-__all__ = ["BlenderRenderer", "blender_version", "camera_to_blender"]
+__all__ = ["BlenderRenderer", "blender_version"]
 
 
 def blender_version() -> str:
     return bpy.app.version_string
-
-
-def camera_to_blender(K, R, t, width: int, height: int, sensor_width: float = 36.0):
-    """Blender camera parameters of an OpenCV camera.
-
-    Returns
-    -------
-    dict with ``matrix_world`` (4, 4), ``lens``, ``sensor_width``, ``shift_x``, ``shift_y``,
-    ``pixel_aspect`` (``f_y / f_x``).
-    """
-    K = np.asarray(K, dtype=np.float64)
-    R = np.asarray(R, dtype=np.float64)
-    t = np.asarray(t, dtype=np.float64)
-    M = np.eye(4)
-    M[:3, :3] = R.T @ np.diag([1.0, -1.0, -1.0])
-    M[:3, 3] = -R.T @ t
-    return {"matrix_world": M, "lens": K[0, 0] * sensor_width / width,
-            "sensor_width": sensor_width,
-            "shift_x": ((width - 1) / 2.0 - K[0, 2]) / width,
-            "shift_y": (K[1, 2] - (height - 1) / 2.0) / width,
-            "pixel_aspect": K[1, 1] / K[0, 0]}
 
 
 # --------------------------------------------------------------------------- node helpers
@@ -144,64 +120,36 @@ def build_scene_material(spec: MaterialSpec, name: str):
     tc = nt.nodes.new("ShaderNodeTexCoord")
     uv = tc.outputs["UV"]
     c = spec.colors
-    s = spec.scale
     fac = None
     color = None
     p = spec.pattern
-    if p == "flat":
+    tex = pattern_texture(spec)
+    if tex is None:
         color = c[0]
-    elif p in ("brick", "tiles"):
-        n = nt.nodes.new("ShaderNodeTexBrick")
+    else:
+        n = nt.nodes.new(tex["node"])
         link(uv, n.inputs["Vector"])
-        n.offset = 0.5 if p == "brick" else 0.0
-        n.inputs["Scale"].default_value = 1.0
-        n.inputs["Brick Width"].default_value = s
-        n.inputs["Row Height"].default_value = s * (0.5 if p == "brick" else 1.0)
-        n.inputs["Mortar Size"].default_value = 0.012 * max(1.0, s / 0.5)
-        n.inputs["Color1"].default_value = (*c[0], 1)
-        n.inputs["Color2"].default_value = (*c[1 % len(c)], 1)
-        n.inputs["Mortar"].default_value = (*c[-1], 1)
-        color = n.outputs["Color"]
-        fac = n.outputs["Fac"]
-    elif p == "checker":
-        n = nt.nodes.new("ShaderNodeTexChecker")
-        link(uv, n.inputs["Vector"])
-        n.inputs["Scale"].default_value = 1.0 / s
-        n.inputs["Color1"].default_value = (*c[0], 1)
-        n.inputs["Color2"].default_value = (*c[1], 1)
-        color = n.outputs["Color"]
-        fac = n.outputs["Fac"]
-    elif p == "noise":
-        n = nt.nodes.new("ShaderNodeTexNoise")
-        link(uv, n.inputs["Vector"])
-        n.inputs["Scale"].default_value = 1.0 / s
-        n.inputs["Detail"].default_value = 6.0
-        fac = n.outputs["Fac"]
-        stretched = _math(nt, "MULTIPLY_ADD", fac, 2.2, -0.6)
-        color = _mix_rgb(nt, stretched, c[0], c[1])
-    elif p == "voronoi":
-        n = nt.nodes.new("ShaderNodeTexVoronoi")
-        link(uv, n.inputs["Vector"])
-        n.inputs["Scale"].default_value = 1.0 / s
-        sep = nt.nodes.new("ShaderNodeSeparateColor")
-        link(n.outputs["Color"], sep.inputs[0])
-        fac = sep.outputs[0]
-        color = _mix_rgb(nt, fac, c[0], c[1])
-    elif p in ("wave", "stripes"):
-        n = nt.nodes.new("ShaderNodeTexWave")
-        link(uv, n.inputs["Vector"])
-        n.wave_type = "BANDS"
-        n.bands_direction = "X"
-        # Blender's wave period is 1/(scale) in texture units times 1 (bands along X)
-        n.inputs["Scale"].default_value = 1.0 / s
-        n.inputs["Distortion"].default_value = 3.0 if p == "wave" else 0.0
-        n.inputs["Detail"].default_value = 2.0 if p == "wave" else 0.0
-        fac = n.outputs["Fac"]
-        if p == "stripes":
-            fac = _math(nt, "GREATER_THAN", fac, 0.5)
-        color = _mix_rgb(nt, fac, c[0], c[1])
-    else:  # pragma: no cover - validated in specs
-        raise ValueError(p)
+        for key, value in tex["props"].items():
+            setattr(n, key, value)
+        for key, value in tex["inputs"].items():
+            n.inputs[key].default_value = value
+        if p in ("brick", "tiles", "checker"):
+            color = n.outputs["Color"]
+            fac = n.outputs["Fac"]
+        elif p == "noise":
+            fac = n.outputs["Fac"]
+            stretched = _math(nt, "MULTIPLY_ADD", fac, 2.2, -0.6)
+            color = _mix_rgb(nt, stretched, c[0], c[1])
+        elif p == "voronoi":
+            sep = nt.nodes.new("ShaderNodeSeparateColor")
+            link(n.outputs["Color"], sep.inputs[0])
+            fac = sep.outputs[0]
+            color = _mix_rgb(nt, fac, c[0], c[1])
+        else:                                       # wave, stripes
+            fac = n.outputs["Fac"]
+            if p == "stripes":
+                fac = _math(nt, "GREATER_THAN", fac, 0.5)
+            color = _mix_rgb(nt, fac, c[0], c[1])
     if spec.hue_jitter > 0 or spec.value_jitter > 0:
         attr = nt.nodes.new("ShaderNodeAttribute")
         attr.attribute_type = "GEOMETRY"
@@ -246,28 +194,23 @@ def build_scene_material(spec: MaterialSpec, name: str):
 
 def _mesh_from_triangles(name, verts, tris, *, face_rand=None, sharp=None, uv=True):
     """A Blender mesh from numpy triangles (with world-metre UVs and attributes)."""
+    arr = mesh_arrays(verts, tris, face_rand=face_rand, sharp=sharp, uv=uv)
     me = bpy.data.meshes.new(name)
-    nv, nt_ = len(verts), len(tris)
-    me.vertices.add(nv)
-    me.vertices.foreach_set("co", np.asarray(verts, dtype=np.float32).ravel())
-    me.loops.add(3 * nt_)
-    me.loops.foreach_set("vertex_index", np.asarray(tris, dtype=np.int32).ravel())
-    me.polygons.add(nt_)
-    me.polygons.foreach_set("loop_start", np.arange(0, 3 * nt_, 3, dtype=np.int32))
+    me.vertices.add(len(verts))
+    me.vertices.foreach_set("co", arr["co"])
+    me.loops.add(3 * len(tris))
+    me.loops.foreach_set("vertex_index", arr["vertex_index"])
+    me.polygons.add(len(tris))
+    me.polygons.foreach_set("loop_start", arr["loop_start"])
     me.update(calc_edges=True)
     if uv:
-        corners = np.asarray(verts)[np.asarray(tris).ravel()]
-        tri_v = np.asarray(verts)[np.asarray(tris)]
-        fn = np.cross(tri_v[:, 1] - tri_v[:, 0], tri_v[:, 2] - tri_v[:, 0])
-        uvs = world_uv(corners, np.repeat(fn, 3, axis=0))
-        layer = me.uv_layers.new(name="UVMap")
-        layer.data.foreach_set("uv", uvs.astype(np.float32).ravel())
+        me.uv_layers.new(name="UVMap").data.foreach_set("uv", arr["uv"])
     if face_rand is not None:
         a = me.attributes.new("prim_rand", "FLOAT", "FACE")
-        a.data.foreach_set("value", np.asarray(face_rand, dtype=np.float32))
+        a.data.foreach_set("value", arr["prim_rand"])
     if sharp is not None:
         a = me.attributes.get("sharp_face") or me.attributes.new("sharp_face", "BOOLEAN", "FACE")
-        a.data.foreach_set("value", np.asarray(sharp, dtype=bool))
+        a.data.foreach_set("value", arr["sharp_face"])
     me.validate(clean_customdata=False)
     return me
 
@@ -289,42 +232,14 @@ class BlenderRenderer:
         bpy.ops.wm.read_factory_settings(use_empty=True)
         sc = bpy.context.scene
         self.scene = sc
-        sc.render.engine = "CYCLES"
-        cy = sc.cycles
-        cy.device = "CPU"
-        cy.use_adaptive_sampling = False
-        cy.use_light_tree = light_tree
-        cy.use_fast_gi = fast_gi
-        cy.fast_gi_method = "REPLACE"
-        cy.max_bounces = max_bounces
-        cy.diffuse_bounces = min(2, max_bounces)
-        cy.glossy_bounces = min(2, max_bounces)
-        cy.transmission_bounces = 0
-        cy.volume_bounces = 0
-        cy.transparent_max_bounces = 12
-        cy.caustics_reflective = False
-        cy.caustics_refractive = False
-        cy.blur_glossy = 1.0
-        cy.use_denoising = denoise
-        cy.denoiser = "OPENIMAGEDENOISE"
-        cy.denoising_input_passes = "RGB_ALBEDO_NORMAL"
-        cy.denoising_prefilter = "FAST"
-        cy.use_animated_seed = False
-        cy.seed = 0
-        sc.render.threads_mode = "FIXED" if threads else "AUTO"
-        if threads:
-            sc.render.threads = threads
-        sc.render.use_persistent_data = False
-        sc.render.film_transparent = False
-        sc.render.resolution_percentage = 100
-        sc.render.image_settings.file_format = "PNG"
-        sc.render.image_settings.color_mode = "RGB"
-        sc.render.image_settings.color_depth = "8"
-        sc.render.image_settings.compression = 15
-        sc.render.use_file_extension = False
-        sc.view_settings.view_transform = "Standard"
-        sc.view_settings.look = "None"
-        sc.display_settings.display_device = "sRGB"
+        for attr, value in scene_settings(threads=threads, light_tree=light_tree,
+                                          fast_gi=fast_gi, max_bounces=max_bounces,
+                                          denoise=denoise):
+            *head, name = attr.split(".")
+            obj = sc
+            for h in head:
+                obj = getattr(obj, h)
+            setattr(obj, name, value)
         self.samples = 16
         self._scene_objects: list = []
         self._scene_id = None
@@ -389,8 +304,7 @@ class BlenderRenderer:
         out = nt.nodes.new("ShaderNodeOutputMaterial")
         link(bsdf.outputs[0], out.inputs["Surface"])
         nodes = {"bsdf": bsdf}
-        rough = {"skin": 0.5, "eyes": 0.2, "hair": 0.45, "shoes": 0.35}.get(role, 0.75)
-        bsdf.inputs["Roughness"].default_value = rough
+        bsdf.inputs["Roughness"].default_value = person_roughness(role)
         if role in ("top", "bottom"):
             # colour = mix(color1, color2, pattern), pattern = sum of weighted textures in
             # the person's local (object) coordinates divided by the pattern scale
@@ -425,8 +339,8 @@ class BlenderRenderer:
             dots = _math(nt, "LESS_THAN", vor.outputs["Distance"], 0.3)
             weights = {}
             total = None
-            for key, f in (("stripes", stripes), ("checker", checker.outputs["Fac"]),
-                           ("noise", noise_f), ("dots", dots)):
+            for key, f in zip(GARMENT_PATTERNS,
+                              (stripes, checker.outputs["Fac"], noise_f, dots)):
                 wv = nt.nodes.new("ShaderNodeValue")
                 weights[key] = wv
                 term = _math(nt, "MULTIPLY", f, wv.outputs[0])
@@ -458,31 +372,12 @@ class BlenderRenderer:
             objs.append(ob)
             return ob
 
-        # ground
-        gx, gy = spec.ground_size
-        q = np.array([[-gx / 2, -gy / 2, 0], [gx / 2, -gy / 2, 0], [gx / 2, gy / 2, 0],
-                      [-gx / 2, gy / 2, 0]])
-        v, f = quad_triangles(q)
-        add_object("ground", _mesh_from_triangles("ground", v, f), mats[spec.ground_material])
-        shell = room_shell(spec)
-        if shell is not None:
-            (wv, wf), (cv, cf) = shell
-            add_object("walls", _mesh_from_triangles("walls", wv, wf),
-                       mats[spec.shell.wall_material])
-            add_object("ceiling", _mesh_from_triangles("ceiling", cv, cf),
-                       mats[spec.shell.ceiling_material])
-            # neutral ground outside the room so nothing looks into the void
-            out = np.array([[-150, -150, -0.02], [150, -150, -0.02], [150, 150, -0.02],
-                            [-150, 150, -0.02]])
-            v, f = quad_triangles(out)
-            gm = MaterialSpec("outside", "noise", ((0.18, 0.18, 0.17), (0.12, 0.12, 0.12)),
-                              scale=0.5, roughness=0.9)
-            om = build_scene_material(gm, f"{spec.id}__outside")
-            mats["__outside"] = om
-            add_object("outside", _mesh_from_triangles("outside", v, f), om)
-        for mname, (v, f, rand, sharp) in layout_meshes(layout).items():
-            me = _mesh_from_triangles(f"{spec.id}_{mname}", v, f, face_rand=rand, sharp=sharp)
-            add_object(f"geo_{mname}", me, mats[mname])
+        # ground, room shell and the neutral ground around it, objects
+        for obname, mename, v, f, mname, rand, sharp in scene_parts(layout):
+            if mname not in mats:          # "__outside"
+                mats[mname] = build_scene_material(OUTSIDE_MATERIAL, f"{spec.id}{mname}")
+            me = _mesh_from_triangles(mename, v, f, face_rand=rand, sharp=sharp)
+            add_object(obname, me, mats[mname])
         for i, a in enumerate(spec.lighting.area_lights):
             ld = bpy.data.lights.new(f"area{i}", "AREA")
             ld.shape = "RECTANGLE"
@@ -518,15 +413,7 @@ class BlenderRenderer:
     def set_lighting(self, lighting) -> None:
         """Apply a :class:`generator.sampling.Lighting` draw."""
         if not math.isnan(lighting.sun_elevation) and lighting.sun_strength > 0:
-            el, az = lighting.sun_elevation, lighting.sun_azimuth
-            d = np.array([math.cos(el) * math.cos(az), math.cos(el) * math.sin(az),
-                          math.sin(el)])                  # towards the sun
-            z = d
-            x = np.cross([0.0, 0.0, 1.0], z)
-            x = x / np.linalg.norm(x) if np.linalg.norm(x) > 1e-9 else np.array([1.0, 0, 0])
-            y = np.cross(z, x)
-            M = np.eye(4)
-            M[:3, 0], M[:3, 1], M[:3, 2] = x, y, z
+            M = sun_matrix(lighting.sun_elevation, lighting.sun_azimuth)
             self.sun.matrix_world = Matrix(M.tolist())
             self.sun.data.energy = lighting.sun_strength
             self.sun.data.color = lighting.sun_color
@@ -582,26 +469,15 @@ class BlenderRenderer:
 
     def _set_colors(self, slot: dict, person: PersonSpec):
         m = slot["mats"]
-
-        def setc(name, color):
+        for name, color in slot_colors(person).items():
             m[name]["nodes"]["bsdf"].inputs["Base Color"].default_value = (*color, 1)
-        setc("skin", person.skin)
-        setc("shoes", person.shoes)
-        setc("eyes", tuple(0.25 * c for c in person.skin))
-        setc("hair", person.hair.color)
-        acc = dict(person.accessories)
-        setc("acc1", acc.get("backpack", (0.1, 0.1, 0.1)))
-        setc("acc2", acc.get("shoulder_bag", acc.get("handbag", (0.1, 0.1, 0.1))))
-        setc("cap", acc.get("cap", (0.1, 0.1, 0.1)))
-        for name, g in (("top", person.top), ("bottom", person.bottom)):
+        for name, g in garment_params(person).items():
             nodes = m[name]["nodes"]
-            if name == "bottom" and person.top.kind == "dress":
-                g = person.top
-            nodes["c1"].outputs[0].default_value = (*g.color, 1)
-            nodes["c2"].outputs[0].default_value = (*g.color2, 1)
-            nodes["scale"].outputs[0].default_value = g.pattern_scale
+            nodes["c1"].outputs[0].default_value = (*g["color"], 1)
+            nodes["c2"].outputs[0].default_value = (*g["color2"], 1)
+            nodes["scale"].outputs[0].default_value = g["scale"]
             for key, wv in nodes["weights"].items():
-                wv.outputs[0].default_value = 1.0 if g.pattern == key else 0.0
+                wv.outputs[0].default_value = g["weights"][key]
 
     def set_persons(self, persons) -> None:
         """Place persons: a list of ``(PersonMesh, PersonSpec, ground_xy, rotation)``."""
@@ -625,9 +501,7 @@ class BlenderRenderer:
                 self._set_verts(objs[name], pv)
                 objs[name].hide_render = not vis
             self._set_colors(slot, person)
-            c, s = math.cos(rot), math.sin(rot)
-            M = np.array([[c, -s, 0, xy[0]], [s, c, 0, xy[1]], [0, 0, 1, 0], [0, 0, 0, 1.0]])
-            slot["root"].matrix_world = Matrix(M.tolist())
+            slot["root"].matrix_world = Matrix(person_pose(xy, rot).tolist())
 
     # ---------------------------------------------------------------- test helpers
 
@@ -687,31 +561,23 @@ class BlenderRenderer:
         self._size = (width, height, supersample)
 
     def render(self, path, *, samples: int, seed: int, transparent: bool = False) -> None:
-        """Render to ``path`` (PNG) atomically: a temp file beside it, then ``os.replace``."""
-        path = Path(path)
-        path.parent.mkdir(parents=True, exist_ok=True)
+        """Render to ``path`` (PNG) atomically (:func:`viewadapt.files.atomic_path`)."""
         sc = self.scene
         sc.cycles.samples = int(samples)
         sc.cycles.seed = int(seed) % (2 ** 31 - 1)
         sc.render.film_transparent = transparent
         sc.render.image_settings.color_mode = "RGBA" if transparent else "RGB"
         width, height, ss = self._size
-        fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=".png", dir=path.parent)
-        os.close(fd)
-        try:
-            sc.render.filepath = tmp
+        with atomic_path(path, suffix=".png") as tmp:
+            sc.render.filepath = str(tmp)
             bpy.ops.render.render(write_still=True)
             if ss > 1:
                 import cv2
 
-                img = cv2.imread(tmp, cv2.IMREAD_UNCHANGED)
+                img = cv2.imread(str(tmp), cv2.IMREAD_UNCHANGED)
                 img = cv2.resize(img, (width, height), interpolation=cv2.INTER_AREA)
                 ok, buf = cv2.imencode(".png", img)
                 if not ok:  # pragma: no cover
                     raise RuntimeError(f"could not encode {path}")
                 with open(tmp, "wb") as fh:
                     fh.write(buf.tobytes())
-            os.replace(tmp, path)
-        finally:
-            if os.path.exists(tmp):
-                os.unlink(tmp)

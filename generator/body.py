@@ -10,7 +10,8 @@ What anny gives and what we add
 * anny 0.6: rest pose is an A-pose; pose parameters (default ``local-ref``
   parameterisation) are rotations in world axes about each bone's head, composed down the
   kinematic chain. We build standing (arms down) and walking poses from a sagittal gait
-  table (hip, knee, foot pitch, arm swing), not from a motion library.
+  table (hip, knee, foot pitch, arm swing; :mod:`generator.kinematics`), not from a motion
+  library.
 * Clothing regions follow the skinning weights (dominant bone group) plus height cut-offs
   along each limb; garments are offset along the normals (thicker for jackets and coats),
   skirts and coats are pushed onto a cone around the pelvis axis.
@@ -30,10 +31,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .kinematics import gait_angles, rot_to, rx, ry, rz
 from .specs import PersonSpec
 
 __all__ = ["BodyModel", "PersonMesh", "MATERIAL_SLOTS", "build_cache", "sphere_mesh",
-           "box_mesh", "gait_angles"]
+           "box_mesh"]
 
 #: Material slot names, in the order of ``PersonMesh.face_material`` indices.
 MATERIAL_SLOTS = ("skin", "top", "bottom", "shoes", "eyes", "hair", "acc1", "acc2", "cap")
@@ -119,72 +121,6 @@ def vertex_normals(v, f):
         np.add.at(n, f[:, k], fn)
     n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-12)
     return n
-
-
-# --------------------------------------------------------------------------- gait
-
-
-def _interp_cyclic(phase, table):
-    xs = np.linspace(0.0, 1.0, len(table))
-    return float(np.interp(phase % 1.0, xs, table))
-
-
-# Sagittal angles (degrees) over one gait cycle from the left heel strike (phase 0), sampled
-# at phases 0, 0.1, ..., 1.0; after Winter's normal-walking averages, rounded.
-_HIP = [25, 20, 10, 0, -8, -12, -5, 12, 24, 28, 25]          # + = flexion (thigh forward)
-_KNEE = [5, 18, 12, 5, 3, 10, 38, 60, 40, 12, 5]              # + = flexion
-_FOOT = [-18, -4, 0, 0, 4, 22, 35, 12, -5, -15, -18]          # world pitch, + = toes down
-
-
-def gait_angles(phase: float, stride: float = 1.0, arm_swing: float = 1.0) -> dict:
-    """Joint angles (radians) of a walking pose at ``phase`` in [0, 1).
-
-    Returns ``hip_L, knee_L, foot_L, hip_R, knee_R, foot_R, shoulder_L, shoulder_R,
-    elbow_L, elbow_R, twist``. The right leg runs half a cycle behind the left; each arm
-    swings against the opposite leg.
-    """
-    r = math.radians
-    out = {}
-    for side, ph in (("L", phase), ("R", phase + 0.5)):
-        out[f"hip_{side}"] = r(_interp_cyclic(ph, _HIP)) * stride
-        out[f"knee_{side}"] = r(_interp_cyclic(ph, _KNEE)) * stride
-        out[f"foot_{side}"] = r(_interp_cyclic(ph, _FOOT)) * stride
-    swing = r(18.0) * arm_swing
-    c = math.cos(2 * math.pi * (phase - 0.05))
-    out["shoulder_L"] = -swing * c
-    out["shoulder_R"] = swing * c
-    out["elbow_L"] = r(12) + r(18) * max(0.0, -c) * arm_swing
-    out["elbow_R"] = r(12) + r(18) * max(0.0, c) * arm_swing
-    out["twist"] = r(6) * c * stride
-    return out
-
-
-def _rx(a):
-    c, s = math.cos(a), math.sin(a)
-    return np.array([[1, 0, 0], [0, c, -s], [0, s, c]])
-
-
-def _ry(a):
-    c, s = math.cos(a), math.sin(a)
-    return np.array([[c, 0, s], [0, 1, 0], [-s, 0, c]])
-
-
-def _rz(a):
-    c, s = math.cos(a), math.sin(a)
-    return np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]])
-
-
-def _rot_to(a, b):
-    """Smallest rotation taking direction ``a`` to direction ``b``."""
-    a = a / np.linalg.norm(a)
-    b = b / np.linalg.norm(b)
-    v = np.cross(a, b)
-    c = float(a @ b)
-    s = float(np.linalg.norm(v))
-    if s < 1e-12:
-        return np.eye(3)
-    vx = np.array([[0, -v[2], v[1]], [v[2], 0, -v[0]], [-v[1], v[0], 0]])
-    return np.eye(3) + vx + vx @ vx * ((1 - c) / s ** 2)
 
 
 # --------------------------------------------------------------------------- mesh
@@ -399,8 +335,8 @@ class BodyModel:
             g["elbow_L"] = g["elbow_R"] = math.radians(ps.elbow_deg)
             g["knee_L"] = g["knee_R"] = math.radians(3)
         twist = g["twist"] + 0.5 * jitter[4]
-        Wsp = _rz(twist)
-        Whead = _rz(math.radians(ps.head_yaw_deg) + jitter[3])
+        Wsp = rz(twist)
+        Whead = rz(math.radians(ps.head_yaw_deg) + jitter[3])
         local = {"spine04": Wsp, "neck01": Wsp.T @ Whead}
         for sd, tag in ((1, "L"), (-1, "R")):
             # arms hang at the abduction angle, swing about the lateral axis
@@ -410,16 +346,16 @@ class BodyModel:
             d_fa = h[b[f"wrist.{tag}"]] - h[b[f"lowerarm01.{tag}"]]
             sh = g[f"shoulder_{tag}"]
             el = g[f"elbow_{tag}"] + 0.5 * abs(jitter[2])
-            Wua = Wsp @ _rx(-sh) @ _rot_to(d_ua, down)
-            t_fa = Wsp @ _rx(-(sh + el)) @ down
-            Wfa = _rot_to(Wua @ d_fa, t_fa) @ Wua
+            Wua = Wsp @ rx(-sh) @ rot_to(d_ua, down)
+            t_fa = Wsp @ rx(-(sh + el)) @ down
+            Wfa = rot_to(Wua @ d_fa, t_fa) @ Wua
             local[f"upperarm01.{tag}"] = Wsp.T @ Wua
             local[f"lowerarm01.{tag}"] = Wua.T @ Wfa
             # legs: hip flexion, slight abduction (stance width), knee, foot pitch
             stance = sd * (math.radians(2.0) + 0.3 * jitter[5])
-            Wth = _rx(-g[f"hip_{tag}"]) @ _ry(stance)
-            Wsh = _rx(-g[f"hip_{tag}"] + g[f"knee_{tag}"]) @ _ry(stance)
-            Wft = _rx(g[f"foot_{tag}"])
+            Wth = rx(-g[f"hip_{tag}"]) @ ry(stance)
+            Wsh = rx(-g[f"hip_{tag}"] + g[f"knee_{tag}"]) @ ry(stance)
+            Wft = rx(g[f"foot_{tag}"])
             local[f"upperleg01.{tag}"] = Wth
             local[f"lowerleg01.{tag}"] = Wth.T @ Wsh
             local[f"foot.{tag}"] = Wsh.T @ Wft

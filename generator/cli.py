@@ -77,7 +77,7 @@ def cmd_generate(args) -> int:
 
 
 def cmd_verify(args) -> int:
-    from .manifest import verify_dataset
+    from .verify import verify_dataset
 
     rep = verify_dataset(args.directory, decode=not args.fast, check_plan=not args.no_plan)
     print(rep.summary())

@@ -1,4 +1,4 @@
-"""The dataset directory: manifest rows, atomic files, assembly and verification.
+"""The dataset directory: manifest rows, part files, depth maps, assembly.
 
 Layout of a dataset directory ``DIR``::
 
@@ -14,10 +14,11 @@ Layout of a dataset directory ``DIR``::
                                  mesh and the recorded camera (viewadapt.surface)
     DIR/.parts/<unit>.json       per work unit: its manifest rows (written after its images)
 
-Every file is written to a temporary name beside it and moved in with ``os.replace``, so a
-killed run leaves only complete files. The manifest is rebuilt from the part files at the
-end of every run, in plan order, so a resumed or sharded run gives the same manifest as an
-uninterrupted one.
+Every file is written atomically (:mod:`viewadapt.files`: a temporary name beside it, moved
+in with ``os.replace``), so a killed run leaves only complete files. The manifest is rebuilt
+from the part files at the end of every run, in plan order, so a resumed or sharded run
+gives the same manifest as an uninterrupted one. :mod:`generator.verify` checks a dataset
+directory.
 """
 
 from __future__ import annotations
@@ -25,16 +26,15 @@ from __future__ import annotations
 import hashlib
 import json
 import os
-import tempfile
-from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-__all__ = ["MANIFEST_COLUMNS", "atomic_write_bytes", "atomic_write_text", "part_path",
-           "read_part", "write_part", "png_is_complete", "assemble_manifest",
-           "read_manifest", "VerifyReport", "verify_dataset", "json_matrix", "versions",
-           "spec_hashes", "write_depth", "read_depth", "depth_is_complete"]
+from viewadapt.files import atomic_write_bytes, atomic_write_text
+
+__all__ = ["MANIFEST_COLUMNS", "part_path", "read_part", "write_part", "png_is_complete",
+           "assemble_manifest", "read_manifest", "json_matrix", "versions", "spec_hashes",
+           "write_depth", "read_depth", "depth_is_complete"]
 
 #: Column order of manifest.parquet / manifest.csv.
 MANIFEST_COLUMNS = [
@@ -51,28 +51,6 @@ MANIFEST_COLUMNS = [
 def json_matrix(a) -> str:
     """A matrix/vector as a compact JSON string of nested lists (full float precision)."""
     return json.dumps(np.asarray(a, dtype=np.float64).tolist(), separators=(",", ":"))
-
-
-# --------------------------------------------------------------------------- atomic files
-
-
-def atomic_write_bytes(path, data: bytes) -> None:
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            fh.write(data)
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-
-
-def atomic_write_text(path, text: str) -> None:
-    atomic_write_bytes(path, text.encode())
 
 
 def part_path(out, uid: str) -> Path:
@@ -269,148 +247,3 @@ def read_manifest(out):
         raise FileNotFoundError(f"{out}: no manifest.parquet (generation unfinished? run "
                                 f"`viewadapt generate` again with the same --out to finish)")
     return pd.read_parquet(p)
-
-
-# --------------------------------------------------------------------------- verify
-
-
-@dataclass
-class VerifyReport:
-    """What ``dataset verify`` found."""
-
-    directory: str
-    n_rows: int = 0
-    n_ok: int = 0
-    n_planned: int | None = None
-    problems: list = field(default_factory=list)     # (path, message)
-
-    @property
-    def ok(self) -> bool:
-        return not self.problems
-
-    def summary(self) -> str:
-        head = (f"{self.directory}: {self.n_ok}/{self.n_rows} images OK"
-                + (f", {self.n_planned} planned" if self.n_planned is not None else ""))
-        if self.ok:
-            return head + "; no problems found"
-        lines = [head + f"; {len(self.problems)} problem(s):"]
-        lines += [f"  {p}: {m}" for p, m in self.problems[:200]]
-        if len(self.problems) > 200:
-            lines.append(f"  ... and {len(self.problems) - 200} more")
-        return "\n".join(lines)
-
-
-def _depth_ok(out: Path, row, rep: VerifyReport) -> bool:
-    """Person crops: their depth map is listed, present and of the crop's size."""
-    if row.kind != "person":
-        return True
-    rel = getattr(row, "depth_path", "")
-    if not rel:
-        rep.problems.append((row.path, "no depth map listed (rerun `viewadapt generate` with "
-                                       "the same --out to add them)"))
-        return False
-    try:
-        read_depth(out / rel, (row.height, row.width))
-    except FileNotFoundError:
-        rep.problems.append((rel, "missing"))
-        return False
-    except ValueError as exc:
-        rep.problems.append((rel, str(exc).split(": ", 1)[-1]))
-        return False
-    return True
-
-
-def verify_dataset(out, *, decode: bool = True, check_plan: bool = True) -> VerifyReport:
-    """Check a dataset directory: every manifest row's image exists, is a complete PNG that
-    decodes to the recorded size; no duplicate or stray files; nothing planned is missing.
-    """
-    import cv2
-
-    out = Path(out)
-    if not out.is_dir():
-        raise FileNotFoundError(f"dataset directory not found: {out}")
-    meta_p = out / "dataset.json"
-    if not meta_p.is_file():
-        raise FileNotFoundError(f"{out}: no dataset.json; not a dataset directory")
-    rep = VerifyReport(str(out))
-    try:
-        meta = json.loads(meta_p.read_text())
-    except json.JSONDecodeError as exc:
-        rep.problems.append(("dataset.json", f"unreadable JSON: {exc}"))
-        return rep
-    try:
-        df = read_manifest(out)
-    except FileNotFoundError as exc:
-        rep.problems.append(("manifest.parquet", str(exc)))
-        df = None
-    except Exception as exc:  # noqa: BLE001 - any parquet failure is a finding
-        rep.problems.append(("manifest.parquet", f"unreadable: {exc}"))
-        df = None
-    if df is not None:
-        rep.n_rows = len(df)
-        dup = df["path"][df["path"].duplicated()]
-        for p in dup:
-            rep.problems.append((p, "listed twice in the manifest"))
-        for row in df.itertuples(index=False):
-            f = out / row.path
-            if not f.is_file():
-                rep.problems.append((row.path, "missing"))
-                continue
-            if f.stat().st_size == 0:
-                rep.problems.append((row.path, "empty file"))
-                continue
-            if not png_is_complete(f):
-                rep.problems.append((row.path, "truncated or not a PNG"))
-                continue
-            if decode:
-                img = cv2.imread(str(f), cv2.IMREAD_UNCHANGED)
-                if img is None:
-                    rep.problems.append((row.path, "unreadable (does not decode)"))
-                    continue
-                if img.shape[:2] != (row.height, row.width):
-                    rep.problems.append((row.path, f"size {img.shape[1]}x{img.shape[0]}, "
-                                                   f"manifest says {row.width}x{row.height}"))
-                    continue
-            if not _depth_ok(out, row, rep):
-                continue
-            rep.n_ok += 1
-        listed = set(df["path"])
-        for sub in ("person", "background", "frames"):
-            d = out / sub
-            if not d.is_dir():
-                continue
-            for f in d.rglob("*"):
-                if f.is_file():
-                    rel = f.relative_to(out).as_posix()
-                    if rel not in listed:
-                        what = ("leftover temporary file" if f.name.startswith(".")
-                                else "not in the manifest")
-                        rep.problems.append((rel, what))
-        depths = set(df["depth_path"]) - {""} if "depth_path" in df.columns else set()
-        if (out / "depth").is_dir():
-            for f in (out / "depth").rglob("*"):
-                if f.is_file() and f.relative_to(out).as_posix() not in depths:
-                    rep.problems.append((f.relative_to(out).as_posix(),
-                                         "leftover temporary file" if f.name.startswith(".")
-                                         else "not in the manifest"))
-    if check_plan and df is not None:
-        try:
-            from .pipeline import planned_paths
-
-            planned = planned_paths(meta)
-            rep.n_planned = len(planned)
-            for p in sorted(set(planned) - set(df["path"])):
-                rep.problems.append((p, "planned but not generated"))
-        except Exception as exc:  # noqa: BLE001
-            rep.problems.append(("dataset.json", f"cannot re-plan the dataset: {exc}"))
-    coco_p = out / "frames_coco.json"
-    if df is not None and (df["kind"] == "frame").any():
-        try:
-            coco = json.loads(coco_p.read_text())
-            names = {im["file_name"] for im in coco["images"]}
-            for p in df.loc[df["kind"] == "frame", "path"]:
-                if p not in names:
-                    rep.problems.append((p, "frame missing from frames_coco.json"))
-        except (OSError, json.JSONDecodeError, KeyError) as exc:
-            rep.problems.append(("frames_coco.json", f"unreadable: {exc}"))
-    return rep

@@ -29,13 +29,14 @@ from pathlib import Path
 
 import numpy as np
 
+from viewadapt.files import atomic_write_text
 from viewadapt.geometry import Camera, window_to_image_homography, window_to_plane
 from viewadapt.surface import surface_depth
 
 from .layout import layout_scene
 from .manifest import (
-    assemble_manifest, atomic_write_text, depth_is_complete, json_matrix, png_is_complete,
-    read_part, spec_hashes, versions, write_depth, write_part,
+    assemble_manifest, depth_is_complete, json_matrix, part_path, png_is_complete, read_part,
+    spec_hashes, versions, write_depth, write_part,
 )
 from .sampling import (
     GeneratorConfig, Plan, WorkUnit, image_relpath, plan_dataset, select_shard,
@@ -43,7 +44,8 @@ from .sampling import (
 from .specs import default_roster_path, default_scene_dir, load_roster, load_scenes
 
 __all__ = ["generate", "GenerateResult", "run_unit", "planned_paths", "dataset_metadata",
-           "depth_relpath"]
+           "depth_relpath", "STATE", "worker_state", "scene_layout", "cpu_count",
+           "unit_person_ids"]
 
 
 @dataclass
@@ -159,49 +161,57 @@ def unit_paths(unit: WorkUnit) -> list[str]:
 
 # --------------------------------------------------------------------------- worker
 
-_STATE: dict = {}
+#: This process's worker state: ``threads``, the ``body`` model, the ``renderer`` (and its
+#: version and settings ``key``), scene ``layouts``. Shared with :mod:`generator.bench` and
+#: the tests, which drive a renderer in-process.
+STATE: dict = {}
 
 
 def _worker_init(threads: int, quiet: bool = True) -> None:
     """Per-process set-up of a pool worker: Cycles threads, silence Blender's stdout."""
-    _STATE["threads"] = threads
+    STATE["threads"] = threads
     if quiet:
         devnull = os.open(os.devnull, os.O_WRONLY)
         os.dup2(devnull, 1)
         os.close(devnull)
 
 
-def _state(config: GeneratorConfig, threads: int):
+def worker_state(config: GeneratorConfig, threads: int):
+    """This process's ``(body model, renderer)`` for ``config``, made on first use (and
+    remade when the renderer or its settings change)."""
+    n_slots = max(1, config.persons_per_frame[1])
+    # everything the renderer is made with (a renderer with too few person slots or another
+    # supersampling must not be reused by a later config in the same process)
     key = (config.renderer, threads, config.light_tree, config.fast_gi, config.max_bounces,
-           config.denoise)
-    if _STATE.get("key") != key:
+           config.denoise, n_slots, config.supersample)
+    if STATE.get("key") != key:
         from .body import BodyModel
 
-        if "body" not in _STATE:
-            _STATE["body"] = BodyModel()
-        n_slots = max(1, config.persons_per_frame[1])
+        if "body" not in STATE:
+            STATE["body"] = BodyModel()
         if config.renderer == "pyrender":
             from .raster import RasterRenderer, pyrender_version
 
             # pyrender's framebuffer is already 4x multisampled
-            _STATE["renderer"] = RasterRenderer(n_slots=n_slots,
-                                                supersample=config.supersample)
-            _STATE["renderer_version"] = pyrender_version()
+            STATE["renderer"] = RasterRenderer(n_slots=n_slots,
+                                               supersample=config.supersample)
+            STATE["renderer_version"] = pyrender_version()
         else:
             from .blender import BlenderRenderer, blender_version
 
-            _STATE["renderer"] = BlenderRenderer(
+            STATE["renderer"] = BlenderRenderer(
                 threads=threads, n_slots=n_slots, light_tree=config.light_tree,
                 fast_gi=config.fast_gi, max_bounces=config.max_bounces,
                 denoise=config.denoise)
-            _STATE["renderer_version"] = blender_version()
-        _STATE["key"] = key
-        _STATE["layouts"] = {}
-    return _STATE["body"], _STATE["renderer"]
+            STATE["renderer_version"] = blender_version()
+        STATE["key"] = key
+        STATE["layouts"] = {}
+    return STATE["body"], STATE["renderer"]
 
 
-def _layout(spec):
-    cache = _STATE.setdefault("layouts", {})
+def scene_layout(spec):
+    """The layout of a scene spec, cached per process."""
+    cache = STATE.setdefault("layouts", {})
     if spec.id not in cache:
         cache[spec.id] = layout_scene(spec)
     return cache[spec.id]
@@ -229,8 +239,6 @@ def _base_row(config: GeneratorConfig, kind, path, scene_id, lighting, cam: Came
 def _remove_stale_temporaries(out: Path, unit: WorkUnit) -> None:
     """Delete temp files a killed run left for this unit's images and part file (a unit is
     only ever run by one worker at a time, so these cannot be in flight)."""
-    from .manifest import part_path
-
     for rel in unit_paths(unit) + unit_depth_paths(unit):
         p = out / rel
         if p.parent.is_dir():
@@ -258,10 +266,10 @@ def run_unit(payload: dict) -> dict:
     persons = payload["persons"]
     config: GeneratorConfig = payload["config"]
     out = Path(payload["out"])
-    threads = int(payload.get("threads") or _STATE.get("threads") or 0)
+    threads = int(payload.get("threads") or STATE.get("threads") or 0)
     _remove_stale_temporaries(out, unit)
-    body, renderer = _state(config, threads)
-    layout = _layout(spec)
+    body, renderer = worker_state(config, threads)
+    layout = scene_layout(spec)
     renderer.load_scene(layout)
     from .annotate import (
         fit_silhouette_intrinsics, frame_annotations, person_to_world, silhouette_box,
@@ -389,7 +397,8 @@ def run_unit(payload: dict) -> dict:
 # --------------------------------------------------------------------------- driver
 
 
-def _cpu_count() -> int:
+def cpu_count() -> int:
+    """CPUs this process may use."""
     try:
         return len(os.sched_getaffinity(0))
     except AttributeError:  # pragma: no cover
@@ -453,7 +462,7 @@ def generate(config: GeneratorConfig, seed: int, out, *, jobs: int = 1, shard=No
         pending.append(u)
     n_done_images = sum(u.n_images for u in units) - sum(u.n_images for u in pending)
     payloads = [{"unit": u, "scene": plan.scenes[u.scene_id],
-                 "persons": {pid: plan.persons[pid] for pid in _unit_person_ids(u)},
+                 "persons": {pid: plan.persons[pid] for pid in unit_person_ids(u)},
                  "config": config, "out": str(out)} for u in pending]
 
     from tqdm.auto import tqdm
@@ -477,7 +486,8 @@ def generate(config: GeneratorConfig, seed: int, out, *, jobs: int = 1, shard=No
                           kept + n_done_images, time.perf_counter() - t0, not missing)
 
 
-def _unit_person_ids(u: WorkUnit) -> list[str]:
+def unit_person_ids(u: WorkUnit) -> list[str]:
+    """The persons a work unit renders (ids into the plan's persons)."""
     if u.kind == "person":
         return [u.samples[0].person_id]
     if u.kind == "frame":
@@ -491,11 +501,11 @@ def _execute(payloads, *, jobs, scheduler, threads):
     if scheduler:
         yield from _execute_dask(payloads, scheduler, threads)
         return
-    ncpu = _cpu_count()
+    ncpu = cpu_count()
     if jobs is None or jobs < 0:
         jobs = ncpu
     if jobs == 0:
-        _STATE.setdefault("threads", threads or ncpu)
+        STATE.setdefault("threads", threads or ncpu)
         for p in payloads:
             yield run_unit(dict(p, threads=threads or ncpu))
         return

@@ -15,7 +15,9 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from .manifest import atomic_write_bytes, read_manifest
+from viewadapt.files import atomic_write_bytes
+
+from .manifest import read_manifest
 
 __all__ = ["contact_sheet", "background_sheet", "frame_sheet", "preview_dataset"]
 

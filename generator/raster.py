@@ -21,6 +21,8 @@ from pathlib import Path
 
 import numpy as np
 
+from viewadapt.files import atomic_write_bytes
+
 os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
 try:
     import pyrender
@@ -31,7 +33,6 @@ except ImportError as exc:  # pragma: no cover - exercised where pyrender is mis
 
 from .body import MATERIAL_SLOTS, PersonMesh
 from .layout import SceneLayout
-from .manifest import atomic_write_bytes
 from .meshes import layout_meshes, room_shell, world_uv
 from .specs import MaterialSpec, PersonSpec
 

@@ -10,11 +10,11 @@ Units: metres; angles in the JSON files are in degrees and say so in their names
 
 from __future__ import annotations
 
-import json
-import math
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
+
+from .specreader import SpecError, SpecReader, read_json
 
 __all__ = [
     "SpecError",
@@ -65,139 +65,6 @@ BOTTOM_KINDS = ("trousers", "shorts", "skirt", "long_skirt")
 HAIR_STYLES = ("buzz", "short", "medium", "bob", "long", "ponytail", "bun", "bald")
 ACCESSORIES = ("backpack", "shoulder_bag", "handbag", "cap")
 POSE_KINDS = ("standing", "walking")
-
-
-class SpecError(ValueError):
-    """A spec file that does not validate; the message names the file and the field."""
-
-
-# --------------------------------------------------------------------------- helpers
-
-
-class _Reader:
-    """Typed field access that reports ``file: path.to.field: problem``."""
-
-    def __init__(self, data: Any, source: str, path: str = ""):
-        self.data, self.source, self.path = data, source, path
-
-    def error(self, field_: str, msg: str) -> SpecError:
-        where = f"{self.path}.{field_}" if self.path and field_ else (self.path or field_)
-        return SpecError(f"{self.source}: {where}: {msg}")
-
-    def _get(self, key, default, required):
-        if not isinstance(self.data, dict):
-            raise SpecError(f"{self.source}: {self.path or '<top>'}: expected an object, "
-                            f"got {type(self.data).__name__}")
-        if key not in self.data:
-            if required:
-                raise self.error(key, "missing required field")
-            return default
-        return self.data[key]
-
-    def sub(self, key, required=True) -> "_Reader | None":
-        v = self._get(key, None, required)
-        if v is None:
-            return None
-        return _Reader(v, self.source, f"{self.path}.{key}" if self.path else key)
-
-    def items(self, key, required=False) -> list["_Reader"]:
-        v = self._get(key, [], required)
-        if not isinstance(v, list):
-            raise self.error(key, f"expected a list, got {type(v).__name__}")
-        base = f"{self.path}.{key}" if self.path else key
-        return [_Reader(x, self.source, f"{base}[{i}]") for i, x in enumerate(v)]
-
-    def str(self, key, default=None, *, choices=None, required=None) -> str:
-        required = default is None if required is None else required
-        if isinstance(self.data, dict) and key not in self.data and not required:
-            return default
-        v = self._get(key, default, required)
-        if v is None:
-            return v
-        if not isinstance(v, str) or not v:
-            raise self.error(key, f"expected a non-empty string, got {v!r}")
-        if choices is not None and v not in choices:
-            raise self.error(key, f"{v!r} is not one of {', '.join(choices)}")
-        return v
-
-    def bool(self, key, default=None) -> bool:
-        v = self._get(key, default, default is None)
-        if not isinstance(v, bool):
-            raise self.error(key, f"expected true or false, got {v!r}")
-        return v
-
-    def num(self, key, default=None, *, lo=-math.inf, hi=math.inf, integer=False,
-            required=None) -> float:
-        required = default is None if required is None else required
-        v = self._get(key, default, required)
-        if v is None:
-            return v
-        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-            raise self.error(key, f"expected a number, got {v!r}")
-        if integer and int(v) != v:
-            raise self.error(key, f"expected an integer, got {v!r}")
-        if not lo <= v <= hi:
-            raise self.error(key, f"{v!r} is outside [{lo}, {hi}]")
-        return int(v) if integer else float(v)
-
-    def vec(self, key, n, default=None, *, lo=-math.inf, hi=math.inf, positive=False,
-            required=None) -> tuple[float, ...]:
-        required = default is None if required is None else required
-        v = self._get(key, default, required)
-        if v is None:
-            return v
-        ok = (isinstance(v, (list, tuple)) and len(v) == n
-              and all(isinstance(x, (int, float)) and not isinstance(x, bool)
-                      and math.isfinite(x) for x in v))
-        if ok and positive:
-            ok = all(x > 0 for x in v)
-        if ok:
-            ok = all(lo <= x <= hi for x in v)
-        if not ok:
-            what = f"{n} {'positive ' if positive else ''}numbers"
-            if lo > -math.inf or hi < math.inf:
-                what += f" in [{lo}, {hi}]"
-            raise self.error(key, f"expected {what}, got {v!r}")
-        return tuple(float(x) for x in v)
-
-    def range(self, key, default=None, *, lo=-math.inf, hi=math.inf) -> tuple[float, float]:
-        """A ``[min, max]`` pair (a single number means a fixed value)."""
-        v = self._get(key, default, default is None)
-        if isinstance(v, (int, float)) and not isinstance(v, bool):
-            v = [v, v]
-        r = _Reader({key: v}, self.source, self.path).vec(key, 2, lo=lo, hi=hi)
-        if r[0] > r[1]:
-            raise self.error(key, f"range minimum exceeds maximum: {list(r)}")
-        return r
-
-    def color(self, key, default=None) -> tuple[float, float, float]:
-        return self.vec(key, 3, default, lo=0.0, hi=1.0)
-
-    def colors(self, key, default=None) -> tuple[tuple[float, float, float], ...]:
-        v = self._get(key, default, default is None)
-        if not isinstance(v, list) or not v:
-            raise self.error(key, f"expected a non-empty list of RGB colours, got {v!r}")
-        out = []
-        for i, c in enumerate(v):
-            out.append(_Reader({f"{key}[{i}]": c}, self.source, self.path)
-                       .color(f"{key}[{i}]"))
-        return tuple(out)
-
-    def check_unknown(self, allowed):
-        if isinstance(self.data, dict):
-            extra = sorted(set(self.data) - set(allowed) - {"comment", "_comment"})
-            if extra:
-                raise self.error(extra[0], f"unknown field (allowed: {', '.join(sorted(allowed))})")
-
-
-def _read_json(path: Path) -> Any:
-    path = Path(path)
-    if not path.is_file():
-        raise FileNotFoundError(f"spec file not found: {path}")
-    try:
-        return json.loads(path.read_text())
-    except json.JSONDecodeError as exc:
-        raise SpecError(f"{path}: not valid JSON: {exc}") from None
 
 
 # --------------------------------------------------------------------------- scenes
@@ -340,7 +207,7 @@ class SceneSpec:
     source: str = field(default="", compare=False)
 
 
-def _material(r: _Reader, name: str) -> MaterialSpec:
+def _material(r: SpecReader, name: str) -> MaterialSpec:
     r.check_unknown({"pattern", "colors", "scale", "roughness", "metallic", "bump",
                      "hue_jitter", "value_jitter", "emission"})
     pattern = r.str("pattern", "flat", choices=PATTERNS)
@@ -361,7 +228,7 @@ def _material(r: _Reader, name: str) -> MaterialSpec:
         emission=r.num("emission", 0.0, lo=0, hi=100))
 
 
-def _check_material_name(r: _Reader, key: str, name: str, materials: dict, allow_empty=True):
+def _check_material_name(r: SpecReader, key: str, name: str, materials: dict, allow_empty=True):
     if name in ("", None) and allow_empty:
         return
     if name not in materials:
@@ -369,7 +236,7 @@ def _check_material_name(r: _Reader, key: str, name: str, materials: dict, allow
 
 
 def _scene_from_dict(data: Any, source: str) -> SceneSpec:
-    r = _Reader(data, source)
+    r = SpecReader(data, source)
     r.check_unknown({"id", "description", "indoor", "layout_seed", "ground", "walkable",
                      "materials", "objects", "clutter", "lighting", "frame_camera", "shell"})
     sid = r.str("id")
@@ -388,7 +255,7 @@ def _scene_from_dict(data: Any, source: str) -> SceneSpec:
 
     walkable = []
     for w in r.items("walkable", required=True):
-        rect = _Reader({"rect": w.data}, source, w.path).vec("rect", 4)
+        rect = SpecReader({"rect": w.data}, source, w.path).vec("rect", 4)
         if rect[0] >= rect[2] or rect[1] >= rect[3]:
             raise SpecError(f"{source}: {w.path}: expected [xmin, ymin, xmax, ymax] with "
                             f"xmin < xmax and ymin < ymax, got {list(rect)}")
@@ -502,7 +369,7 @@ def default_roster_path() -> Path:
 def load_scene(path) -> SceneSpec:
     """Load and validate one scene spec (JSON)."""
     path = Path(path)
-    return _scene_from_dict(_read_json(path), str(path))
+    return _scene_from_dict(read_json(path), str(path))
 
 
 def load_scenes(directory=None) -> list[SceneSpec]:
@@ -586,7 +453,7 @@ class PersonSpec:
     sleeve: float = -1.0      # fraction of the arm covered; -1: from the top's kind
 
 
-def _garment(r: _Reader, kinds) -> GarmentSpec:
+def _garment(r: SpecReader, kinds) -> GarmentSpec:
     r.check_unknown({"kind", "color", "pattern", "color2", "pattern_scale"})
     return GarmentSpec(kind=r.str("kind", choices=kinds), color=r.color("color"),
                        pattern=r.str("pattern", "flat",
@@ -595,7 +462,7 @@ def _garment(r: _Reader, kinds) -> GarmentSpec:
                        pattern_scale=r.num("pattern_scale", 0.1, lo=0.005, hi=2))
 
 
-def _person_from_dict(r: _Reader) -> PersonSpec:
+def _person_from_dict(r: SpecReader) -> PersonSpec:
     r.check_unknown({"id", "phenotype", "stature", "skin", "top", "bottom", "shoes", "hair",
                      "pose", "accessories", "sleeve"})
     pid = r.str("id")
@@ -636,8 +503,8 @@ def _person_from_dict(r: _Reader) -> PersonSpec:
 def load_roster(path=None) -> list[PersonSpec]:
     """Load and validate the person roster (``assets/persons.json`` by default)."""
     path = Path(path) if path is not None else default_roster_path()
-    data = _read_json(path)
-    r = _Reader(data, str(path))
+    data = read_json(path)
+    r = SpecReader(data, str(path))
     r.check_unknown({"persons", "description"})
     persons = [_person_from_dict(p) for p in r.items("persons", required=True)]
     if not persons:

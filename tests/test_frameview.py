@@ -5,15 +5,15 @@ import pytest
 
 from tests.tolerances import FLOAT32
 
-from viewadapt.frameview import (
+from viewadapt.detect import (
     FRAME_VIEW_SCALES, acf_frame_view_features, frame_view, frame_view_copies,
     hog_frame_view_features,
 )
-from viewadapt.fullframe import (
+from viewadapt.detect import (
     HOG_CHANNELS, build_adapted_linear_operator, build_adapted_trees_operator,
     build_multiresolution_operator, hog_window_features,
 )
-from viewadapt.windows import CandidateWindows, person_boxes
+from viewadapt.detect import CandidateWindows, person_boxes
 
 
 @pytest.fixture(scope="module")

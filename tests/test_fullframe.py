@@ -5,20 +5,21 @@ import numpy as np
 import pytest
 
 from tests.tolerances import EXACT, FLOAT32
-from viewadapt.fullframe import (
-    ACF_SHRINK, HOG_CELL, HOG_CHANNELS, _acf_remap, block_normalize_cells,
+from benchmark.perf.scoring_forms import linear_scores, trees_scores
+from viewadapt.detect import (
+    ACF_SHRINK, HOG_CELL, HOG_CHANNELS, TemplateGroup, acf_frame_remap, block_normalize_cells,
     build_adapted_linear_operator,
     acf_frame_features, acf_window_features, build_adapted_trees_operator,
     fast_acf_pixel_channels,
     fast_orientation_channels, hog_frame_features, hog_window_features, orientation_cell_maps,
-    build_multiresolution_operator, upsampled_windows, _upsampled_band,
+    build_multiresolution_operator, patch_grid, upsampled_windows, upsampled_band,
 )
 from viewadapt.geometry import (
     Camera, camera_from_pose, look_at_rotation, window_to_image_homography,
 )
 from viewadapt.hog import orientation_channels
 from viewadapt.remap import CellGrid, feature_remap_matrix
-from viewadapt.windows import (
+from viewadapt.detect import (
     GROUND_STRIDE_M, check_ground_visible, select_candidate_windows, window_homographies,
 )
 
@@ -273,7 +274,8 @@ def test_adapted_scores_equal_explicitly_remapped_features(windows, frame, toler
     w = rng.normal(size=(16, 8, HOG_CHANNELS))
     op = build_adapted_linear_operator(sub, w, 0.3, tolerance=tolerance)
     feats = op.frame_features(frame)
-    s = {m: op.scores(feats, method=m) for m in ("runs", "sparse", "template", "gather")}
+    s = {m: linear_scores(op, feats, m) for m in ("sparse", "template", "gather")}
+    s["runs"] = op.scores(feats)                                  # the compiled loop
     for n in range(0, len(sub), 7):
         ref = _explicit_hog_score(frame, op.snapped_homographies[n], int(op.cell_size[n]), w, 0.3)
         for m in s:
@@ -286,7 +288,6 @@ def test_adapted_scores_equal_explicitly_remapped_features(windows, frame, toler
     W = op.to_sparse()
     assert W.shape[0] == len(sub)
     assert np.allclose(W @ feats.vector(op.cell_sizes) + op.bias, s["sparse"], **FLOAT32)
-    assert np.array_equal(op.scores(feats), s["runs"])            # the default form
     Wu, rows = op.to_sparse(unique=True)
     pw = op.position_weights()
     assert pw.size == Wu.shape[0] == len(np.unique(rows)) <= len(sub)
@@ -300,7 +301,8 @@ def test_linear_operator_pickles_one_copy_of_its_templates(windows, frame):
     w = rng.normal(size=(16, 8, HOG_CHANNELS))
     op = build_adapted_linear_operator(windows, w, 0.1, tolerance=0.0)
     feats = op.frame_features(frame)
-    before = {m: op.scores(feats, method=m) for m in ("runs", "sparse", "template")}
+    before = {m: linear_scores(op, feats, m) for m in ("sparse", "template")}
+    before["runs"] = op.scores(feats)
     blob = pickle.dumps(op)
     nbytes = op._runs.templates.nbytes
     # the group templates are views into the run tables, pickled once
@@ -308,7 +310,8 @@ def test_linear_operator_pickles_one_copy_of_its_templates(windows, frame):
     back = pickle.loads(blob)
     assert all(np.shares_memory(g.template, back._runs.templates) for g in back.groups)
     for m, s in before.items():
-        assert np.array_equal(back.scores(feats, method=m), s)
+        again = back.scores(feats) if m == "runs" else linear_scores(back, feats, m)
+        assert np.array_equal(again, s)
 
 
 def test_adapted_trees_equal_explicit_remap(windows, frame):
@@ -323,19 +326,17 @@ def test_adapted_trees_equal_explicit_remap(windows, frame):
     op = build_adapted_trees_operator(sub, model, tolerance=0.5)
     feats = op.frame_features(frame)
     cascade = op.scores(feats)
-    full = op.scores(feats, method="full")
+    full = trees_scores(op, feats, "full")
     assert np.allclose(cascade, full, rtol=1e-6, atol=1e-6)
     # the compiled loop and the numpy blocks walk the same trees to the same cascade stops
-    assert np.allclose(cascade, op.scores(feats, method="blocks"), rtol=1e-6, atol=1e-6)
+    assert np.allclose(cascade, trees_scores(op, feats, "blocks"), rtol=1e-6, atol=1e-6)
     assert (cascade <= model.cascade_threshold).any()        # some windows stopped early
     # against G built for each snapped window over the whole frame grid
-    from viewadapt.fullframe import _Group
-
     for n in range(0, len(sub), 5):
         c = int(op.cell_size[n])
         x = feats.maps[c][op.pad:-op.pad, op.pad:-op.pad]
-        g = _Group(c, n, (0, 0), x.shape[:2], np.array([n]), np.zeros((1, 2), int))
-        G = _acf_remap(op.snapped_homographies[n], g, "covariant")
+        g = TemplateGroup(c, n, (0, 0), x.shape[:2], np.array([n]), np.zeros((1, 2), int))
+        G = acf_frame_remap(op.snapped_homographies[n], g, "covariant")
         src = G @ x.astype(np.float64).ravel()
         src[3 * 512:] *= op.gradient_factor[n]       # power-law scaling of the gradients
         assert cascade[n] == pytest.approx(model.decision_function(src[None])[0], abs=1e-5)
@@ -351,7 +352,7 @@ def test_adapted_trees_equal_explicit_remap(windows, frame):
 
 
 def test_operator_cache_invalidates_on_calibration_change(tmp_path, frame):
-    from benchmark.frames import FrameDetector
+    from viewadapt.detect import FrameDetector
 
     class Models:  # the minimal model interface FrameDetector needs
         hog_weights = np.random.default_rng(0).normal(size=(16, 8, HOG_CHANNELS))
@@ -381,7 +382,7 @@ def test_operator_cache_keeps_to_its_size_limit(tmp_path):
     import os
     import pickle
 
-    from benchmark.frames import OperatorCache
+    from viewadapt.detect import OperatorCache
 
     blob = np.zeros(1000)                                   # about 8 kB pickled
     size = len(pickle.dumps(blob))
@@ -442,8 +443,8 @@ def test_frame_of_the_wrong_size(windows, frame):
         op.detect(frame[:-8])
     with pytest.raises(ValueError, match="weights"):
         build_adapted_linear_operator(windows, np.ones(10))
-    with pytest.raises(ValueError, match="method must be"):
-        op.scores(op.frame_features(frame), method="dense")
+    with pytest.raises(ValueError, match="form must be"):
+        linear_scores(op, op.frame_features(frame), "dense")
     # maps of the right sizes but another feature (ACF, 10 channels): refused, never read
     # out of bounds by the compiled loop
     acf = acf_frame_features(frame, op.cell_sizes, pad=op.pad)
@@ -454,13 +455,11 @@ def test_frame_of_the_wrong_size(windows, frame):
 def test_acf_remap_is_s_kron_a(windows):
     """The ACF G of one window equals S (L, U, V, magnitude) and S (x) A (orientations)
     built by feature_remap_matrix, in the (y, x, channel) -> (channel, y, x) layouts."""
-    from viewadapt.fullframe import _Group, _patch_grid
-
     H = windows.homographies[len(windows) // 2]
     c = 2
-    cx0, cy0, nx, ny = _patch_grid(H, c, SIZE)          # the window's footprint only
-    g = _Group(c, 0, (cx0, cy0), (ny, nx), np.array([0]), np.zeros((1, 2), int))
-    G = _acf_remap(H, g, "covariant").toarray()
+    cx0, cy0, nx, ny = patch_grid(H, c)          # the window's footprint only
+    g = TemplateGroup(c, 0, (cx0, cy0), (ny, nx), np.array([0]), np.zeros((1, 2), int))
+    G = acf_frame_remap(H, g, "covariant").toarray()
     out = CellGrid.for_window(64, 128, ACF_SHRINK)
     inn = CellGrid(nx, ny, c, origin=(cx0 * c - 0.5, cy0 * c - 0.5))
     assert 0 < inn.n_cells < 2000
@@ -519,7 +518,7 @@ def test_multiresolution_scores_are_the_layers_explicit_scores(windows, frame):
     assert (2 * r0) % 48 == 0
     big = cv2.resize(frame, (2 * SIZE[0], 2 * SIZE[1]), interpolation=cv2.INTER_LINEAR)
     band = big[2 * r0:2 * r1]
-    assert np.array_equal(_upsampled_band(frame, 2, (r0, r1)), band)
+    assert np.array_equal(upsampled_band(frame, 2, (r0, r1)), band)
     # tolerance 0: every window is scored at its own homography, in frame pixels
     assert np.allclose(op.snapped_homographies, sub.homographies, atol=1e-9)
     assert np.allclose(op.boxes(), sub.person_boxes(), atol=1e-6)

@@ -7,9 +7,8 @@ import json
 import numpy as np
 import pytest
 
-from benchmark.frames import (
-    FrameRecord, evaluate_method, load_frames, read_calibration, standardize_boxes,
-)
+from benchmark.frames import FrameRecord, evaluate_method, load_frames
+from viewadapt.detect import read_calibration, standardize_boxes
 from benchmark.toyframes import make_toy_frame_dataset
 from viewadapt.geometry import camera_from_pose
 from viewadapt.metrics import log_average_miss_rate
@@ -261,7 +260,7 @@ def test_fppi_evaluation_matches_a_plain_loop():
 
 
 def test_json_calibration_and_bad_cameras(tmp_path):
-    from viewadapt.windows import select_candidate_windows
+    from viewadapt.detect import select_candidate_windows
 
     j = tmp_path / "c.json"
     j.write_text(json.dumps({"image_size": [384, 288], "focal": 300, "height": 4.5,
@@ -303,7 +302,8 @@ def test_runtime_table_end_to_end(toy, tmp_path):
 
 def test_frame_view_copies_change_the_svm_and_the_separation_script_runs(toy, bench, capsys):
     from benchmark.data import load_dataset
-    from benchmark.frames import SourceDetectors, train_source_detectors
+    from benchmark.frames import train_source_detectors
+    from viewadapt.detect import SourceDetectors
     from benchmark.perf.frameview_separation import main as separation_main
 
     crops_only = train_source_detectors(load_dataset(toy), quick=True, frame_view="none")
@@ -330,7 +330,8 @@ def test_frame_view_copies_change_the_svm_and_the_separation_script_runs(toy, be
 def test_seed_study(toy, tmp_path):
     """--seeds N: one training per seed, per-seed rates, the targets on the seed means."""
     from benchmark.data import load_dataset
-    from benchmark.frames import SourceDetectors, train_source_detectors
+    from benchmark.frames import train_source_detectors
+    from viewadapt.detect import SourceDetectors
 
     out = tmp_path / "seeds"
     assert _main(["bench", "frames", "--data", str(toy), "--out", str(out), "--quick",
@@ -383,7 +384,6 @@ def test_seed_tables_and_targets():
 def test_demo_frames_stage(toy, tmp_path):
     """The demo's last stage: bench frames, then detect through a calibration file written
     in the documented format, on every frame of the first frame's camera."""
-    from benchmark.frames import read_calibration
     from viewadapt.cli import _demo_frames
 
     assert _demo_frames(toy, tmp_path, ["--seed", "0"]) == 0

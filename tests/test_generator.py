@@ -17,8 +17,7 @@ from generator.layout import (
     layout_scene, ray_cast, segments_clear,
 )
 from generator.manifest import (
-    MANIFEST_COLUMNS, assemble_manifest, png_is_complete, read_manifest, verify_dataset,
-    write_depth, write_part,
+    MANIFEST_COLUMNS, assemble_manifest, png_is_complete, read_manifest, write_depth, write_part,
 )
 from generator.sampling import (
     GeneratorConfig, blackbody_rgb, derive_seed, frame_camera, image_relpath, parse_shard,
@@ -27,6 +26,7 @@ from generator.sampling import (
 from generator.specs import (
     OBJECT_TYPES, ObjectSpec, SpecError, load_roster, load_scene, load_scenes,
 )
+from generator.verify import verify_dataset
 from viewadapt.geometry import (
     apply_homography, crop_camera, crop_homography, window_to_image_homography,
 )

@@ -25,9 +25,10 @@ pytest.importorskip("anny", reason="needs the generator extra: pip install -e '.
 
 from generator import pipeline  # noqa: E402
 from generator.annotate import person_to_world, silhouette_box  # noqa: E402
-from generator.manifest import MANIFEST_COLUMNS, read_manifest, verify_dataset  # noqa: E402
+from generator.manifest import MANIFEST_COLUMNS, read_manifest  # noqa: E402
 from generator.sampling import GeneratorConfig, plan_dataset, preset_config  # noqa: E402
 from generator.specs import load_roster, load_scenes  # noqa: E402
+from generator.verify import verify_dataset  # noqa: E402
 from viewadapt.geometry import (  # noqa: E402
     Camera, apply_homography, camera_from_pose, crop_camera,
 )
@@ -61,7 +62,7 @@ def micro(tmp_path_factory):
 @pytest.fixture(scope="module")
 def renderer(micro):
     # the in-process renderer the micro fixture used
-    return pipeline._STATE["renderer"]
+    return pipeline.STATE["renderer"]
 
 
 def _centroid(img):
@@ -180,12 +181,12 @@ def test_rendered_silhouette_matches_projected_mesh(micro, renderer, tmp_path):
     """Render a crop's person alone (transparent film): the alpha box is the mesh box."""
     config = _micro_config()
     plan = plan_dataset(config, 7, scenes=load_scenes(), persons=load_roster())
-    body = pipeline._STATE["body"]
+    body = pipeline.STATE["body"]
     unit = next(u for u in plan.units if u.kind == "person" and u.scene_id == "plaza")
     s = unit.samples[0]
     person = plan.persons[s.person_id]
     mesh = body.build(person, s.pose, s.gait_phase, s.pose_jitter)
-    renderer.load_scene(pipeline._layout(plan.scenes["plaza"]))
+    renderer.load_scene(pipeline.scene_layout(plan.scenes["plaza"]))
     renderer.set_persons([(mesh, person, s.ground_xy, s.rotation)])
     renderer.set_lighting(s.lighting)
     renderer.set_scene_visible(False)
@@ -231,7 +232,7 @@ def test_same_seed_same_pixels(micro, tmp_path):
     unit = next(u for u in plan.units if u.kind == "person" and u.scene_id == "warehouse")
     out = tmp_path / "again"
     pipeline.run_unit({"unit": unit, "scene": plan.scenes[unit.scene_id],
-                       "persons": {p: plan.persons[p] for p in pipeline._unit_person_ids(unit)},
+                       "persons": {p: plan.persons[p] for p in pipeline.unit_person_ids(unit)},
                        "config": config, "out": str(out)})
     for rel in pipeline.unit_paths(unit):
         a = cv2.imread(str(micro / rel))
@@ -249,7 +250,7 @@ def test_silhouette_framing_fits_the_person(micro, tmp_path):
     unit = next(u for u in plan.units if u.kind == "person")
     out = tmp_path / "sil"
     pipeline.run_unit({"unit": unit, "scene": plan.scenes[unit.scene_id],
-                       "persons": {p: plan.persons[p] for p in pipeline._unit_person_ids(unit)},
+                       "persons": {p: plan.persons[p] for p in pipeline.unit_person_ids(unit)},
                        "config": config, "out": str(out)})
     from generator.manifest import read_part
 

@@ -10,8 +10,9 @@ pyrender = pytest.importorskip("pyrender", reason="optional: pip install pyrende
 pytest.importorskip("anny", reason="needs the generator extra: pip install -e '.[generator]'")
 
 from generator import pipeline  # noqa: E402
-from generator.manifest import read_manifest, verify_dataset  # noqa: E402
+from generator.manifest import read_manifest  # noqa: E402
 from generator.sampling import GeneratorConfig  # noqa: E402
+from generator.verify import verify_dataset  # noqa: E402
 from viewadapt.geometry import camera_from_pose, crop_camera  # noqa: E402
 
 # needs the generator extra (anny) as well; pyrender 0.1.45 calls numpy's tostring()

@@ -11,7 +11,7 @@ from viewadapt.hog import (
 )
 
 # Parity tolerances against OpenCV, measured on 300 windows each of three sample images,
-# grey and colour (README, "HOG parity"): descriptor max |diff| 6.7e-4, people-detector score
+# grey and colour (docs/findings.md, "HOG parity with OpenCV"): descriptor max |diff| 6.7e-4, people-detector score
 # max |diff| 1.5e-3. What remains is OpenCV's fast atan2 (about 0.01 degrees here), which
 # moves orientation-bin weights slightly; magnitudes and channel choice match exactly.
 DESC_ATOL = 2e-3

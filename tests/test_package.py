@@ -9,7 +9,7 @@ from viewadapt.cli import main
 
 def test_import_never_pulls_blender_or_torch():
     # numba too: the JIT loads only when a full-frame operator first scores a frame
-    code = ("import sys, viewadapt, viewadapt.fullframe; bad = [m for m in "
+    code = ("import sys, viewadapt, viewadapt.detect; bad = [m for m in "
             "('bpy', 'torch', 'anny', 'benchmark', 'numba') "
             "if m in sys.modules]; print(bad); sys.exit(1 if bad else 0)")
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)

@@ -10,22 +10,25 @@ Modules (public names are re-exported here):
 
 * :mod:`viewadapt.geometry` -- cameras, the planar person model, homographies, Jacobians.
 * :mod:`viewadapt.hog`, :mod:`viewadapt.acf` -- features with their linear part exposed.
-* :mod:`viewadapt.featuremap` -- dense per-frame feature maps.
 * :mod:`viewadapt.remap` -- ``S``, ``A``, ``G``.
 * :mod:`viewadapt.mapping` -- ``G`` from any point mapping (the homography is a special case).
 * :mod:`viewadapt.surface`, :mod:`viewadapt.objectmodel` -- depth maps and exact
   correspondences of meshes; the person plane and a mean-body object model.
 * :mod:`viewadapt.adapt` -- classifier adaptation and the adapted-classifier wrapper.
 * :mod:`viewadapt.warp` -- the image-warping baseline.
-* :mod:`viewadapt.classifiers`, :mod:`viewadapt.boosting` -- linear SVM, boosted trees.
-* :mod:`viewadapt.metrics`, :mod:`viewadapt.nms` -- evaluation.
-* :mod:`viewadapt.windows`, :mod:`viewadapt.fullframe` -- world-space candidate windows and
-  the per-position adapted detectors of a calibrated camera, applied as one operator.
+* :mod:`viewadapt.classifiers`, :mod:`viewadapt.boosting` (trees: :mod:`viewadapt.treegrow`)
+  -- linear SVM, boosted trees.
+* :mod:`viewadapt.metrics` (matching: :mod:`viewadapt.matching`), :mod:`viewadapt.nms`,
+  :mod:`viewadapt.boxes` -- evaluation.
+* :mod:`viewadapt.files` -- atomic files and output folders, run metadata.
+* :mod:`viewadapt.detect` (a subpackage) -- full-frame detection on a calibrated camera:
+  world-space candidate windows, the per-position adapted detectors applied as one
+  operator, and :class:`viewadapt.detect.FrameDetector`.
 
 ``import viewadapt`` never imports Blender (bpy), torch or anny.
 """
 
-__version__ = "0.1.0"
+from .version import __version__  # noqa: F401
 
 from .acf import *  # noqa: F401,F403
 from .acf import __all__ as _acf_all
@@ -35,10 +38,6 @@ from .boosting import *  # noqa: F401,F403
 from .boosting import __all__ as _boosting_all
 from .classifiers import *  # noqa: F401,F403
 from .classifiers import __all__ as _classifiers_all
-from .featuremap import *  # noqa: F401,F403
-from .featuremap import __all__ as _featuremap_all
-from .fullframe import *  # noqa: F401,F403
-from .fullframe import __all__ as _fullframe_all
 from .geometry import *  # noqa: F401,F403
 from .geometry import __all__ as _geometry_all
 from .hog import *  # noqa: F401,F403
@@ -57,10 +56,10 @@ from .remap import *  # noqa: F401,F403
 from .remap import __all__ as _remap_all
 from .warp import *  # noqa: F401,F403
 from .warp import __all__ as _warp_all
-from .windows import *  # noqa: F401,F403
-from .windows import __all__ as _windows_all
+
+from . import detect  # noqa: E402,F401  (the subpackage, names not re-exported)
 
 __all__ = sorted(set(_acf_all + _adapt_all + _boosting_all + _classifiers_all
-                     + _featuremap_all + _geometry_all + _hog_all + _metrics_all + _nms_all
-                     + _remap_all + _warp_all + _fullframe_all + _windows_all
-                     + _mapping_all + _objectmodel_all + _surface_all))
+                     + _geometry_all + _hog_all + _metrics_all + _nms_all
+                     + _remap_all + _warp_all + _mapping_all + _objectmodel_all
+                     + _surface_all))

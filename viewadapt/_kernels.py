@@ -68,7 +68,7 @@ def orientation_cell_sums(mag, ang, n_bins, c, out):  # pragma: no cover - compi
 
     Pixel ``(i, j)`` with ``i < ny c, j < nx c`` adds its magnitude to the two unsigned bins
     nearest its angle (centres ``(b + 1/2) pi / n_bins``), split linearly -- the
-    channels of ``viewadapt.fullframe.fast_orientation_channels`` summed per cell.
+    channels of ``viewadapt.detect.fast_orientation_channels`` summed per cell.
     """
     ny, nx = out.shape[0], out.shape[1]
     scale = np.float32(n_bins / np.pi)
@@ -103,7 +103,7 @@ def _reflect(i, n, edge):
 
 @njit(cache=True, nogil=True, boundscheck=False)
 def block_normalize(X, eps, clip, out):  # pragma: no cover - compiled
-    """The body of ``viewadapt.fullframe.block_normalize_cells`` (see there): ``X`` (ny, nx,
+    """The body of ``viewadapt.detect.block_normalize_cells`` (see there): ``X`` (ny, nx,
     B) cell histograms -> ``out`` (ny, nx, B + 4)."""
     ny, nx, nb = X.shape
     E = np.empty((ny, nx), np.float32)

@@ -7,9 +7,11 @@ traceback from deep inside the library.
 
 from __future__ import annotations
 
+import numbers
+
 import numpy as np
 
-__all__ = ["check_image", "check_homography", "check_elevation", "check_finite"]
+__all__ = ["check_image", "check_homography", "check_elevation", "check_finite", "check_int"]
 
 
 def check_image(image, name: str = "image", *, allow_color: bool = True,
@@ -85,3 +87,11 @@ def check_elevation(elevation, name: str = "elevation") -> float:
     if not np.isfinite(value) or value < 0 or value >= np.pi / 2:
         raise ValueError(f"{name} must lie in [0, pi/2) radians, got {value!r}")
     return value
+
+
+def check_int(value, name: str, *, minimum: int) -> int:
+    """``value`` as an ``int`` if it is an integer (not a bool) ``>= minimum``, else
+    ``ValueError``."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < minimum:
+        raise ValueError(f"{name} must be an integer >= {minimum}, got {value!r}")
+    return int(value)

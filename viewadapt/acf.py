@@ -72,7 +72,7 @@ import numbers
 import numpy as np
 from scipy import ndimage
 
-from ._validation import check_image
+from ._validation import check_image, check_int
 
 __all__ = [
     "ACF_CHANNEL_NAMES",
@@ -81,6 +81,8 @@ __all__ = [
     "orientation_bin_centers",
     "rgb_to_luv",
     "convolve_triangle",
+    "triangle_kernel",
+    "LUV_CONSTANTS",
     "acf_pixel_channels",
     "aggregate_channels",
     "acf_channels",
@@ -99,12 +101,10 @@ _U_OFFSET = 88.0 * _LUV_SCALE          # ... and u, v shifted by 88 / 270 and 13
 _V_OFFSET = 134.0 * _LUV_SCALE         # (minu = -88 * maxi, minv = -134 * maxi)
 _Y0 = (6.0 / 29.0) ** 3                # CIE L* knee
 _KAPPA = (29.0 / 3.0) ** 3             # slope of L* below the knee
-
-
-def _check_int(value, name, *, minimum):
-    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < minimum:
-        raise ValueError(f"{name} must be an integer >= {minimum}, got {value!r}")
-    return int(value)
+#: The toolbox's RGB -> LUV conversion constants, in the argument order of the compiled
+#: kernel (``viewadapt._kernels.rgb_to_luv``): RGB -> XYZ matrix, L* knee, slope below
+#: it, output scale, white point u', v', u and v offsets.
+LUV_CONSTANTS = (_RGB_TO_XYZ, _Y0, _KAPPA, _LUV_SCALE, _UN, _VN, _U_OFFSET, _V_OFFSET)
 
 
 def acf_channel_names(n_orients: int = 6) -> tuple[str, ...]:
@@ -120,7 +120,7 @@ def acf_channel_names(n_orients: int = 6) -> tuple[str, ...]:
         ``("L", "U", "V", "gradient_magnitude", "orientation_0", ...)``; channel
         ``orientation_k`` is centred on ``k * pi / n_orients``.
     """
-    n_orients = _check_int(n_orients, "n_orients", minimum=1)
+    n_orients = check_int(n_orients, "n_orients", minimum=1)
     return ("L", "U", "V", "gradient_magnitude") + tuple(
         f"orientation_{k}" for k in range(n_orients))
 
@@ -142,7 +142,7 @@ def orientation_channel_slice(n_orients: int = 6) -> slice:
         ``slice(4, 4 + n_orients)``, e.g. ``acf_channels(img)[orientation_channel_slice()]``
         is the ``(n_orients, M // shrink, N // shrink)`` oriented-gradient stack.
     """
-    n_orients = _check_int(n_orients, "n_orients", minimum=1)
+    n_orients = check_int(n_orients, "n_orients", minimum=1)
     return slice(_N_COLOR + 1, _N_COLOR + 1 + n_orients)
 
 
@@ -160,7 +160,7 @@ def orientation_bin_centers(n_orients: int = 6) -> np.ndarray:
         ``[centers[k] - pi / (2 n_orients), centers[k] + pi / (2 n_orients))`` modulo pi,
         angles measured with the y axis pointing down (see the module Notes).
     """
-    n_orients = _check_int(n_orients, "n_orients", minimum=1)
+    n_orients = check_int(n_orients, "n_orients", minimum=1)
     return np.arange(n_orients) * (np.pi / n_orients)
 
 
@@ -246,7 +246,7 @@ def convolve_triangle(channels, radius: float) -> np.ndarray:
     x = np.asarray(channels, dtype=np.float64)
     if x.ndim < 2:
         raise ValueError(f"channels must have at least 2 dimensions, got shape {x.shape}")
-    kernel = _triangle_kernel(radius)
+    kernel = triangle_kernel(radius)
     if kernel is None:
         return x.copy()
     # scipy's "reflect" is the half-sample symmetric extension (Matlab's 'symmetric')
@@ -254,7 +254,9 @@ def convolve_triangle(channels, radius: float) -> np.ndarray:
     return ndimage.correlate1d(out, kernel, axis=-1, mode="reflect")
 
 
-def _triangle_kernel(radius):
+def triangle_kernel(radius):
+    """The 1-D kernel of Dollár's ``convTri(., radius)``: ``[1, p, 1] / (p + 2)`` for
+    ``radius <= 1``, a triangle of half-width ``radius + 1`` otherwise; None for 0."""
     if isinstance(radius, bool) or not isinstance(radius, numbers.Real) \
             or not np.isfinite(radius) or radius < 0:
         raise ValueError(f"triangle filter radius must be a finite number >= 0, got {radius!r}")
@@ -322,10 +324,10 @@ def acf_pixel_channels(image, *, shrink: int = 4, n_orients: int = 6,
         ``[L, U, V, M~, O_0, ..., O_{n-1}]`` (see :func:`acf_channel_names`). The
         orientation channels sum to the magnitude channel.
     """
-    shrink = _check_int(shrink, "shrink", minimum=1)
-    n_orients = _check_int(n_orients, "n_orients", minimum=1)
-    _triangle_kernel(smooth_color)
-    _triangle_kernel(norm_radius)
+    shrink = check_int(shrink, "shrink", minimum=1)
+    n_orients = check_int(n_orients, "n_orients", minimum=1)
+    triangle_kernel(smooth_color)
+    triangle_kernel(norm_radius)
     if isinstance(norm_const, bool) or not isinstance(norm_const, numbers.Real) \
             or not np.isfinite(norm_const) or norm_const <= 0:
         raise ValueError(f"norm_const must be a finite number > 0, got {norm_const!r}")
@@ -353,7 +355,7 @@ def acf_pixel_channels(image, *, shrink: int = 4, n_orients: int = 6,
     theta = np.mod(np.arctan2(gy, gx), np.pi)
 
     # gradMagNorm: M / (convTri(M, normRad) + normConst); normRad = 0 -> no normalisation
-    if _triangle_kernel(norm_radius) is not None:
+    if triangle_kernel(norm_radius) is not None:
         mag = mag / (convolve_triangle(mag, norm_radius) + norm_const)
 
     out = np.zeros((_N_COLOR + 1 + n_orients, M, N))
@@ -428,8 +430,8 @@ def aggregate_channels(pixel_channels, shrink: int = 4, smooth_channels: float =
     aggregated features. (Its 5-pixel neighbourhood is not itself warped, so remapping
     approximates the features of a warped image, as it does for the gradients.)
     """
-    shrink = _check_int(shrink, "shrink", minimum=1)
-    _triangle_kernel(smooth_channels)
+    shrink = check_int(shrink, "shrink", minimum=1)
+    triangle_kernel(smooth_channels)
     P = np.asarray(pixel_channels)
     if P.ndim != 3:
         raise ValueError(f"pixel_channels must have shape (C, M, N), got shape {P.shape}")

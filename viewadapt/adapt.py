@@ -70,7 +70,8 @@ def _remap_matrix(H_st, out_grid, in_grid, **kw):
 
 def hog_remap_matrix(H_st, *, source_cell_size: int = 8, target_cell_size: int = 8,
                      window=(WINDOW_WIDTH, WINDOW_HEIGHT), n_bins: int = 9,
-                     rule: str = "covariant", per_cell: bool = True) -> sp.csr_matrix:
+                     rule: str = "covariant", per_cell: bool = True, target_grid=None,
+                     preserve: str = "sum", n_plain: int = 0) -> sp.csr_matrix:
     """``G`` for HOG cell features of one window: target cells -> source cells.
 
     Parameters
@@ -83,16 +84,27 @@ def hog_remap_matrix(H_st, *, source_cell_size: int = 8, target_cell_size: int =
     source_cell_size, target_cell_size : int
         Cell sizes of the classifier (source) and of the target features (a finer target
         grid, e.g. 4 px, resamples more accurately).
+    target_grid : CellGrid, optional
+        The target cells instead of the window's ``target_cell_size`` grid, e.g. a patch of
+        a frame's cells (:mod:`viewadapt.detect`).
+    preserve : {"sum", "mean"}
+        Cell histograms are sums over their pixels (``"sum"``, raw HOG cells) or intensive
+        values (``"mean"``, e.g. block-normalised cells): area-weighted sums or means.
+    n_plain : int
+        Channels per cell after the ``n_bins`` orientations that are resampled by ``S``
+        alone (e.g. texture energies).
 
     Returns
     -------
-    G : sparse (n_src_cells * n_bins, n_tgt_cells * n_bins), layouts of
-        ``hog_cells(...).ravel()``.
+    G : sparse (n_src_cells * (n_bins + n_plain), n_tgt_cells * (n_bins + n_plain)),
+        layouts of ``hog_cells(...).ravel()`` (cell-major, channels last).
     """
     w, h = window
-    return _remap_matrix(H_st, CellGrid.for_window(w, h, source_cell_size),
-                         CellGrid.for_window(w, h, target_cell_size),
-                         n_bins=n_bins, rule=rule, per_cell=per_cell)
+    if target_grid is None:
+        target_grid = CellGrid.for_window(w, h, target_cell_size)
+    return _remap_matrix(H_st, CellGrid.for_window(w, h, source_cell_size), target_grid,
+                         n_bins=n_bins, rule=rule, per_cell=per_cell, preserve=preserve,
+                         n_plain=n_plain)
 
 
 def _bin_major_permutation(n_cells: int, n_bins: int) -> sp.csr_matrix:
@@ -104,8 +116,9 @@ def _bin_major_permutation(n_cells: int, n_bins: int) -> sp.csr_matrix:
 
 def acf_remap_matrix(H_st, *, shrink: int = 4, window=(WINDOW_WIDTH, WINDOW_HEIGHT),
                      n_color: int = 4, n_orients: int = 6, rule: str = "covariant",
-                     per_cell: bool = True) -> sp.csr_matrix:
-    """``G`` for ACF channels of one window, layout ``(channel, y, x)``; ``H_st`` a
+                     per_cell: bool = True, target_grid=None,
+                     target_layout: str = "channels_first") -> sp.csr_matrix:
+    """``G`` for ACF channels of one window, source layout ``(channel, y, x)``; ``H_st`` a
     homography or a point mapping, as for :func:`hog_remap_matrix`.
 
     The first ``n_color`` channels (LUV and gradient magnitude) are per-pixel averages
@@ -113,21 +126,35 @@ def acf_remap_matrix(H_st, *, shrink: int = 4, window=(WINDOW_WIDTH, WINDOW_HEIG
     ``preserve="mean"``); the ``n_orients`` orientation channels (hard-binned over 180
     degrees) also get the orientation resampling ``A``.
 
+    Parameters
+    ----------
+    target_grid : CellGrid, optional
+        The target blocks instead of the window's ``shrink`` grid (e.g. a frame patch).
+    target_layout : {"channels_first", "channels_last"}
+        Layout of the target features: ``(channel, y, x)`` as :func:`viewadapt.acf.acf_channels`,
+        or ``(y, x, channel)`` as a frame's cell maps.
+
     Returns
     -------
-    G : sparse (C h w, C h w) with ``C = n_color + n_orients``, ``h, w`` the window's size
-        over ``shrink``.
+    G : sparse (C h w, C n_target_cells) with ``C = n_color + n_orients``, ``h, w`` the
+        window's size over ``shrink``.
     """
+    if target_layout not in ("channels_first", "channels_last"):
+        raise ValueError(f"target_layout must be 'channels_first' or 'channels_last', "
+                         f"got {target_layout!r}")
     w, h = window
     grid = CellGrid.for_window(w, h, shrink)
-    n = grid.n_cells
-    S = _remap_matrix(H_st, grid, grid, n_bins=1, preserve="mean")
+    in_grid = grid if target_grid is None else target_grid
+    S = _remap_matrix(H_st, grid, in_grid, n_bins=1, preserve="mean")
     # ACF orientation bin k is centred on k pi / n_orients (viewadapt.acf)
-    GO = _remap_matrix(H_st, grid, grid, n_bins=n_orients, rule=rule,
+    GO = _remap_matrix(H_st, grid, in_grid, n_bins=n_orients, rule=rule,
                        per_cell=per_cell, preserve="mean", bin_offset=-0.5)
-    P = _bin_major_permutation(n, n_orients)
-    GO = P @ GO @ P.T                                  # -> (bin, cell) layout
-    return sp.block_diag([S] * n_color + [GO], format="csr")
+    GO = (_bin_major_permutation(grid.n_cells, n_orients) @ GO
+          @ _bin_major_permutation(in_grid.n_cells, n_orients).T)    # -> (bin, cell) layout
+    G = sp.block_diag([S] * n_color + [GO], format="csr")
+    if target_layout == "channels_last":
+        G = (G @ _bin_major_permutation(in_grid.n_cells, n_color + n_orients)).tocsr()
+    return G
 
 
 def elevation_remap_matrix(source_elevation: float, target_elevation: float, *,

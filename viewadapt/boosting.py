@@ -36,15 +36,12 @@ from sklearn.utils import check_array, check_random_state
 from sklearn.utils.multiclass import check_classification_targets, type_of_target
 from sklearn.utils.validation import check_is_fitted, validate_data
 
+from ._validation import check_int
+from .treegrow import bin_edges, evaluate_trees, grow_tree, one_hot_by_bin, quantize
+
 __all__ = ["AdaBoostTrees", "cascade_step"]
 
-# binaryTreeTrain defaults: a node is a leaf when its (normalised) weight is below
-# minWeight or its positive fraction is outside [1e-3, 1 - 1e-3]
-_MIN_NODE_WEIGHT = 0.01
-_MIN_PRIOR = 1e-3
-# leaf outputs .5 * log(p / (1 - p)) are clipped to [-4, 4] (binaryTreeTrain) and discrete
-# AdaBoost's alpha to [-5, 5] (adaBoostTrain)
-_MAX_LEAF_VALUE = 4.0
+# discrete AdaBoost's alpha is clipped to [-5, 5] (adaBoostTrain)
 _MAX_ALPHA = 5.0
 # adaBoostTrain stops once the exponential loss sum(exp(-y H)) / 2 falls below 1e-40
 _MIN_LOSS = 1e-40
@@ -176,8 +173,8 @@ class AdaBoostTrees(ClassifierMixin, BaseEstimator):
     # ------------------------------------------------------------------ parameters
     def _checked_params(self):
         name = type(self).__name__
-        T = _check_int(self.n_estimators, "n_estimators", 1)
-        depth = _check_int(self.max_depth, "max_depth", 1)
+        T = check_int(self.n_estimators, "n_estimators", minimum=1)
+        depth = check_int(self.max_depth, "max_depth", minimum=1)
         if depth > _MAX_DEPTH_LIMIT:
             raise ValueError(f"max_depth must be <= {_MAX_DEPTH_LIMIT} (trees are stored "
                              f"as complete binary trees), got {self.max_depth!r}")
@@ -189,7 +186,7 @@ class AdaBoostTrees(ClassifierMixin, BaseEstimator):
         if self.algorithm not in ("real", "discrete"):
             raise ValueError(
                 f"algorithm must be 'real' or 'discrete', got {self.algorithm!r} ({name})")
-        n_bins = _check_int(self.max_bins, "max_bins", 2)
+        n_bins = check_int(self.max_bins, "max_bins", minimum=2)
         if n_bins > 256:
             raise ValueError(f"max_bins must be between 2 and 256, got {self.max_bins!r}")
         mf = self.max_features
@@ -237,11 +234,11 @@ class AdaBoostTrees(ClassifierMixin, BaseEstimator):
         n_sub = mf if isinstance(mf, numbers.Integral) else int(np.floor(mf * d))
         n_sub = int(min(max(n_sub, 1), d))
 
-        edges = _bin_edges(X, n_bins)                    # (d, n_bins - 1)
-        Xq = _quantize(X, edges)                         # (n, d) uint8
+        edges = bin_edges(X, n_bins)                    # (d, n_bins - 1)
+        Xq = quantize(X, edges)                         # (n, d) uint8
         is_pos = y_idx == 1
         members = (np.flatnonzero(~is_pos), np.flatnonzero(is_pos))
-        one_hot = [_one_hot_by_bin(Xq[m], n_bins) for m in members]
+        one_hot = [one_hot_by_bin(Xq[m], n_bins) for m in members]
         ysign = np.where(is_pos, 1.0, -1.0)
         # class-balanced initial weights 1 / (2 N_c), kept as logs (adaBoostTrain: exp(H0)/N0/2)
         log_w0 = -np.log(2.0 * np.where(is_pos, members[1].size, members[0].size))
@@ -264,7 +261,7 @@ class AdaBoostTrees(ClassifierMixin, BaseEstimator):
                 hist_ops = [m[rows] for m in one_hot]
             else:
                 subset, hist_ops = np.arange(d), one_hot
-            leaf_of, f_t, b_t, v_t = _grow_tree(Xq, members, hist_ops, subset, w,
+            leaf_of, f_t, b_t, v_t = grow_tree(Xq, members, hist_ops, subset, w,
                                                 n_bins, depth)
             if self.algorithm == "discrete":
                 # adaBoostTrain: hs = (hs > 0) * 2 - 1, alpha from the weighted error
@@ -412,7 +409,7 @@ class AdaBoostTrees(ClassifierMixin, BaseEstimator):
 
     def _stage_ends(self):
         T = self.n_estimators_
-        stages = _check_stages(self.stages, _check_int(self.n_estimators, "n_estimators", 1))
+        stages = _check_stages(self.stages, check_int(self.n_estimators, "n_estimators", minimum=1))
         ends = [k for k in stages if k < T]
         return ends + [T]
 
@@ -435,7 +432,7 @@ class AdaBoostTrees(ClassifierMixin, BaseEstimator):
                 if rows.size == 0:
                     break
                 t1 = min(t0 + _TREE_BLOCK, n_trees)
-                h = _evaluate_trees(X, rows, feature[t0:t1], self.threshold_[t0:t1],
+                h = evaluate_trees(X, rows, feature[t0:t1], self.threshold_[t0:t1],
                                     self.value_[t0:t1], depth)
                 s, stopped = cascade_step(s, h, thr)
                 scores[rows[stopped]] = s[stopped]
@@ -473,12 +470,6 @@ def cascade_step(score, h, threshold):
     return np.where(stopped, run[np.arange(len(run)), first], run[:, -1]), stopped
 
 
-def _check_int(value, name, minimum):
-    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < minimum:
-        raise ValueError(f"{name} must be an integer >= {minimum}, got {value!r}")
-    return int(value)
-
-
 def _check_stages(stages, n_estimators):
     if stages is None:
         return (n_estimators,)
@@ -496,182 +487,3 @@ def _check_stages(stages, n_estimators):
         raise ValueError(f"stages must not exceed n_estimators={n_estimators}, "
                          f"got {stages!r}")
     return tuple(int(k) for k in stages)
-
-
-def _bin_edges(X, n_bins):
-    """Per-feature quantile bin edges, ``(n_features, n_bins - 1)``, +inf padded.
-
-    Edges lie midway between order statistics, so with ``n_samples <= n_bins`` every gap
-    between distinct values gets its own edge.
-    """
-    n, d = X.shape
-    Xs = np.sort(X, axis=0)      # sorts each column
-    if n <= n_bins:
-        pos = np.arange(1, n)
-    else:
-        pos = (np.arange(1, n_bins) * n) // n_bins
-    edges = np.full((n_bins - 1, d), np.inf)
-    edges[:pos.size] = Xs[pos - 1] * 0.5 + Xs[pos] * 0.5
-    return np.ascontiguousarray(edges.T)
-
-
-def _quantize(X, edges):
-    """Bin index = number of edges <= x, so ``bin >= b  <=>  x >= edges[b - 1]``."""
-    XT = np.ascontiguousarray(X.T)
-    XqT = np.empty(XT.shape, dtype=np.uint8)
-    for f in range(XT.shape[0]):
-        XqT[f] = np.searchsorted(edges[f], XT[f], side="right")
-    return np.ascontiguousarray(XqT.T)
-
-
-def _one_hot_by_bin(Xq, n_bins):
-    """Sparse ``(n_features * n_bins, n_samples)`` indicator: row ``f * n_bins + b`` marks
-    the samples whose feature ``f`` falls in bin ``b``. ``op @ w`` is every feature's
-    weighted histogram at once."""
-    m, d = Xq.shape
-    # int32 indices where they fit: 8 bytes per entry (float32 one + index) instead of 12
-    idx = np.int32 if max(m * d, d * n_bins) < np.iinfo(np.int32).max else np.int64
-    cols = (np.arange(d, dtype=idx) * idx(n_bins))[None, :] + Xq.astype(idx)
-    one_hot = sp.csr_array(
-        (np.ones(m * d, dtype=np.float32), cols.ravel(), np.arange(0, m * d + 1, d, dtype=idx)),
-        shape=(m, d * n_bins))
-    return one_hot.T.tocsr()
-
-
-def _histograms(ops, members, w, masks, n_feat, n_bins):
-    """Weighted per-class histograms ``(k, 2, n_feat, n_bins)`` float32 of ``k`` sample
-    subsets (``masks``: (k, n_samples) bool, or None for all samples)."""
-    k = 1 if masks is None else masks.shape[0]
-    out = np.empty((k, 2, n_feat, n_bins), dtype=np.float32)
-    for c, (op, m) in enumerate(zip(ops, members)):
-        wc = w[m].astype(np.float32)
-        if masks is None:
-            out[0, c] = (op @ wc).reshape(n_feat, n_bins)
-        elif k == 1:
-            out[0, c] = (op @ (wc * masks[0, m])).reshape(n_feat, n_bins)
-        else:
-            W = (masks[:, m] * wc).T.astype(np.float32)           # (n_c, k)
-            out[:, c] = (op @ W).T.reshape(k, n_feat, n_bins)
-    return out
-
-
-def _best_split(hist):
-    """Weighted-Gini best split of one node from its ``(2, n_feat, n_bins)`` histograms.
-
-    Splitting at bin ``b`` sends bins ``< b`` left. Minimises
-    :math:`\\sum_{side} W_- W_+ / (W_- + W_+)` (half the weighted Gini impurity).
-
-    Returns
-    -------
-    feat_pos, bin : int
-        Position in the feature subset and split bin in 1..n_bins (``n_bins``, everything
-        left, is never better than not splitting; the caller rejects it).
-    """
-    _, n_feat, n_bins = hist.shape
-    L0 = np.cumsum(hist[0], axis=1)        # weight left of the split after each bin
-    L1 = np.cumsum(hist[1], axis=1)
-    T0 = L0[:, -1:].copy()
-    T1 = L1[:, -1:].copy()
-    tiny = np.float32(1e-30)
-    # w0 w1 / (w0 + w1) <= min(w0, w1): no blow-up when a side is (nearly) empty.
-    # In place on two work arrays: these are (n_feat, n_bins), megabytes each.
-    den = np.add(L0, L1)
-    np.maximum(den, tiny, out=den)
-    imp = np.multiply(L0, L1)
-    imp /= den
-    np.subtract(T0, L0, out=L0)            # right side; >= 0 (sums of non-negatives)
-    np.subtract(T1, L1, out=L1)
-    np.add(L0, L1, out=den)
-    np.maximum(den, tiny, out=den)
-    np.multiply(L0, L1, out=L0)
-    L0 /= den
-    imp += L0
-    flat = int(np.argmin(imp))
-    return flat // n_bins, flat % n_bins + 1
-
-
-def _gini(w0, w1):
-    return w0 * w1 / (w0 + w1) if w0 + w1 > 0 else 0.0
-
-
-def _grow_tree(Xq, members, ops, subset, w, n_bins, depth):
-    """One weighted tree, level by level (binaryTreeTrain with split='gini').
-
-    Returns the leaf of every training sample, and per node (complete-tree layout) the
-    global feature (-1 for leaves), the split bin and the output value.
-    """
-    n = Xq.shape[0]
-    n_nodes = 2 ** (depth + 1) - 1
-    feature = np.full(n_nodes, -1, dtype=np.int32)
-    split_bin = np.zeros(n_nodes, dtype=np.int64)
-    value = np.zeros(n_nodes)
-    is_pos = np.zeros(n, dtype=bool)
-    is_pos[members[1]] = True
-    node_of = np.zeros(n, dtype=np.intp)
-    n_feat = subset.size
-    hists = {0: _histograms(ops, members, w, None, n_feat, n_bins)[0]}
-    for level in range(depth + 1):
-        first, last = 2 ** level - 1, 2 ** (level + 1) - 1
-        W0 = np.bincount(node_of, weights=np.where(is_pos, 0.0, w), minlength=n_nodes)
-        W1 = np.bincount(node_of, weights=np.where(is_pos, w, 0.0), minlength=n_nodes)
-        counts = np.bincount(node_of, minlength=n_nodes)
-        Wn = W0 + W1
-        with np.errstate(divide="ignore", invalid="ignore"):
-            # binaryTreeTrain: hs = max(-4, min(4, .5 * log(prior / (1 - prior))))
-            h = np.clip(0.5 * np.log(W1 / W0), -_MAX_LEAF_VALUE, _MAX_LEAF_VALUE)
-            prior = W1 / Wn
-        live = np.arange(first, last)
-        live = live[counts[live] > 0]
-        value[live] = np.nan_to_num(h[live], nan=0.0)
-        if level == depth:
-            break
-        cand = live[(Wn[live] >= _MIN_NODE_WEIGHT) & (prior[live] >= _MIN_PRIOR)
-                    & (prior[live] <= 1.0 - _MIN_PRIOR)]
-        if cand.size == 0:
-            break
-        split_nodes = []
-        for j in cand:
-            fp, b = _best_split(hists[j])
-            f = int(subset[fp])
-            in_node = node_of == j
-            right = in_node & (Xq[:, f] >= b)
-            left = in_node & ~right
-            # exact float64 gain of the chosen split (histograms were float32)
-            l0, l1 = w[left & ~is_pos].sum(), w[left & is_pos].sum()
-            r0, r1 = w[right & ~is_pos].sum(), w[right & is_pos].sum()
-            gain = _gini(W0[j], W1[j]) - _gini(l0, l1) - _gini(r0, r1)
-            if not left.any() or not right.any() or gain <= 1e-12 * Wn[j]:
-                continue
-            feature[j] = f
-            split_bin[j] = b
-            node_of[left] = 2 * j + 1
-            node_of[right] = 2 * j + 2
-            split_nodes.append((j, int(left.sum()) <= int(right.sum())))
-        if not split_nodes or level + 1 == depth:
-            continue
-        # children's histograms: build the smaller child's, subtract it from the parent's
-        smaller = np.array([2 * j + 1 if left_small else 2 * j + 2
-                            for j, left_small in split_nodes])
-        masks = node_of[None, :] == smaller[:, None]
-        small_h = _histograms(ops, members, w, masks, n_feat, n_bins)
-        for (j, left_small), s_node, hs in zip(split_nodes, smaller, small_h):
-            other = 2 * j + 2 if left_small else 2 * j + 1
-            hists[s_node] = hs
-            hists[other] = np.maximum(hists[j] - hs, 0.0)
-        for j, _ in split_nodes:
-            del hists[j]
-    return node_of, feature, split_bin, value
-
-
-def _evaluate_trees(X, rows, feature, threshold, value, depth):
-    """Outputs ``(rows.size, n_trees)`` of complete-layout trees on ``X[rows]``."""
-    n_trees = feature.shape[0]
-    node = np.zeros((rows.size, n_trees), dtype=np.intp)
-    trees = np.arange(n_trees)[None, :]
-    rows = rows[:, None]
-    for _ in range(depth):
-        f = feature[trees, node]
-        internal = f >= 0
-        go_right = X[rows, np.maximum(f, 0)] >= threshold[trees, node]
-        node = np.where(internal, 2 * node + 1 + go_right, node)
-    return value[trees, node]

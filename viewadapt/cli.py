@@ -8,18 +8,16 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
-import shutil
 import sys
-import tempfile
 import time
 from pathlib import Path
 
 import numpy as np
 
-from . import __version__
+from .files import UserError, atomic_output_dir, check_output_dir, run_metadata
+from .version import __version__
 
-__all__ = ["main", "common_parser", "atomic_output_dir"]
+__all__ = ["main", "common_parser", "build_parser"]
 
 
 def common_parser() -> argparse.ArgumentParser:
@@ -33,63 +31,6 @@ def common_parser() -> argparse.ArgumentParser:
     return p
 
 
-class UserError(Exception):
-    """A mistake in the command line or its inputs: reported in one line, no traceback."""
-
-
-class atomic_output_dir:
-    """Write outputs into a temporary folder beside ``out`` and move them in at the end.
-
-    A run that fails or is interrupted leaves ``out`` as it was: no half-written files.
-    """
-
-    def __init__(self, out: Path):
-        self.out = Path(out)
-
-    def __enter__(self) -> Path:
-        if self.out.exists() and not self.out.is_dir():
-            raise UserError(f"--out {self.out} exists and is not a directory")
-        self.out.parent.mkdir(parents=True, exist_ok=True)
-        self.tmp = Path(tempfile.mkdtemp(prefix=f".{self.out.name}.partial-",
-                                         dir=self.out.parent))
-        return self.tmp
-
-    def __exit__(self, exc_type, exc, tb):
-        if exc_type is not None:
-            shutil.rmtree(self.tmp, ignore_errors=True)
-            return False
-        self.out.mkdir(parents=True, exist_ok=True)
-        for item in self.tmp.iterdir():
-            dest = self.out / item.name
-            if dest.is_dir() and not dest.is_symlink():
-                shutil.rmtree(dest)
-            os.replace(item, dest)
-        self.tmp.rmdir()
-        return False
-
-
-def _check_out(out: Path) -> None:
-    """Fail before any work if ``--out`` cannot become a directory."""
-    if out.exists() and not out.is_dir():
-        raise UserError(f"--out {out} exists and is not a directory")
-    parent = out.parent if not out.exists() else out
-    while not parent.exists():
-        parent = parent.parent
-    if not os.access(parent, os.W_OK):
-        raise UserError(f"--out {out}: {parent} is not writable")
-
-
-def _metadata(args, **extra) -> dict:
-    import cv2
-    import scipy
-    import sklearn
-
-    return {"viewadapt": __version__, "command": sys.argv[1:] if sys.argv else [],
-            "seed": getattr(args, "seed", None), "created": time.strftime("%Y-%m-%dT%H:%M:%S"),
-            "numpy": np.__version__, "scipy": scipy.__version__, "opencv": cv2.__version__,
-            "scikit-learn": sklearn.__version__} | extra
-
-
 def _cmd_fidelity(args) -> int:
     from benchmark.fidelity import (
         remap_fidelity, sample_images, summarize_fidelity, synthetic_images,
@@ -97,7 +38,7 @@ def _cmd_fidelity(args) -> int:
     from benchmark.figures import plot_fidelity, plot_remap_illustration, save_figure
     from viewadapt.geometry import elevation_homography
 
-    _check_out(args.out)
+    check_output_dir(args.out)
     if args.windows < 1:
         raise UserError("--windows must be at least 1")
     rng = np.random.default_rng(args.seed)
@@ -121,7 +62,7 @@ def _cmd_fidelity(args) -> int:
         save_figure(fig, tmp / "remap_illustration")
         plt.close(fig)
         (tmp / "metadata.json").write_text(json.dumps(
-            _metadata(args, windows_per_image=args.windows, images=sorted(images),
+            run_metadata(args.seed, windows_per_image=args.windows, images=sorted(images),
                       seconds=round(time.perf_counter() - t0, 1)), indent=2))
     print(_fidelity_markdown(summary, compact=True))
     print(f"\nwrote {args.out}/fidelity_summary.{{csv,md}}, fidelity_*px.{{png,pdf}}, "
@@ -159,7 +100,7 @@ def _blender_available() -> bool:
 
 def _cmd_demo(args) -> int:
     """tiny dataset -> cross-validation -> sweep -> fidelity -> full frames, end to end."""
-    _check_out(args.out)
+    check_output_dir(args.out)
     out = Path(args.out)
     data, results = out / "data", out / "results"
     t0 = time.perf_counter()
@@ -226,7 +167,7 @@ def _demo_frames(data: Path, out: Path, extra: list) -> int:
 
 def _cmd_reproduce(args) -> int:
     """paper-scale dataset -> cross-validation -> sweep -> full frames, end to end."""
-    _check_out(args.out)
+    check_output_dir(args.out)
     if not _blender_available():
         raise UserError("reproduce renders the paper-scale dataset with Blender: install the "
                         "generator extra (pip install -e '.[generator]')")
@@ -287,6 +228,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="synthetic pattern images added to the natural ones (default 3)")
     p.set_defaults(func=_cmd_fidelity)
 
+    from .detect.command import register as register_detect
+
+    register_detect(sub, common)
     try:
         from benchmark.cli import register as register_bench
     except ImportError:  # pragma: no cover - benchmark ships with the distribution

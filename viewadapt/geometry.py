@@ -29,11 +29,16 @@ __all__ = [
     "WINDOW_WIDTH",
     "WINDOW_HEIGHT",
     "WINDOW_PERSON_HEIGHT_PX",
+    "WINDOW_CENTRE",
+    "WINDOW_FEET",
+    "WINDOW_HEAD",
+    "WINDOW_CORNERS",
     "PERSON_HEIGHT_M",
     "Camera",
     "look_at_rotation",
     "camera_from_pose",
     "apply_homography",
+    "map_points",
     "homography_jacobian",
     "window_to_plane",
     "person_plane_axes",
@@ -41,7 +46,6 @@ __all__ = [
     "crop_camera",
     "crop_homography",
     "elevation_homography",
-    "frame_window_homography",
     "frame_transfer_homography",
 ]
 
@@ -49,6 +53,18 @@ WINDOW_WIDTH = 64
 WINDOW_HEIGHT = 128
 WINDOW_PERSON_HEIGHT_PX = 96
 PERSON_HEIGHT_M = 1.75
+#: The canonical window's landmarks, pixel coordinates with pixel centres at integers: its
+#: centre, the person's feet and head (96 px apart, centred, on the centre line) and the
+#: window's outer corners (clockwise from the top left).
+WINDOW_CENTRE = np.array([(WINDOW_WIDTH - 1) / 2.0, (WINDOW_HEIGHT - 1) / 2.0])
+WINDOW_FEET = np.array([WINDOW_CENTRE[0], (WINDOW_HEIGHT + WINDOW_PERSON_HEIGHT_PX) / 2.0 - 0.5])
+WINDOW_HEAD = WINDOW_FEET - np.array([0.0, WINDOW_PERSON_HEIGHT_PX])
+WINDOW_CORNERS = np.array([[-0.5, -0.5], [WINDOW_WIDTH - 0.5, -0.5],
+                           [WINDOW_WIDTH - 0.5, WINDOW_HEIGHT - 0.5],
+                           [-0.5, WINDOW_HEIGHT - 0.5]])
+for _a in (WINDOW_CENTRE, WINDOW_FEET, WINDOW_HEAD, WINDOW_CORNERS):
+    _a.setflags(write=False)
+del _a
 _UP = np.array([0.0, 0.0, 1.0])
 
 
@@ -219,6 +235,27 @@ def apply_homography(H, points) -> np.ndarray:
     return uvw[..., :2] / w
 
 
+def map_points(homographies, points) -> np.ndarray:
+    """Map points through a stack of homographies.
+
+    Parameters
+    ----------
+    homographies : (N, 3, 3) array_like
+    points : (P, 2) or (2,) array_like
+
+    Returns
+    -------
+    (N, P, 2) ndarray, or (N, 2) for a single point.
+    """
+    H = np.asarray(homographies, dtype=np.float64).reshape(-1, 3, 3)
+    pts = np.asarray(points, dtype=np.float64)
+    single = pts.ndim == 1
+    pts = np.atleast_2d(pts)
+    uvw = np.einsum("nij,pj->npi", H[:, :, :2], pts) + H[:, None, :, 2]
+    out = uvw[..., :2] / uvw[..., 2:3]
+    return out[:, 0] if single else out
+
+
 def homography_jacobian(H, points) -> np.ndarray:
     """Jacobian of the map ``p -> H(p)`` at each point.
 
@@ -262,8 +299,7 @@ def window_to_plane(person_height: float = PERSON_HEIGHT_M) -> np.ndarray:
     if not np.isfinite(person_height) or person_height <= 0:
         raise ValueError(f"person_height must be positive metres, got {person_height!r}")
     s = person_height / WINDOW_PERSON_HEIGHT_PX
-    cx = (WINDOW_WIDTH - 1) / 2.0                      # 31.5
-    y_feet = (WINDOW_HEIGHT + WINDOW_PERSON_HEIGHT_PX) / 2.0 - 0.5  # 111.5
+    cx, y_feet = WINDOW_FEET                            # (31.5, 111.5)
     return np.array([[s, 0.0, -s * cx], [0.0, -s, s * y_feet], [0.0, 0.0, 1.0]])
 
 
@@ -371,9 +407,8 @@ def crop_homography(elevation: float, *, distance: float = 10.0,
         return H
     if framing != "silhouette":
         raise ValueError(f"framing must be 'plane' or 'silhouette', got {framing!r}")
-    y_feet = (WINDOW_HEIGHT + WINDOW_PERSON_HEIGHT_PX) / 2.0 - 0.5
-    cx = (WINDOW_WIDTH - 1) / 2.0
-    ends = apply_homography(H, np.array([[cx, y_feet - WINDOW_PERSON_HEIGHT_PX], [cx, y_feet]]))
+    cx, y_feet = WINDOW_FEET
+    ends = apply_homography(H, np.array([WINDOW_HEAD, WINDOW_FEET]))
     k = WINDOW_PERSON_HEIGHT_PX / abs(ends[1, 1] - ends[0, 1])
     centre = ends.mean(axis=0)
     N = np.array([[k, 0.0, cx - k * centre[0]],
@@ -399,17 +434,6 @@ def elevation_homography(source_elevation: float, target_elevation: float, *,
 
 
 # ---------------------------------------------------------------------- full-frame case
-
-
-def frame_window_homography(camera: Camera, ground_position,
-                            person_height: float = PERSON_HEIGHT_M) -> np.ndarray:
-    """Homography canonical window -> frame for a person at ``ground_position``.
-
-    Alias of :func:`window_to_image_homography` named for the full-frame case: with the
-    canonical (elevation-0, fronto-parallel) window as the source view, this is ``H_st``
-    for that position.
-    """
-    return window_to_image_homography(camera, ground_position, person_height)
 
 
 def frame_transfer_homography(camera: Camera, ground_position, source_elevation: float = 0.0,

@@ -8,64 +8,11 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["non_maximum_suppression"]
+from .boxes import check_boxes, check_scores, safe_ratio
+
+__all__ = ["non_maximum_suppression", "detections_from_scores"]
 
 _OVERLAPS = ("union", "min")
-
-
-def _check_boxes(boxes, name: str = "boxes") -> np.ndarray:
-    """Return ``boxes`` as a (N, 4) float64 array of ``(x, y, w, h)`` rows.
-
-    An empty sequence gives a (0, 4) array. Raises ``ValueError`` for a wrong shape,
-    NaN/infinite coordinates or a negative width/height.
-    """
-    arr = np.asarray(boxes, dtype=np.float64)
-    if arr.size == 0:
-        if arr.ndim == 1 or (arr.ndim == 2 and arr.shape[1] in (0, 4)):
-            return np.zeros((0, 4), dtype=np.float64)
-    if arr.ndim != 2 or arr.shape[1] != 4:
-        raise ValueError(f"{name} must have shape (N, 4) with rows (x, y, w, h), got {arr.shape}")
-    if not np.all(np.isfinite(arr)):
-        raise ValueError(f"{name} contains NaN or infinite values")
-    bad = np.flatnonzero((arr[:, 2] < 0) | (arr[:, 3] < 0))
-    if bad.size:
-        raise ValueError(
-            f"{name} has negative box sizes (w < 0 or h < 0) in rows {bad[:5].tolist()}"
-            + (" ..." if bad.size > 5 else "")
-        )
-    return arr
-
-
-def _check_scores(scores, n: int, name: str = "scores", other: str = "boxes") -> np.ndarray:
-    """Return ``scores`` as a finite (n,) float64 array."""
-    arr = np.asarray(scores, dtype=np.float64)
-    if arr.ndim != 1:
-        raise ValueError(f"{name} must be one-dimensional, got shape {arr.shape}")
-    if arr.shape[0] != n:
-        raise ValueError(f"{name} and {other} have different lengths ({arr.shape[0]} != {n})")
-    if np.isnan(arr).any():
-        raise ValueError(f"{name} contains NaN values")
-    if not np.all(np.isfinite(arr)):
-        raise ValueError(f"{name} contains infinite values")
-    return arr
-
-
-def _intersection(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Pairwise intersection areas, shape (len(a), len(b)), of (x, y, w, h) boxes."""
-    iw = np.minimum(a[:, None, 0] + a[:, None, 2], b[None, :, 0] + b[None, :, 2]) - np.maximum(
-        a[:, None, 0], b[None, :, 0]
-    )
-    ih = np.minimum(a[:, None, 1] + a[:, None, 3], b[None, :, 1] + b[None, :, 3]) - np.maximum(
-        a[:, None, 1], b[None, :, 1]
-    )
-    return np.clip(iw, 0.0, None) * np.clip(ih, 0.0, None)
-
-
-def _safe_ratio(num: np.ndarray, den: np.ndarray) -> np.ndarray:
-    """``num / den`` with 0 where ``den == 0`` (degenerate boxes overlap nothing)."""
-    out = np.zeros(np.broadcast_shapes(num.shape, den.shape), dtype=np.float64)
-    np.divide(num, den, out=out, where=den > 0)
-    return out
 
 
 def non_maximum_suppression(boxes, scores, iou_threshold=0.5, *, overlap="union"):
@@ -132,8 +79,8 @@ def non_maximum_suppression(boxes, scores, iou_threshold=0.5, *, overlap="union"
     ...                         [0.9, 0.8, 0.7]).tolist()
     [0, 2]
     """
-    boxes = _check_boxes(boxes)
-    scores = _check_scores(scores, boxes.shape[0])
+    boxes = check_boxes(boxes)
+    scores = check_scores(scores, boxes.shape[0])
     if overlap not in _OVERLAPS:
         raise ValueError(f"overlap must be one of {_OVERLAPS}, got {overlap!r}")
     try:
@@ -145,7 +92,7 @@ def non_maximum_suppression(boxes, scores, iou_threshold=0.5, *, overlap="union"
 
     order = np.argsort(-scores, kind="stable")
     # coordinates in visiting order, gathered once; each step compares the kept box with
-    # the boxes still alive (the same arithmetic as _intersection / _safe_ratio)
+    # the boxes still alive (the same arithmetic as box_intersections / safe_ratio)
     x1, y1 = boxes[order, 0], boxes[order, 1]
     x2, y2 = x1 + boxes[order, 2], y1 + boxes[order, 3]
     areas = boxes[order, 2] * boxes[order, 3]
@@ -162,7 +109,34 @@ def non_maximum_suppression(boxes, scores, iou_threshold=0.5, *, overlap="union"
             den = areas[i] + areas[rest] - inter
         else:
             den = np.minimum(areas[i], areas[rest])
-        ovr = _safe_ratio(inter, den)
+        ovr = safe_ratio(inter, den)
         # bbNms: "if(o>overlap), kp(j)=0; end" -- strict comparison.
         alive = rest[ovr <= thr]
     return np.asarray(keep, dtype=np.intp)
+
+
+def detections_from_scores(boxes, scores, *, threshold: float = 0.0,
+                           nms_threshold: float = 0.5, overlap: str = "union",
+                           max_candidates: int = 2000) -> np.ndarray:
+    """Threshold, keep the best ``max_candidates``, non-maximum suppression.
+
+    Parameters
+    ----------
+    boxes : (N, 4) array_like
+        ``(x, y, w, h)``.
+    scores : (N,) array_like
+
+    Returns
+    -------
+    (D, 5) ndarray of ``(x, y, w, h, score)``, decreasing score.
+    """
+    b = np.asarray(boxes, dtype=np.float64)
+    s = np.asarray(scores, dtype=np.float64)
+    keep = np.flatnonzero(s > threshold)
+    if keep.size > max_candidates:
+        keep = keep[np.argpartition(-s[keep], max_candidates - 1)[:max_candidates]]
+    if keep.size == 0:
+        return np.zeros((0, 5))
+    k = non_maximum_suppression(b[keep], s[keep], nms_threshold, overlap=overlap)
+    sel = keep[k]
+    return np.c_[b[sel], s[sel]]

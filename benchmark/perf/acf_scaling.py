@@ -12,7 +12,7 @@ This script measures ``lambda`` without labels: random candidate windows of ever
 of a dataset, for each the sum of the remapped gradient channels (``G x`` from the frame's
 channels, no scaling) over the sum of the same channels of the window warped to 64x128
 (what image warping computes), and a least-squares line through ``log ratio`` against
-``log s``. The slope's negative is ``viewadapt.fullframe.ACF_GRADIENT_LAMBDA``. Not a test.
+``log s``. The slope's negative is ``viewadapt.detect.ACF_GRADIENT_LAMBDA``. Not a test.
 """
 
 from __future__ import annotations
@@ -25,12 +25,11 @@ import numpy as np
 def measure(data, *, windows_per_frame: int = 40, seed: int = 0, heights=(1.75,)):
     """Returns (scales, ratios) over random candidate windows of the dataset's frames."""
     from benchmark.frames import load_frames
-    from viewadapt.fullframe import (
-        ACF_SHRINK, _acf_remap, _Group, acf_frame_features, acf_window_features,
-        choose_cell_sizes,
+    from viewadapt.detect import (
+        ACF_SHRINK, CELLS_PER_SOURCE_CELL, FRAME_CELL_SIZES, TemplateGroup, acf_frame_features,
+        acf_frame_remap, acf_window_features, choose_cell_sizes, select_candidate_windows,
     )
     from viewadapt.warp import warp_to_source_view
-    from viewadapt.windows import select_candidate_windows
 
     rng = np.random.default_rng(seed)
     scales, ratios = [], []
@@ -38,15 +37,16 @@ def measure(data, *, windows_per_frame: int = 40, seed: int = 0, heights=(1.75,)
         img = f.image()
         win = select_candidate_windows(f.camera, f.camera.image_size, person_heights=heights)
         idx = rng.choice(len(win), min(windows_per_frame, len(win)), replace=False)
-        cells = choose_cell_sizes(win.scale[idx], ACF_SHRINK, cells_per_source_cell=0.7,
-                                  allowed=(2, 3, 4, 6, 8, 12, 16))
+        cells = choose_cell_sizes(win.scale[idx], ACF_SHRINK,
+                                  cells_per_source_cell=CELLS_PER_SOURCE_CELL,
+                                  allowed=FRAME_CELL_SIZES)
         maps = acf_frame_features(img, sorted(set(cells.tolist())), pad=0).maps
         for n, c in zip(idx, cells):
             H = win.homographies[n]
             warped = acf_window_features(warp_to_source_view(img, H)).astype(np.float64)
             x = maps[int(c)]
-            g = _Group(int(c), 0, (0, 0), x.shape[:2], np.array([0]), np.zeros((1, 2), int))
-            remapped = (_acf_remap(H, g, "covariant") @ x.astype(np.float64).ravel())
+            g = TemplateGroup(int(c), 0, (0, 0), x.shape[:2], np.array([0]), np.zeros((1, 2), int))
+            remapped = (acf_frame_remap(H, g, "covariant") @ x.astype(np.float64).ravel())
             remapped = remapped.reshape(warped.shape)
             if warped[3:].sum() > 1e-3:                  # skip textureless windows
                 scales.append(win.scale[n])
@@ -61,7 +61,7 @@ def main(argv=None) -> int:
     p.add_argument("--windows", type=int, default=40, help="random windows per frame")
     p.add_argument("--seed", type=int, default=0)
     a = p.parse_args(argv)
-    from viewadapt.fullframe import ACF_GRADIENT_LAMBDA
+    from viewadapt.detect import ACF_GRADIENT_LAMBDA
 
     s, r = measure(a.data, windows_per_frame=a.windows, seed=a.seed)
     if len(s) < 10 or np.ptp(np.log(s)) < 0.3:
@@ -69,7 +69,7 @@ def main(argv=None) -> int:
         return 1
     lam = -np.polyfit(np.log(s), np.log(r), 1)[0]
     print(f"{len(s)} windows, s = {s.min():.2f}..{s.max():.2f}: lambda = {lam:.3f} "
-          f"(viewadapt.fullframe.ACF_GRADIENT_LAMBDA = {ACF_GRADIENT_LAMBDA})")
+          f"(viewadapt.detect.ACF_GRADIENT_LAMBDA = {ACF_GRADIENT_LAMBDA})")
     print("  s range      windows  median ratio  s ** -lambda")
     for lo, hi in ((0, .3), (.3, .45), (.45, .6), (.6, .8), (.8, np.inf)):
         m = (s >= lo) & (s < hi)

@@ -5,11 +5,11 @@
 
 A pure-scale test: no perspective, only the resolution and the frame's cell grid. Each
 elevation-0 person crop and background window of ``--data`` is shrunk into a small frame
-(:func:`viewadapt.frameview.frame_view`: ``scale`` frame pixels per canonical pixel, random
+(:func:`viewadapt.detect.frame_view`: ``scale`` frame pixels per canonical pixel, random
 offset against the cell grid) and scored two ways with each model's HOG/SVM:
 
 * adapted: the cells the full-frame operator reads, remapped by ``G``
-  (:func:`viewadapt.frameview.hog_frame_view_features`);
+  (:func:`viewadapt.detect.hog_frame_view_features`);
 * warped: the window warped back to 64x128 and featurised (image warping).
 
 Printed per scale: ``d' = (mean person score - mean background score) / background sd``.
@@ -30,8 +30,8 @@ def separation(data, models: dict, scales, *, seed: int = 0) -> list:
     """Rows ``(scale, model name, "adapted" | "warped", d')``."""
     from benchmark.data import load_dataset
     from benchmark.features import background_windows, person_windows
-    from viewadapt.frameview import frame_view, hog_frame_view_features
-    from viewadapt.fullframe import hog_window_features
+    from viewadapt.detect import frame_view, hog_frame_view_features
+    from viewadapt.detect import hog_window_features
     from viewadapt.warp import warp_to_source_view
 
     ds = load_dataset(data)
@@ -67,7 +67,7 @@ def main(argv=None) -> int:
                    help="frame px per canonical px, comma-separated (default 0.3,0.45,0.7,1.0)")
     p.add_argument("--seed", type=int, default=0)
     args = p.parse_args(argv)
-    from benchmark.frames import SourceDetectors
+    from viewadapt.detect import SourceDetectors
 
     try:
         scales = [float(v) for v in args.scales.split(",")]

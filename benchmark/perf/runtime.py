@@ -23,7 +23,8 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmark.frames import DEFAULT_CACHE_LIMIT_GB, DEFAULT_FRAME_VIEW
+from benchmark.frames import DEFAULT_FRAME_VIEW
+from viewadapt.detect import DEFAULT_CACHE_LIMIT_GB
 
 __all__ = ["timing_camera", "run_runtime", "format_table"]
 
@@ -58,14 +59,15 @@ def _best(fn, repeat):
 def _worker(cache_dir, cache_limit_gb, model_path, heights, method, frames, seconds):
     """Detect frames in a loop for ``seconds``; return the number done and the time."""
     _single_thread()
-    from benchmark.frames import FrameDetector, SourceDetectors
+    from benchmark.frames import FrameMethods
+    from viewadapt.detect import SourceDetectors
 
     models = SourceDetectors.load(model_path)
-    det = FrameDetector(timing_camera(), models, person_heights=heights, cache_dir=cache_dir,
-                        cache_limit_gb=cache_limit_gb, threshold_hog=0.0, threshold_acf=0.0)
+    det = FrameMethods(timing_camera(), models, person_heights=heights, cache_dir=cache_dir,
+                       cache_limit_gb=cache_limit_gb, thresholds={"hog": 0.0, "acf": 0.0})
     for kind in ("hog", "acf"):
         if method.startswith(kind + "_adapted"):
-            det.operator(kind)
+            det.adapted.operator(kind)
     det.detect(method, frames[0])                  # warm-up
     n, t0 = 0, time.perf_counter()
     while time.perf_counter() - t0 < seconds:
@@ -75,11 +77,11 @@ def _worker(cache_dir, cache_limit_gb, model_path, heights, method, frames, seco
 
 
 def _pyramid_pixels(size, upsample, step, per_level=lambda w, h: w * h):
-    from benchmark.frames import _pyramid_scales
+    from benchmark.frames import pyramid_scales
 
     w, h = size
     return int(sum(per_level(round(w * s), round(h * s))
-                   for s in _pyramid_scales(size, upsample, step)))
+                   for s in pyramid_scales(size, upsample, step)))
 
 
 def run_runtime(data, *, n_frames=3, warp_windows=1000, heights=(1.65, 1.85), jobs=-1,
@@ -92,10 +94,13 @@ def run_runtime(data, *, n_frames=3, warp_windows=1000, heights=(1.65, 1.85), jo
 
     from benchmark.data import load_dataset
     from benchmark.frames import (
-        PAPER_FPS, PAPER_WINDOWS, FrameDetector, OperatorCache, acf_pyramid_detect,
-        hog_pyramid_detect, load_frames, opencv_detect, train_source_detectors, warp_scores,
+        PAPER_FPS, PAPER_WINDOWS, FrameMethods, acf_pyramid_detect, hog_pyramid_detect,
+        load_frames, opencv_detect, train_source_detectors, warp_scores,
     )
-    from viewadapt.fullframe import detections_from_scores
+    from viewadapt.detect import OperatorCache
+    from viewadapt.nms import detections_from_scores
+
+    from .scoring_forms import linear_scores, trees_scores
 
     size = (384, 288)
     ds = load_dataset(data)
@@ -117,25 +122,25 @@ def run_runtime(data, *, n_frames=3, warp_windows=1000, heights=(1.65, 1.85), jo
         cam = timing_camera(size)
         t = time.perf_counter()
         # thresholds at the operating point (score 0): NMS sees what a deployment keeps
-        det = FrameDetector(cam, models, person_heights=heights, cache_dir=None,
-                            threshold_hog=0.0, threshold_acf=0.0)
+        det = FrameMethods(cam, models, person_heights=heights, cache_dir=None,
+                           thresholds={"hog": 0.0, "acf": 0.0})
         info["window_selection_s"] = round(time.perf_counter() - t, 2)
         n_win = len(det.windows)
         info["candidate_windows"] = n_win
         cache = OperatorCache(cache_dir, cache_limit_gb)
         for kind in ("hog", "acf"):
             t = time.perf_counter()
-            op = det.operator(kind)
+            op = det.adapted.operator(kind)
             info[f"{kind}_precompute_s"] = round(time.perf_counter() - t, 2)
             parts = dict(camera=cam.to_dict(), kind=kind, model=models.fingerprint(),
-                         **det.params)
+                         **det.adapted.params)
             cache.save(parts, op)
             t = time.perf_counter()
             cache.load(parts)
             info[f"{kind}_cache_hit_s"] = round(time.perf_counter() - t, 2)
             info[f"{kind}_templates"] = op.n_templates
             info[f"{kind}_cell_sizes"] = op.cell_sizes
-        hog, acf = det.operator("hog"), det.operator("acf")
+        hog, acf = det.adapted.operator("hog"), det.adapted.operator("acf")
         pw = hog.position_weights()
         info["hog_scored_positions"] = int(pw.size)
         info["hog_weights_per_window"] = float(pw.mean())
@@ -149,29 +154,30 @@ def run_runtime(data, *, n_frames=3, warp_windows=1000, heights=(1.65, 1.85), jo
             thr = det.thr[kind]
             boxes = op.boxes()
             tn = _best(lambda: detections_from_scores(
-                boxes, s, threshold=thr, overlap="min" if kind == "acf" else "union",
-                nms_threshold=0.65 if kind == "acf" else 0.5), R)[0]
+                boxes, s, threshold=thr, overlap=op.nms_overlap,
+                nms_threshold=op.nms_threshold), R)[0]
             tt = _best(lambda: [det.detect(f"{kind}_adapted", f) for f in frames], 2)[0] \
                 / len(frames)
             return dict(features_ms=1e3 * tf, scoring_ms=1e3 * ts, nms_ms=1e3 * tn,
                         total_s=tt)
 
-        # the operator's run-time forms, same scores (viewadapt.fullframe module notes)
+        # the operators' scoring loops against other forms of the same operator
+        # (benchmark.perf.scoring_forms)
         f0 = hog.frame_features(frames[0])
         forms = {"runs: compiled loop over distinct positions (default)":
                  _best(lambda: hog.scores(f0), R)[0],
                  "sparse, one row per distinct position":
-                 _best(lambda: hog.scores(f0, method="sparse"), R)[0],
+                 _best(lambda: linear_scores(hog, f0, "sparse"), R)[0],
                  "template: matchTemplate per shared template":
-                 _best(lambda: hog.scores(f0, method="template"), 2)[0],
+                 _best(lambda: linear_scores(hog, f0, "template"), 2)[0],
                  "gather: patch x template per window": _best(
-                     lambda: hog.scores(f0, method="gather"), 2)[0]}
+                     lambda: linear_scores(hog, f0, "gather"), 2)[0]}
         info["hog_scoring_forms_ms"] = {k: round(1e3 * v, 2) for k, v in forms.items()}
         a0 = acf.frame_features(frames[0])
         forms = {"cascade: compiled loop, one position at a time (default)":
                  _best(lambda: acf.scores(a0), R)[0],
                  "blocks: numpy, blocks of trees over the positions still alive":
-                 _best(lambda: acf.scores(a0, method="blocks"), R)[0]}
+                 _best(lambda: trees_scores(acf, a0, "blocks"), R)[0]}
         info["acf_scoring_forms_ms"] = {k: round(1e3 * v, 2) for k, v in forms.items()}
         for kind, op in (("hog", hog), ("acf", acf)):
             r = adapted(op, kind)

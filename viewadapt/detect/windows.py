@@ -13,7 +13,7 @@ keeps the count finite towards the horizon.
 
 Each window keeps its own homography (canonical 64x128 window -> frame, the planar person
 model of :func:`viewadapt.geometry.window_to_image_homography`), from which its adapted
-detector is built (:mod:`viewadapt.fullframe`).
+detector is built (:mod:`viewadapt.detect`).
 
 Notes
 -----
@@ -38,9 +38,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .geometry import (
-    PERSON_HEIGHT_M, WINDOW_HEIGHT, WINDOW_PERSON_HEIGHT_PX, WINDOW_WIDTH, Camera,
-    window_to_plane,
+from ..geometry import (
+    PERSON_HEIGHT_M, WINDOW_CORNERS, WINDOW_FEET, WINDOW_HEAD, WINDOW_HEIGHT,
+    WINDOW_PERSON_HEIGHT_PX, WINDOW_WIDTH, Camera,
+    map_points, window_to_plane,
 )
 
 __all__ = [
@@ -58,14 +59,9 @@ GROUND_STRIDE_M = 8.0 * PERSON_HEIGHT_M / WINDOW_PERSON_HEIGHT_PX
 #: The person's box inside the canonical window, ``(x0, y0, x1, y1)`` in continuous pixel
 #: coordinates (pixel centres at integers): 96 px from head (y = 15.5) to feet
 #: (y = 111.5), 0.41 x 96 px wide around the centre line x = 31.5 (the Caltech aspect).
-PERSON_BOX_WINDOW = (31.5 - 0.205 * WINDOW_PERSON_HEIGHT_PX, 15.5,
-                     31.5 + 0.205 * WINDOW_PERSON_HEIGHT_PX, 111.5)
+PERSON_BOX_WINDOW = (WINDOW_HEAD[0] - 0.205 * WINDOW_PERSON_HEIGHT_PX, WINDOW_HEAD[1],
+                     WINDOW_FEET[0] + 0.205 * WINDOW_PERSON_HEIGHT_PX, WINDOW_FEET[1])
 
-_WINDOW_CORNERS = np.array([[-0.5, -0.5], [WINDOW_WIDTH - 0.5, -0.5],
-                            [WINDOW_WIDTH - 0.5, WINDOW_HEIGHT - 0.5],
-                            [-0.5, WINDOW_HEIGHT - 0.5]])
-_FEET = np.array([31.5, 111.5])
-_HEAD = np.array([31.5, 15.5])
 
 
 @dataclass(frozen=True)
@@ -98,7 +94,7 @@ class CandidateWindows:
     @property
     def feet(self) -> np.ndarray:
         """(N, 2) image position of each window's feet point."""
-        return _map_points(self.homographies, _FEET)
+        return map_points(self.homographies, WINDOW_FEET)
 
     @property
     def scale(self) -> np.ndarray:
@@ -111,7 +107,7 @@ class CandidateWindows:
 
     def window_corners(self) -> np.ndarray:
         """(N, 4, 2) image position of the canonical window's corners."""
-        return _map_points(self.homographies, _WINDOW_CORNERS)
+        return map_points(self.homographies, WINDOW_CORNERS)
 
     def subset(self, index) -> "CandidateWindows":
         """The windows selected by ``index`` (boolean mask or integer array)."""
@@ -120,21 +116,11 @@ class CandidateWindows:
                                 self.grid_index[index])
 
 
-def _map_points(H, points) -> np.ndarray:
-    """Map points (P, 2) or (2,) through homographies (N, 3, 3) -> (N, P, 2) or (N, 2)."""
-    pts = np.asarray(points, dtype=np.float64)
-    single = pts.ndim == 1
-    pts = np.atleast_2d(pts)
-    uvw = np.einsum("nij,pj->npi", H[:, :, :2], pts) + H[:, None, :, 2]
-    out = uvw[..., :2] / uvw[..., 2:3]
-    return out[:, 0] if single else out
-
-
 def window_scale(homographies) -> np.ndarray:
     """(N,) frame pixels per canonical-window pixel under each homography: the image
     length of the window's head-to-feet line / 96 (what picks a window's cell size)."""
     H = np.asarray(homographies, dtype=np.float64).reshape(-1, 3, 3)
-    return np.linalg.norm(_map_points(H, _FEET) - _map_points(H, _HEAD), axis=1) \
+    return np.linalg.norm(map_points(H, WINDOW_FEET) - map_points(H, WINDOW_HEAD), axis=1) \
         / WINDOW_PERSON_HEIGHT_PX
 
 
@@ -152,7 +138,7 @@ def person_boxes(homographies) -> np.ndarray:
     """
     H = np.asarray(homographies, dtype=np.float64).reshape(-1, 3, 3)
     x0, y0, x1, y1 = PERSON_BOX_WINDOW
-    q = _map_points(H, np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]]))
+    q = map_points(H, np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]]))
     lo, hi = q.min(axis=1), q.max(axis=1)
     return np.concatenate([lo, hi - lo], axis=1)
 
@@ -367,11 +353,11 @@ def select_candidate_windows(camera: Camera, image_size=None, *,
                 continue
             xy, jj, ii = xy[ok], j_range[ok], ii[ok]
             H = window_homographies(camera, xy, hgt)
-            corners = _map_points(H, _WINDOW_CORNERS)
+            corners = map_points(H, WINDOW_CORNERS)
             inside = np.all((corners[..., 0] >= -0.5) & (corners[..., 0] <= w - 0.5)
                             & (corners[..., 1] >= -0.5) & (corners[..., 1] <= h - 0.5), axis=1)
-            feet = _map_points(H, _FEET)
-            tall = np.linalg.norm(feet - _map_points(H, _HEAD), axis=1) >= min_person_height_px
+            feet = map_points(H, WINDOW_FEET)
+            tall = np.linalg.norm(feet - map_points(H, WINDOW_HEAD), axis=1) >= min_person_height_px
             if min_person_height_px > 0 and not tall.any():
                 break                                      # farther rows are smaller still
             sel = np.flatnonzero(inside & tall)

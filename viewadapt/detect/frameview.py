@@ -2,7 +2,7 @@
 
 The adapted detector never sees a person at the canonical 64x128 resolution. It reads the
 frame's block-normalised cells, ``c`` px wide on the frame's own grid, and remaps them to
-the canonical window's 8-px cells (``G x``, :mod:`viewadapt.fullframe`). A person 30-90 px
+the canonical window's 8-px cells (``G x``, :mod:`viewadapt.detect`). A person 30-90 px
 tall is then a coarser, phase-shifted and resampled version of what the detector was trained
 on. Image warping has the same loss of detail but computes its cells on the window's own
 grid.
@@ -11,16 +11,12 @@ grid.
 data. It shrinks the window (with reflected context) to ``scale`` times its size, at a
 sub-cell offset, and computes the frame features there exactly as the operator does:
 the 2x band below ``upsample_below``, the cell size of :func:`choose_cell_sizes`, and
-``G`` of :func:`viewadapt.fullframe.build_adapted_linear_operator`. A test checks it
+``G`` of :func:`viewadapt.detect.build_adapted_linear_operator`. A test checks it
 against the operator's score.
 
 A linear SVM trained on the crops plus one such copy of each learns weights that hold up
-under that resampling. On the 104 paper-preset frames this lowered the adapted HOG
-detector's log-average miss rate from 0.656 to 0.620, while image warping stayed at 0.594
-with the same SVM (0.595 with the crops-only one; README, "Accuracy", finding 5).
-:func:`acf_frame_view_features` does the same for the ACF trees; their copies improved
-both adapted ACF and ACF image warping by 0.07-0.14, by amounts that depend on the
-training seed (same finding).
+under that resampling; :func:`acf_frame_view_features` does the same for the ACF trees
+(measured effects: docs/findings.md).
 """
 
 from __future__ import annotations
@@ -30,13 +26,17 @@ from functools import lru_cache
 import numpy as np
 import scipy.sparse as sp
 
-from ._validation import check_image
-from .fullframe import (
-    _N_ACF, ACF_GRADIENT_LAMBDA, ACF_SHRINK, FRAME_CELL_SIZES, HOG_CELL, HOG_WEIGHT_SHAPE,
-    _acf_gradient_rows, _acf_remap, _frame_to_band, _Group, _hog_remap, _patch_grid,
-    acf_frame_features, choose_cell_sizes, hog_frame_features,
+from .._validation import check_image
+from ..geometry import WINDOW_HEIGHT, WINDOW_WIDTH
+from .channels import (
+    ACF_GRADIENT_LAMBDA, ACF_SHRINK, ACF_WEIGHT_SHAPE, HOG_CELL, HOG_WEIGHT_SHAPE,
+    acf_frame_features, hog_frame_features,
 )
-from .geometry import WINDOW_HEIGHT, WINDOW_WIDTH
+from .layers import UPSAMPLE_BELOW, UPSAMPLE_FACTOR, frame_to_band
+from .templates import (
+    CELLS_PER_SOURCE_CELL, FRAME_CELL_SIZES, TemplateGroup, acf_frame_remap, acf_gradient_rows,
+    choose_cell_sizes, hog_frame_remap, patch_grid,
+)
 from .windows import window_scale
 
 __all__ = ["FRAME_VIEW_SCALES", "frame_view", "hog_frame_view_features",
@@ -47,8 +47,7 @@ __all__ = ["FRAME_VIEW_SCALES", "frame_view", "hog_frame_view_features",
 FRAME_VIEW_SCALES = tuple(float(v) for v in np.round(np.geomspace(0.25, 1.5, 12), 4))
 
 #: Canonical feature layout per detector kind (``hog_window_features``, ``acf_window_features``).
-_SHAPES = {"hog": HOG_WEIGHT_SHAPE,
-           "acf": (_N_ACF, WINDOW_HEIGHT // ACF_SHRINK, WINDOW_WIDTH // ACF_SHRINK)}
+_SHAPES = {"hog": HOG_WEIGHT_SHAPE, "acf": ACF_WEIGHT_SHAPE}
 
 #: Reflected context around the window before shrinking, canonical px (3 source cells).
 _CONTEXT = 24
@@ -66,7 +65,7 @@ def _frame_view_geometry(scale, offset, f, image_shape):
                    [0.0, sy, sy * (_CONTEXT + oy + 0.5) - 0.5],
                    [0.0, 0.0, 1.0]])
     if f > 1:
-        Hm = _frame_to_band(f, 0) @ Hm
+        Hm = frame_to_band(f, 0) @ Hm
     return Hm, (W, H)
 
 
@@ -82,14 +81,14 @@ def _frame_view_remap(kind, scale, offset, f, image_shape, cells_per_source_cell
     source_cell = HOG_CELL if kind == "hog" else ACF_SHRINK
     c = int(choose_cell_sizes([s], source_cell, cells_per_source_cell=cells_per_source_cell,
                               allowed=allowed_cell_sizes)[0])
-    cx0, cy0, nx, ny = _patch_grid(Hm, c, None)
-    g = _Group(c, 0, (cx0, cy0), (ny, nx), np.zeros(1, int), np.zeros((1, 2), int))
+    cx0, cy0, nx, ny = patch_grid(Hm, c)
+    g = TemplateGroup(c, 0, (cx0, cy0), (ny, nx), np.zeros(1, int), np.zeros((1, 2), int))
     if kind == "hog":
-        G = _hog_remap(Hm, g, rule)
+        G = hog_frame_remap(Hm, g, rule)
     else:
-        G = _acf_remap(Hm, g, rule)
+        G = acf_frame_remap(Hm, g, rule)
         if gradient_lambda:          # as build_adapted_trees_operator scales the rows
-            G = sp.diags(np.where(_acf_gradient_rows(), s ** gradient_lambda, 1.0)) @ G
+            G = sp.diags(np.where(acf_gradient_rows(), s ** gradient_lambda, 1.0)) @ G
     return G.tocsr(), c, (cx0, cy0, nx, ny), size
 
 
@@ -155,14 +154,15 @@ def _read_through_frame(kind, window, scale, offset, *, cells_per_source_cell,
 
 
 def hog_frame_view_features(window, scale: float, *, offset=(0, 0),
-                            cells_per_source_cell: float = 0.7, upsample_below: float = 0.5,
-                            factor: int = 2, allowed_cell_sizes=FRAME_CELL_SIZES,
+                            cells_per_source_cell: float = CELLS_PER_SOURCE_CELL,
+                            upsample_below: float = UPSAMPLE_BELOW,
+                            factor: int = UPSAMPLE_FACTOR, allowed_cell_sizes=FRAME_CELL_SIZES,
                             rule: str = "covariant") -> np.ndarray:
     """The canonical HOG features of ``window`` as the adapted detector reads them from a
     frame in which the window is ``scale`` times its size.
 
     The frame is :func:`frame_view`'s, upsampled ``factor`` times if ``scale <
-    upsample_below``, and featurised by :func:`viewadapt.fullframe.hog_frame_features` at
+    upsample_below``, and featurised by :func:`viewadapt.detect.hog_frame_features` at
     the cell size the operator would choose. The result is ``G x`` with ``G`` the window's
     remapping from those cells to the canonical 8-px cells, the same ``G`` that an operator
     built with ``tolerance=0`` and these parameters folds into its template: a linear
@@ -176,13 +176,13 @@ def hog_frame_view_features(window, scale: float, *, offset=(0, 0),
     offset : (int, int)
         The window's phase against the cell grid, ``0..7`` canonical px (:func:`frame_view`).
     cells_per_source_cell, upsample_below, factor, allowed_cell_sizes, rule
-        As in :func:`viewadapt.fullframe.build_adapted_linear_operator` and
-        :func:`viewadapt.fullframe.build_multiresolution_operator`.
+        As in :func:`viewadapt.detect.build_adapted_linear_operator` and
+        :func:`viewadapt.detect.build_multiresolution_operator`.
 
     Returns
     -------
     (16, 8, 13) float32 ndarray, the layout of
-    :func:`viewadapt.fullframe.hog_window_features`.
+    :func:`viewadapt.detect.hog_window_features`.
     """
     return _read_through_frame(
         "hog", window, scale, offset, cells_per_source_cell=cells_per_source_cell,
@@ -191,20 +191,21 @@ def hog_frame_view_features(window, scale: float, *, offset=(0, 0),
 
 
 def acf_frame_view_features(window, scale: float, *, offset=(0, 0),
-                            cells_per_source_cell: float = 0.7, upsample_below: float = 0.5,
-                            factor: int = 2, allowed_cell_sizes=FRAME_CELL_SIZES,
+                            cells_per_source_cell: float = CELLS_PER_SOURCE_CELL,
+                            upsample_below: float = UPSAMPLE_BELOW,
+                            factor: int = UPSAMPLE_FACTOR, allowed_cell_sizes=FRAME_CELL_SIZES,
                             rule: str = "covariant",
                             gradient_lambda: float = ACF_GRADIENT_LAMBDA) -> np.ndarray:
     """The canonical ACF channels of ``window`` as the adapted ACF detector reads them from
     a frame in which the window is ``scale`` times its size: :func:`hog_frame_view_features`
-    for :func:`viewadapt.fullframe.build_adapted_trees_operator` (4-px source blocks, the
+    for :func:`viewadapt.detect.build_adapted_trees_operator` (4-px source blocks, the
     gradient rows of ``G`` scaled by ``s ** gradient_lambda``). A boosted-trees model's
     ``decision_function`` of the result is that operator's score (tested).
 
     Returns
     -------
     (10, 32, 16) float32 ndarray, the layout of
-    :func:`viewadapt.fullframe.acf_window_features`.
+    :func:`viewadapt.detect.acf_window_features`.
     """
     return _read_through_frame(
         "acf", window, scale, offset, cells_per_source_cell=cells_per_source_cell,

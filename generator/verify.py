@@ -1,0 +1,158 @@
+"""``viewadapt dataset verify``: check a dataset directory against its manifest and plan.
+
+Every manifest row's image exists, is a complete PNG and decodes to the recorded size; every
+person crop has its depth map; no file is listed twice or lies there unlisted (leftover
+temporary files included); everything ``dataset.json`` plans was generated (re-planned in
+numpy by :func:`generator.pipeline.planned_paths`); every frame is in ``frames_coco.json``.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from .manifest import png_is_complete, read_depth, read_manifest
+from .pipeline import planned_paths
+
+__all__ = ["VerifyReport", "verify_dataset"]
+
+
+@dataclass
+class VerifyReport:
+    """What ``dataset verify`` found."""
+
+    directory: str
+    n_rows: int = 0
+    n_ok: int = 0
+    n_planned: int | None = None
+    problems: list = field(default_factory=list)     # (path, message)
+
+    @property
+    def ok(self) -> bool:
+        return not self.problems
+
+    def summary(self) -> str:
+        head = (f"{self.directory}: {self.n_ok}/{self.n_rows} images OK"
+                + (f", {self.n_planned} planned" if self.n_planned is not None else ""))
+        if self.ok:
+            return head + "; no problems found"
+        lines = [head + f"; {len(self.problems)} problem(s):"]
+        lines += [f"  {p}: {m}" for p, m in self.problems[:200]]
+        if len(self.problems) > 200:
+            lines.append(f"  ... and {len(self.problems) - 200} more")
+        return "\n".join(lines)
+
+
+def _depth_ok(out: Path, row, rep: VerifyReport) -> bool:
+    """Person crops: their depth map is listed, present and of the crop's size."""
+    if row.kind != "person":
+        return True
+    rel = getattr(row, "depth_path", "")
+    if not rel:
+        rep.problems.append((row.path, "no depth map listed (rerun `viewadapt generate` with "
+                                       "the same --out to add them)"))
+        return False
+    try:
+        read_depth(out / rel, (row.height, row.width))
+    except FileNotFoundError:
+        rep.problems.append((rel, "missing"))
+        return False
+    except ValueError as exc:
+        rep.problems.append((rel, str(exc).split(": ", 1)[-1]))
+        return False
+    return True
+
+
+def verify_dataset(out, *, decode: bool = True, check_plan: bool = True) -> VerifyReport:
+    """Check a dataset directory: every manifest row's image exists, is a complete PNG that
+    decodes to the recorded size; no duplicate or stray files; nothing planned is missing.
+    """
+    import cv2
+
+    out = Path(out)
+    if not out.is_dir():
+        raise FileNotFoundError(f"dataset directory not found: {out}")
+    meta_p = out / "dataset.json"
+    if not meta_p.is_file():
+        raise FileNotFoundError(f"{out}: no dataset.json; not a dataset directory")
+    rep = VerifyReport(str(out))
+    try:
+        meta = json.loads(meta_p.read_text())
+    except json.JSONDecodeError as exc:
+        rep.problems.append(("dataset.json", f"unreadable JSON: {exc}"))
+        return rep
+    try:
+        df = read_manifest(out)
+    except FileNotFoundError as exc:
+        rep.problems.append(("manifest.parquet", str(exc)))
+        df = None
+    except Exception as exc:  # noqa: BLE001 - any parquet failure is a finding
+        rep.problems.append(("manifest.parquet", f"unreadable: {exc}"))
+        df = None
+    if df is not None:
+        rep.n_rows = len(df)
+        dup = df["path"][df["path"].duplicated()]
+        for p in dup:
+            rep.problems.append((p, "listed twice in the manifest"))
+        for row in df.itertuples(index=False):
+            f = out / row.path
+            if not f.is_file():
+                rep.problems.append((row.path, "missing"))
+                continue
+            if f.stat().st_size == 0:
+                rep.problems.append((row.path, "empty file"))
+                continue
+            if not png_is_complete(f):
+                rep.problems.append((row.path, "truncated or not a PNG"))
+                continue
+            if decode:
+                img = cv2.imread(str(f), cv2.IMREAD_UNCHANGED)
+                if img is None:
+                    rep.problems.append((row.path, "unreadable (does not decode)"))
+                    continue
+                if img.shape[:2] != (row.height, row.width):
+                    rep.problems.append((row.path, f"size {img.shape[1]}x{img.shape[0]}, "
+                                                   f"manifest says {row.width}x{row.height}"))
+                    continue
+            if not _depth_ok(out, row, rep):
+                continue
+            rep.n_ok += 1
+        listed = set(df["path"])
+        for sub in ("person", "background", "frames"):
+            d = out / sub
+            if not d.is_dir():
+                continue
+            for f in d.rglob("*"):
+                if f.is_file():
+                    rel = f.relative_to(out).as_posix()
+                    if rel not in listed:
+                        what = ("leftover temporary file" if f.name.startswith(".")
+                                else "not in the manifest")
+                        rep.problems.append((rel, what))
+        depths = set(df["depth_path"]) - {""} if "depth_path" in df.columns else set()
+        if (out / "depth").is_dir():
+            for f in (out / "depth").rglob("*"):
+                if f.is_file() and f.relative_to(out).as_posix() not in depths:
+                    rep.problems.append((f.relative_to(out).as_posix(),
+                                         "leftover temporary file" if f.name.startswith(".")
+                                         else "not in the manifest"))
+    if check_plan and df is not None:
+        try:
+            planned = planned_paths(meta)
+            rep.n_planned = len(planned)
+            for p in sorted(set(planned) - set(df["path"])):
+                rep.problems.append((p, "planned but not generated"))
+        except Exception as exc:  # noqa: BLE001
+            rep.problems.append(("dataset.json", f"cannot re-plan the dataset: {exc}"))
+    coco_p = out / "frames_coco.json"
+    if df is not None and (df["kind"] == "frame").any():
+        try:
+            coco = json.loads(coco_p.read_text())
+            names = {im["file_name"] for im in coco["images"]}
+            for p in df.loc[df["kind"] == "frame", "path"]:
+                if p not in names:
+                    rep.problems.append((p, "frame missing from frames_coco.json"))
+        except (OSError, json.JSONDecodeError, KeyError) as exc:
+            rep.problems.append(("frames_coco.json", f"unreadable: {exc}"))
+    return rep

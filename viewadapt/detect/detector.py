@@ -1,0 +1,139 @@
+"""The detector a user calls: the viewpoint-adapted detectors of one calibrated camera.
+
+:class:`FrameDetector` selects the camera's world-space candidate windows once
+(:func:`~viewadapt.detect.windows.select_candidate_windows`), builds (or loads from the
+operator cache) the adapted operator of each detector kind once -- the offline step of
+Wang et al. (2017, Sec. 5.1) -- and then detects on any number of frames of that camera.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from ..geometry import PERSON_HEIGHT_M, Camera
+from .cache import DEFAULT_CACHE_LIMIT_GB, OperatorCache
+from .channels import check_frame
+from .layers import UPSAMPLE_BELOW, build_multiresolution_operator
+from .linear import build_adapted_linear_operator
+from .models import SourceDetectors
+from .templates import ACF_TOLERANCE, CELLS_PER_SOURCE_CELL, HOG_TOLERANCE
+from .trees import build_adapted_trees_operator
+from .windows import select_candidate_windows
+
+__all__ = ["DETECTOR_KINDS", "DEFAULT_THRESHOLD", "FrameDetector"]
+
+#: The adapted detectors: HOG/SVM (a linear operator) and ACF (boosted trees).
+DETECTOR_KINDS = ("hog", "acf")
+#: Score threshold of the detections kept for non-maximum suppression: low, so that a DET
+#: curve reaches high false-positive rates.
+DEFAULT_THRESHOLD = -1.0
+
+
+class FrameDetector:
+    """The viewpoint-adapted detectors of one camera: windows and operators built once.
+
+    Parameters
+    ----------
+    camera : Camera
+        Calibrated, with its ``image_size``.
+    models : SourceDetectors
+        Detectors trained on source-view (elevation-0) crops.
+    person_heights : sequence of float
+        Assumed person heights, metres: one set of candidate windows each.
+    cache_dir : path or None
+        Where :class:`~viewadapt.detect.cache.OperatorCache` keeps the adapted operators.
+    cache_limit_gb : float or None
+        That directory's size limit (least recently used operators go first); None or 0:
+        no limit.
+    tolerance : float
+        Shape tolerance of shared templates in HOG frame cells (ACF's cells are half as
+        large, so it uses twice as many of its cells).
+    cells_per_source_cell, upsample_below
+        See :func:`~viewadapt.detect.templates.choose_cell_sizes` and
+        :func:`~viewadapt.detect.layers.build_multiresolution_operator`.
+    thresholds : dict kind -> float
+        Score threshold of each kind's detections (before non-maximum suppression;
+        default :data:`DEFAULT_THRESHOLD`).
+    rule : {"covariant", "paper", "none"}
+        Angle rule of ``A`` (:func:`viewadapt.remap.map_angles`).
+    """
+
+    def __init__(self, camera: Camera, models: SourceDetectors, *,
+                 person_heights=(PERSON_HEIGHT_M,), cache_dir=None,
+                 cache_limit_gb: float | None = DEFAULT_CACHE_LIMIT_GB,
+                 tolerance: float = HOG_TOLERANCE,
+                 cells_per_source_cell: float = CELLS_PER_SOURCE_CELL,
+                 upsample_below: float = UPSAMPLE_BELOW, thresholds=None,
+                 rule: str = "covariant"):
+        if not isinstance(camera, Camera) or camera.image_size is None:
+            raise ValueError("camera must be a Camera with its image_size (width, height)")
+        self.camera = camera
+        self.models = models
+        self.size = tuple(camera.image_size)
+        self.params = dict(person_heights=tuple(float(h) for h in person_heights),
+                           tolerance=float(tolerance),
+                           cells_per_source_cell=float(cells_per_source_cell),
+                           upsample_below=float(upsample_below), rule=str(rule))
+        self.thresholds = {k: DEFAULT_THRESHOLD for k in DETECTOR_KINDS} | dict(thresholds or {})
+        unknown = set(self.thresholds) - set(DETECTOR_KINDS)
+        if unknown:
+            raise ValueError(f"thresholds for unknown detectors {sorted(unknown)}; "
+                             f"the detectors are {DETECTOR_KINDS}")
+        self.cache_dir = cache_dir
+        self.cache_limit_gb = cache_limit_gb
+        self.windows = select_candidate_windows(camera, self.size,
+                                                person_heights=self.params["person_heights"])
+        self._ops = {}
+        #: seconds each operator took to build or load, and whether it came from the cache
+        self.build_seconds = {}
+        self.cache_hit = {}
+
+    def _check_kind(self, kind):
+        if kind not in DETECTOR_KINDS:
+            raise ValueError(f"unknown detector {kind!r}; choose from {DETECTOR_KINDS}")
+
+    def operator(self, kind: str):
+        """The adapted operator of ``kind`` (built, or read from the cache, on first use)."""
+        self._check_kind(kind)
+        if kind in self._ops:
+            return self._ops[kind]
+        t0 = time.perf_counter()
+        key_parts = dict(camera=self.camera.to_dict(), kind=kind,
+                         model=self.models.fingerprint(), **self.params)
+        cache = OperatorCache(self.cache_dir, self.cache_limit_gb) if self.cache_dir else None
+        op = cache.load(key_parts) if cache else None
+        self.cache_hit[kind] = op is not None
+        if op is None:
+            op = self._build(kind)
+            if cache:
+                cache.save(key_parts, op)
+        self.build_seconds[kind] = time.perf_counter() - t0
+        self._ops[kind] = op
+        return op
+
+    def _build(self, kind):
+        kw = dict(cells_per_source_cell=self.params["cells_per_source_cell"],
+                  rule=self.params["rule"])
+        if kind == "hog":
+            def build(w):
+                return build_adapted_linear_operator(
+                    w, self.models.hog_weights, self.models.hog_bias,
+                    tolerance=self.params["tolerance"], **kw)
+        else:
+            # ACF cells are sized on 4-px blocks, HOG's on 8-px cells: the same pixel
+            # tolerance is twice as many ACF cells
+            tol = self.params["tolerance"] * ACF_TOLERANCE / HOG_TOLERANCE
+
+            def build(w):
+                return build_adapted_trees_operator(w, self.models.acf, tolerance=tol, **kw)
+        return build_multiresolution_operator(self.windows, build,
+                                              upsample_below=self.params["upsample_below"])
+
+    def detect(self, image, kind: str = "hog") -> np.ndarray:
+        """(D, 5) detections ``(x, y, w, h, score)`` of the adapted ``kind`` detector on one
+        frame of this camera, by decreasing score."""
+        self._check_kind(kind)
+        check_frame(image, self.size)
+        return self.operator(kind).detect(image, threshold=self.thresholds[kind])

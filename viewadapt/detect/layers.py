@@ -1,0 +1,211 @@
+"""Several frame resolutions: small persons' windows read an upsampled band of the frame.
+
+A person 30-48 px tall covers 2-3 px per source cell, and the frame's native cells are then
+too coarse and noisy a sample of it (image warping interpolates such a window up to 64x128
+first). :func:`build_multiresolution_operator` gives the windows of persons smaller than
+``96 * upsample_below`` px the cells of the frame upsampled 2x (bilinear) -- only the band
+of rows they cover -- and the others the frame's own: ordinary adapted operators, each
+window still scored by ``w^T G_n x``.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import NamedTuple
+
+import numpy as np
+
+from ..geometry import WINDOW_CORNERS, map_points
+from ..nms import detections_from_scores
+from .channels import check_frame
+from .templates import SnappedBoxes, check_windows
+from .windows import CandidateWindows
+
+__all__ = ["UPSAMPLE_BELOW", "UPSAMPLE_FACTOR", "frame_to_band", "upsampled_windows",
+           "upsampled_band",
+           "MultiResolutionOperator", "build_multiresolution_operator"]
+
+#: Windows with fewer frame pixels per canonical pixel than this (persons smaller than
+#: ``96 * UPSAMPLE_BELOW`` = 48 px) read the frame upsampled :data:`UPSAMPLE_FACTOR` times;
+#: chosen on rendered frames (docs/findings.md, "full frames").
+UPSAMPLE_BELOW = 0.5
+UPSAMPLE_FACTOR = 2
+
+
+def upsampled_windows(windows: CandidateWindows, factor: int) -> CandidateWindows:
+    """The same windows in the frame upsampled ``factor`` times (``cv2.resize``, pixel
+    centres ``u' = f u + (f - 1) / 2``)."""
+    f = int(factor)
+    if f < 1:
+        raise ValueError(f"factor must be a positive integer, got {factor!r}")
+    w, h = windows.image_size
+    return _band_windows(windows, f, (0, h))
+
+
+def frame_to_band(f, r0) -> np.ndarray:
+    """Homography from the frame's pixels to those of its rows ``r0..`` upsampled ``f``
+    times by ``cv2.resize`` (pixel centres ``u' = f u + (f - 1) / 2``)."""
+    c = (f - 1) / 2.0
+    return np.array([[f, 0.0, c], [0.0, f, c - f * r0], [0.0, 0.0, 1.0]])
+
+
+def _band_windows(windows, f, rows):
+    """``windows`` in the band of frame rows ``rows = (r0, r1)`` upsampled ``f`` times."""
+    r0, r1 = rows
+    return CandidateWindows(windows.ground_xy, windows.person_height,
+                            frame_to_band(f, r0) @ windows.homographies,
+                            (f * windows.image_size[0], f * (r1 - r0)), windows.grid_index)
+
+
+class _Layer(NamedTuple):
+    factor: int                    # upsampling of the frame this layer reads
+    operator: object               # adapted operator in that frame's band coordinates
+    index: np.ndarray              # (k,) its windows
+    rows: tuple                    # (r0, r1): the frame rows upsampled (all rows if 1)
+
+
+#: Context kept around an upsampled band, frame px: gradients, block normalisation and ACF
+#: smoothing near the band's edges never reach a window's cells (16 px = 2 cells of 16 px
+#: in the 2x frame, and the band starts on a multiple of every cell size).
+_BAND_MARGIN = 16
+_BAND_ALIGN = 48                   # lcm of the allowed cell sizes, upsampled-frame px
+
+
+class MultiResolutionOperator(SnappedBoxes):
+    """Adapted operators of one camera over the frame and an upsampled copy of it.
+
+    Windows of small persons (frame pixels per canonical pixel ``s`` below
+    ``upsample_below``) read cells of the frame upsampled ``factor`` times (bilinear), and
+    only the band of rows those windows cover (plus a margin) is upsampled; the others
+    read the frame itself. Each part is an ordinary adapted operator
+    (:class:`AdaptedLinearOperator`, :class:`AdaptedTreesOperator`) built for its windows
+    in its own frame's coordinates, so every window's score is still ``w^T G_n x`` -- with
+    ``x`` the cells of the frame it reads. Built by :func:`build_multiresolution_operator`.
+
+    Attributes
+    ----------
+    layers : list of (factor, operator, (k,) window indices, (r0, r1) frame rows)
+    snapped_homographies : (N, 3, 3) ndarray
+        Each window's scored homography, in the frame's own pixels.
+    """
+
+    def __init__(self, windows, layers):
+        self.image_size = tuple(windows.image_size)
+        self.n_windows = len(windows)
+        self.layers = [_Layer(*layer) for layer in layers]
+        H = np.empty((self.n_windows, 3, 3))
+        for f, op, idx, (r0, _) in self.layers:
+            H[idx] = np.linalg.inv(frame_to_band(f, r0)) @ op.snapped_homographies
+        self.snapped_homographies = H
+        first = self.layers[0].operator
+        self.nms_overlap, self.nms_threshold = first.nms_overlap, first.nms_threshold
+
+    @property
+    def n_templates(self) -> int:
+        return sum(layer.operator.n_templates for layer in self.layers)
+
+    @property
+    def cell_sizes(self) -> list:
+        """Cell sizes in frame pixels (``c / factor`` on an upsampled layer)."""
+        return sorted(set(c / layer.factor for layer in self.layers
+                          for c in layer.operator.cell_sizes))
+
+    def feature_pixels(self) -> int:
+        """Pixels whose channels are computed per frame, all layers."""
+        return sum(layer.operator.feature_pixels() for layer in self.layers)
+
+    def position_weights(self) -> np.ndarray:
+        """Adapted weights of each distinct scored position, all layers (linear models)."""
+        return np.concatenate([layer.operator.position_weights() for layer in self.layers])
+
+    def frame_features(self, image) -> list:
+        """One :class:`FrameFeatures` per layer."""
+        img = check_frame(image, self.image_size)
+        return [layer.operator.frame_features(upsampled_band(img, layer.factor, layer.rows))
+                for layer in self.layers]
+
+    def scores(self, features) -> np.ndarray:
+        """(N,) scores of all windows from :meth:`frame_features`."""
+        if len(features) != len(self.layers):
+            raise ValueError(f"features must be a list of {len(self.layers)} FrameFeatures "
+                             "(MultiResolutionOperator.frame_features)")
+        out = np.empty(self.n_windows)
+        for layer, feats in zip(self.layers, features):
+            out[layer.index] = layer.operator.scores(feats)
+        return out
+
+    def detect(self, image, *, threshold: float = 0.0, nms_threshold=None,
+               max_candidates: int = 2000) -> np.ndarray:
+        """Features, scores and non-maximum suppression (as the layers' operator kind).
+
+        Returns
+        -------
+        (D, 5) ndarray of ``(x, y, w, h, score)`` rows in frame pixels, by decreasing score.
+        """
+        s = self.scores(self.frame_features(image))
+        return detections_from_scores(
+            self._cached_boxes(), s, threshold=threshold, overlap=self.nms_overlap,
+            nms_threshold=self.nms_threshold if nms_threshold is None else nms_threshold,
+            max_candidates=max_candidates)
+
+
+def upsampled_band(img, f, rows):
+    """Rows ``r0:r1`` of ``img`` upsampled ``f`` times: the same pixels as those rows of the
+    whole frame upsampled by ``cv2.resize`` (two rows of context resized with them)."""
+    import cv2
+
+    if f == 1:
+        return img
+    r0, r1 = rows
+    a, b = max(r0 - 2, 0), min(r1 + 2, img.shape[0])
+    big = cv2.resize(np.ascontiguousarray(img[a:b]), (f * img.shape[1], f * (b - a)),
+                     interpolation=cv2.INTER_LINEAR)
+    return big[f * (r0 - a):f * (r1 - a)]
+
+
+def build_multiresolution_operator(windows: CandidateWindows, build, *,
+                                   upsample_below: float = UPSAMPLE_BELOW,
+                                   factor: int = UPSAMPLE_FACTOR) -> MultiResolutionOperator:
+    """Adapted operators of small persons' windows on an upsampled frame, the rest native.
+
+    Parameters
+    ----------
+    windows : CandidateWindows
+    build : callable
+        ``build(windows) -> operator``, e.g.
+        ``lambda w: build_adapted_linear_operator(w, weights, bias)``; called once per
+        layer with that layer's windows in its own frame's coordinates (for the upsampled
+        layer: the band of frame rows its windows cover, upsampled).
+    upsample_below : float
+        Windows with fewer than this many frame pixels per canonical-window pixel (a person
+        of ``96 s`` px) read the upsampled frame; 0 = none.
+    factor : int
+        Upsampling of that frame.
+
+    Returns
+    -------
+    MultiResolutionOperator
+    """
+    check_windows(windows)
+    if not np.isfinite(upsample_below) or upsample_below < 0:
+        raise ValueError(f"upsample_below must be >= 0, got {upsample_below!r}")
+    f = int(factor)
+    small = windows.scale < upsample_below
+    w, h = windows.image_size
+    layers = []
+    idx = np.flatnonzero(~small)
+    if len(idx):
+        layers.append((1, build(windows.subset(idx)), idx, (0, h)))
+    idx = np.flatnonzero(small)
+    if len(idx):
+        sub = windows.subset(idx)
+        # the rows the windows cover, in upsampled px, widened by the margin; the band
+        # starts on a multiple of every cell size and of f
+        ys = f * map_points(sub.homographies, WINDOW_CORNERS)[:, :, 1] + (f - 1) / 2
+        align = _BAND_ALIGN // math.gcd(_BAND_ALIGN, f) * f
+        y0 = max(0, int(np.floor((ys.min() - f * _BAND_MARGIN) / align)) * align)
+        y1 = min(f * h, int(np.ceil(ys.max() + f * _BAND_MARGIN)))
+        rows = (y0 // f, -(-y1 // f))
+        layers.append((f, build(_band_windows(sub, f, rows)), idx, rows))
+    return MultiResolutionOperator(windows, layers)
+
