@@ -64,6 +64,10 @@ def _config(args, ds):
     if getattr(args, "target", None) is not None:
         cfg.target = args.target
     if getattr(args, "detectors", None):
+        from .detectors import detector_spec
+
+        for d in args.detectors:               # every name resolves, before any work
+            detector_spec(d)
         cfg.detectors = tuple(args.detectors)
     if getattr(args, "object_models", None):
         cfg.object_models = tuple(args.object_models)
@@ -102,6 +106,7 @@ def cmd_crossval(args) -> int:
 
     from .crossval import config_dict, run_crossval
     from .data import load_dataset
+    from .detectors import detector_spec
     from .features import FeatureCache
     from .figures import save_figure
     from .report import plot_det, plot_score_shift, write_report
@@ -128,8 +133,9 @@ def cmd_crossval(args) -> int:
               "train_scenes": sorted(f.train_scenes), "test_persons": sorted(f.test_persons),
               "test_scenes": sorted(f.test_scenes)} for f in folds], indent=1))
         for det in cfg.detectors:
-            fig = plot_det(scores, summary, det)
-            save_figure(fig, tmp / f"det_{det}")
+            name = detector_spec(det).name
+            fig = plot_det(scores, summary, name)
+            save_figure(fig, tmp / f"det_{name}")
             plt.close(fig)
         if "hog" in cfg.detectors and 0.0 in cfg.sources:
             fig = plot_score_shift(scores, "hog", 0.0)
@@ -195,6 +201,9 @@ def cmd_sweep(args) -> int:
     ds = load_dataset(args.data)
     check_results_dir(args.out, ds.fingerprint)
     cfg = _config(args, ds)
+    from .detectors import detector_spec
+
+    detector_spec(args.detector)                 # resolves, before any work
     if not 0 < args.step <= np.pi / 36 + 1e-12:
         raise ValueError("--step must lie in (0, pi/36] radians")
     cache = FeatureCache(ds, args.cache or (args.out / "cache"), n_jobs=args.jobs)
@@ -257,8 +266,10 @@ def register(sub, common) -> None:
                         formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--sources", type=_elevations, default=None,
                    help="source elevations (default 0,pi/8,pi/4)")
-    p.add_argument("--detectors", nargs="+", choices=["hog", "hog_local", "acf", "opencv"],
-                   default=None, help="detectors (default all four)")
+    p.add_argument("--detectors", nargs="+", default=None, metavar="DETECTOR",
+                   help="detectors: built-in hog, hog_local, acf, opencv (default all four) "
+                        "and/or your own as package.module:Object implementing the detector "
+                        "protocol (benchmark.detectors; docs/detectors.md)")
     p.add_argument("--no-upper-bound", action="store_true",
                    help="skip the exact-geometry rows (each test positive adapted through its "
                         "own rendered correspondences; HOG detectors, needs depth maps)")
@@ -268,7 +279,9 @@ def register(sub, common) -> None:
                         help="robustness to a wrong elevation estimate (Fig. 6)",
                         description=__import__("benchmark.sweep").sweep.__doc__,
                         formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--detector", default="hog", choices=["hog", "hog_local", "acf", "opencv"])
+    p.add_argument("--detector", default="hog", metavar="DETECTOR",
+                   help="hog (default), hog_local, acf, opencv or package.module:Object "
+                        "(docs/detectors.md)")
     p.add_argument("--source", type=float, default=0.0, help="training elevation (default 0)")
     p.add_argument("--step", type=float, default=np.pi / 72,
                    help="grid step of estimated elevations, radians (default pi/72)")

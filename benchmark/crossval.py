@@ -33,26 +33,15 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 import pandas as pd
 
-from viewadapt.adapt import (
-    acf_remap_matrix, adapt_linear_weights, cells_to_descriptor, hog_remap_matrix,
-    remap_features,
-)
 from viewadapt.geometry import elevation_homography
 from viewadapt.objectmodel import correspondence_mapping, crop_view_mapping, object_model
 
 from .data import Dataset, manifest_camera, read_depth_map
+from .detectors import detector_spec, feature_key
 from .features import FeatureCache, background_windows, person_windows
 from .folds import Fold, make_folds
 
-__all__ = ["CrossvalConfig", "DETECTORS", "ADAPT_VARIANTS", "EXACT_VARIANTS", "run_crossval"]
-
-#: detector -> (source representation, fine target representation, kind)
-DETECTORS = {
-    "hog": ("cells8", "cells4", "blocks"),          # Dalal-Triggs descriptor, linear SVM
-    "hog_local": ("local8", "local4", "linear"),    # locally normalised cells, linear SVM
-    "acf": ("acf", "acf", "trees"),                 # ACF channels, boosted trees
-    "opencv": ("gamma_cells8", "gamma_cells4", "pretrained"),  # OpenCV's people detector
-}
+__all__ = ["CrossvalConfig", "ADAPT_VARIANTS", "EXACT_VARIANTS", "run_crossval"]
 #: method name -> (angle rule, per-cell A, object model)
 ADAPT_VARIANTS = {
     "adapted": ("covariant", True, "plane"),
@@ -63,16 +52,16 @@ ADAPT_VARIANTS = {
     "adapted[body, S only]": ("none", True, "body"),
     "adapted[body, paper eq.3]": ("paper", True, "body"),
 }
-#: variants every detector kind runs; linear kinds run all with ``ablations``
+#: variants every detector runs; those with ``ablations`` run all with ``cfg.ablations``
 CORE_VARIANTS = ("adapted", "adapted[body]")
 #: upper-bound rows -> (angle rule, the variant whose negatives they share)
 EXACT_VARIANTS = {"exact geometry": ("covariant", "adapted"),
                   "exact geometry[paper eq.3]": ("paper", "adapted[paper eq.3]")}
 
 
-def variant_names(kind: str, cfg) -> list:
-    """The adapted variants a detector kind runs under ``cfg``."""
-    names = [v for v in ADAPT_VARIANTS if cfg.ablations and kind in ("blocks", "linear")
+def variant_names(spec, cfg) -> list:
+    """The adapted variants a detector spec runs under ``cfg``."""
+    names = [v for v in ADAPT_VARIANTS if cfg.ablations and spec.ablations
              or v in CORE_VARIANTS]
     return [v for v in names if ADAPT_VARIANTS[v][2] in cfg.object_models]
 
@@ -109,49 +98,6 @@ class CrossvalConfig:
     extra: dict = field(default_factory=dict)
 
 
-def classifier_features(det, X):
-    """Classifier input from a representation's features (descriptor for ``hog``)."""
-    if DETECTORS[det][2] in ("blocks", "pretrained"):
-        return cells_to_descriptor(X.astype(np.float64))
-    return X
-
-
-def _make_classifier(det, cfg: CrossvalConfig, seed):
-    if DETECTORS[det][2] == "trees":
-        from viewadapt.boosting import AdaBoostTrees
-        return AdaBoostTrees(n_estimators=cfg.acf_estimators, stages=cfg.acf_stages,
-                             max_bins=cfg.acf_max_bins, max_features=cfg.acf_max_features,
-                             random_state=seed)
-    from viewadapt.classifiers import LinearSVMDetector
-    return LinearSVMDetector(C=cfg.C, initial_negatives=cfg.initial_negatives,
-                             mining_rounds=cfg.mining_rounds,
-                             max_hard_negatives=cfg.max_hard_negatives, random_state=seed)
-
-
-def fit_detector(det, cfg, Xpos, Xneg, seed):
-    X = np.vstack([Xpos, Xneg])
-    y = np.r_[np.ones(len(Xpos), int), np.zeros(len(Xneg), int)]
-    clf = _make_classifier(det, cfg, seed)
-    if DETECTORS[det][2] == "trees":
-        # the ACF toolbox bootstraps hard negatives between stages; we mine once with a
-        # first model on a random subset, as the SVM does
-        rng = np.random.default_rng(seed)
-        n0 = min(len(Xneg), cfg.initial_negatives)
-        first = rng.choice(len(Xneg), n0, replace=False)
-        clf.fit(np.vstack([Xpos, Xneg[first]]), np.r_[np.ones(len(Xpos), int), np.zeros(n0, int)])
-        if cfg.mining_rounds > 0 and len(Xneg) > n0:
-            rest = np.setdiff1d(np.arange(len(Xneg)), first)
-            s = clf.decision_function(Xneg[rest])
-            hard = rest[np.argsort(-s)[: cfg.max_hard_negatives]]
-            hard = hard[clf.decision_function(Xneg[hard]) > -1.0]
-            keep = np.r_[first, hard]
-            clf = _make_classifier(det, cfg, seed).fit(
-                np.vstack([Xpos, Xneg[keep]]),
-                np.r_[np.ones(len(Xpos), int), np.zeros(len(keep), int)])
-        return clf
-    return clf.fit(X, y)
-
-
 def task_seed(master: int, detector: str, source: float, fold: Fold) -> int:
     """Seed of one (detector, source, fold) training: derived from the ids, so the sweep and
     the cross-validation train identical source models."""
@@ -161,66 +107,11 @@ def task_seed(master: int, detector: str, source: float, fold: Fold) -> int:
     return int(np.random.default_rng([master, key]).integers(2**31 - 1))
 
 
-def _opencv_weights():
-    from viewadapt.hog import opencv_people_detector
-    return opencv_people_detector()
-
-
-class Scorer:
-    """Scores with a trained (or pretrained) source-view model, in every method's way."""
-
-    def __init__(self, det, clf=None):
-        self.det, self.kind = det, DETECTORS[det][2]
-        self.clf = clf
-        if self.kind == "pretrained":
-            self.w, self.b = _opencv_weights()
-
-    def plain(self, X):
-        Z = classifier_features(self.det, X)
-        if self.kind == "pretrained":
-            return Z @ self.w + self.b
-        return self.clf.decision_function(Z)
-
-    def prepare_adapted(self, Xfine, G):
-        """The part of :meth:`adapted` that does not depend on the trained model (the
-        remapped, normalised descriptors of ``blocks`` / ``pretrained``), to share between
-        models scoring the same windows; :meth:`score_prepared` finishes it."""
-        if self.kind in ("blocks", "pretrained"):
-            return cells_to_descriptor(remap_features(G, Xfine))
-        return Xfine
-
-    def score_prepared(self, prepared, rows, G):
-        """``adapted(Xfine[rows], G)`` from ``prepare_adapted(Xfine, G)``."""
-        if self.kind in ("blocks", "pretrained"):
-            Z = prepared[rows]
-            return Z @ self.w + self.b if self.kind == "pretrained" else \
-                self.clf.decision_function(Z)
-        return self.adapted(prepared[rows], G)
-
-    def adapted(self, Xfine, G):
-        if self.kind == "linear":
-            w = adapt_linear_weights(self.clf.coef_[0], G)     # offline, eq. (7)
-            return Xfine.astype(np.float64) @ w + self.clf.intercept_[0]
-        if self.kind == "trees":
-            return self.clf.decision_function_remapped(Xfine.astype(np.float64), G)
-        Z = cells_to_descriptor(remap_features(G, Xfine))     # remap, then normalise
-        if self.kind == "pretrained":
-            return Z @ self.w + self.b
-        return self.clf.decision_function(Z)
-
-
 def variant_remap(det, H, variant, cfg):
-    """``G`` of a variant; ``H`` is the source -> target homography or point mapping."""
+    """``G`` of a variant for detector ``det``; ``H`` is the source -> target homography or
+    point mapping."""
     rule, per_cell, _ = ADAPT_VARIANTS[variant]
-    return remap_for(det, H, rule, per_cell, cfg)
-
-
-def remap_for(det, H, rule, per_cell, cfg):
-    """``G`` for detector ``det`` through ``H`` (a homography or a point mapping)."""
-    if DETECTORS[det][2] == "trees":
-        return acf_remap_matrix(H, rule=rule, per_cell=per_cell)
-    return hog_remap_matrix(H, target_cell_size=cfg.target_cell_size, rule=rule,
-                            per_cell=per_cell)
+    return detector_spec(det).remap_matrix(H, rule=rule, per_cell=per_cell, config=cfg)
 
 
 def view_maps(s, t, cfg) -> dict:
@@ -267,7 +158,8 @@ def exact_remaps(det, s, t, rows, data, cfg, rules):
                                    read_depth_map(data["root"], tgt), manifest_camera(tgt),
                                    fallback=Ht @ np.linalg.inv(Hs))
         for rule in rules:
-            out[rule].append(remap_for(det, m, rule, True, cfg))
+            out[rule].append(detector_spec(det).remap_matrix(m, rule=rule, per_cell=True,
+                                                             config=cfg))
     return out
 
 
@@ -282,7 +174,8 @@ def fold_masks(meta, fold: Fold, train: bool):
 
 def _task(det, s, t, fold, cfg, data, seed):
     """All methods for one detector, source elevation and fold -> DataFrame of scores."""
-    src_rep, fine_rep, kind = DETECTORS[det]
+    spec = detector_spec(det)
+    src_rep, fine_rep = feature_key(spec.source_features), feature_key(spec.target_features)
     es, et = data["index"][s], data["index"][t]
     pos_t, neg_t = data["meta"][("person", et)], data["meta"][("background", et)]
     mp, mn = fold_masks(pos_t, fold, False), fold_masks(neg_t, fold, False)
@@ -292,45 +185,41 @@ def _task(det, s, t, fold, cfg, data, seed):
     def test_feats(rep, key=""):
         return np.vstack([F[(rep, "person", et, key)][mp], F[(rep, "background", et, key)][mn]])
 
-    def train_feats(rep, e, key=""):
-        pm = fold_masks(data["meta"][("person", e)], fold, True)
-        nm = fold_masks(data["meta"][("background", e)], fold, True)
-        return F[(rep, "person", e, key)][pm], F[(rep, "background", e, key)][nm]
+    def train(key=""):
+        pm = fold_masks(data["meta"][("person", es)], fold, True)
+        nm = fold_masks(data["meta"][("background", es)], fold, True)
+        Xp, Xn = F[(src_rep, "person", es, key)][pm], F[(src_rep, "background", es, key)][nm]
+        if not spec.pretrained and (len(Xp) == 0 or len(Xn) == 0):
+            raise ValueError(f"fold {fold.name}: no training "
+                             f"{'positives' if len(Xp) == 0 else 'negatives'} at elevation "
+                             f"{s:.3f}")
+        return spec.fit(Xp, Xn, seed=seed, config=cfg)
 
     results = {}
-    if kind == "pretrained":
-        scorer = Scorer(det)
-    else:
-        Xp, Xn = train_feats(src_rep, es)
-        if len(Xp) == 0 or len(Xn) == 0:
-            raise ValueError(f"fold {fold.name}: no training {'positives' if len(Xp) == 0 else 'negatives'}"
-                             f" at elevation {s:.3f}")
-        scorer = Scorer(det, fit_detector(det, cfg, classifier_features(det, Xp), classifier_features(det, Xn), seed))
+    model = train()
     X_plain = test_feats(src_rep)
-    results["oracle" if es == et else "unadapted"] = scorer.plain(X_plain)
+    results["oracle" if es == et else "unadapted"] = spec.score(model, X_plain)
     if es != et:
         Xfine = test_feats(fine_rep)
-        for v in variant_names(kind, cfg):
-            results[v] = scorer.adapted(Xfine, data["G"][(det, s, t, v)])
+        for v in variant_names(spec, cfg):
+            results[v] = spec.score_adapted(model, Xfine, data["G"][(det, s, t, v)])
         for m in cfg.object_models:
             name = "image warping" if m == "plane" else f"image warping[{m}]"
-            results[name] = scorer.plain(test_feats(src_rep, _warp_key(s, m)))
-        if _wants_exact(det, cfg, data):
+            results[name] = spec.score(model, test_feats(src_rep, _warp_key(s, m)))
+        if _wants_exact(spec, cfg, data):
             n_pos = int(mp.sum())
             rows = pos_t[mp]
             todo = {n: v for n, v in EXACT_VARIANTS.items() if v[1] in results}
             Gs = exact_remaps(det, s, t, rows, data, cfg, sorted({r for r, _ in todo.values()}))
             for name, (rule, neg_variant) in todo.items():
-                pos = np.array([scorer.adapted(Xfine[i:i + 1], G)[0]
+                pos = np.array([spec.score_adapted(model, Xfine[i:i + 1], G)[0]
                                 for i, G in enumerate(Gs[rule])])
                 results[name] = np.r_[pos, np.asarray(results[neg_variant])[n_pos:]]
-        if cfg.synthesised and kind != "pretrained":
-            Xp, Xn = train_feats(src_rep, es, f"synth{t:.6f}")
-            clf = fit_detector(det, cfg, classifier_features(det, Xp), classifier_features(det, Xn), seed)
-            results["synthesised"] = Scorer(det, clf).plain(X_plain)
+        if cfg.synthesised and not spec.pretrained:
+            results["synthesised"] = spec.score(train(f"synth{t:.6f}"), X_plain)
     frames = []
     for method, sc in results.items():
-        frames.append(test_meta.assign(detector=det, method=method, source_elevation=s,
+        frames.append(test_meta.assign(detector=spec.name, method=method, source_elevation=s,
                                        target_elevation=t, fold=fold.name,
                                        score=np.asarray(sc, np.float64)))
     return pd.concat(frames, ignore_index=True)
@@ -340,10 +229,9 @@ def _warp_key(s, model):
     return f"warp{s:.6f}" + ("" if model == "plane" else f"|{model}")
 
 
-def _wants_exact(det, cfg, data) -> bool:
-    """The exact-geometry rows: HOG-cell detectors, when the dataset has depth maps."""
-    return cfg.upper_bound and DETECTORS[det][2] in ("blocks", "linear", "pretrained") and \
-        data.get("instances") is not None
+def _wants_exact(spec, cfg, data) -> bool:
+    """The exact-geometry rows: detectors that run them, when the dataset has depth maps."""
+    return cfg.upper_bound and spec.exact_geometry and data.get("instances") is not None
 
 
 def prepare(ds: Dataset, cfg: CrossvalConfig, cache: FeatureCache, elevations=None) -> dict:
@@ -365,10 +253,11 @@ def prepare(ds: Dataset, cfg: CrossvalConfig, cache: FeatureCache, elevations=No
     requests = {}   # ws.key -> (ws, elevation index, suffix, set of reps)
 
     def want(ws, i, suffix, rep):
-        requests.setdefault(ws.key, (ws, i, suffix, set()))[3].add(rep)
+        requests.setdefault(ws.key, (ws, i, suffix, {}))[3][feature_key(rep)] = rep
 
     for det in cfg.detectors:
-        src_rep, fine_rep, kind = DETECTORS[det]
+        spec = detector_spec(det)
+        src_rep, fine_rep = spec.source_features, spec.target_features
         for e, i in idx.items():
             for ws in (pw[e], bw[e]):
                 want(ws, i, "", src_rep)
@@ -386,15 +275,15 @@ def prepare(ds: Dataset, cfg: CrossvalConfig, cache: FeatureCache, elevations=No
                     warped = ws.warped(H, key) if m == "plane" else \
                         ws.remapped(warp_field(M, H), key)
                     want(warped, et, key, src_rep)
-            if cfg.synthesised and kind != "pretrained":
+            if cfg.synthesised and not spec.pretrained:
                 Hinv = np.linalg.inv(H)
                 for ws in (pw[s], bw[s]):
                     want(ws.warped(Hinv, f"synth{cfg.target:.6f}"), idx[s],
                          f"synth{cfg.target:.6f}", src_rep)
-            for v in variant_names(kind, cfg):
+            for v in variant_names(spec, cfg):
                 G[(det, s, cfg.target, v)] = variant_remap(det, maps[ADAPT_VARIANTS[v][2]], v, cfg)
     for ws, i, suffix, reps in requests.values():
-        got = cache.get_many(ws, sorted(reps))
+        got = cache.get_many(ws, [reps[k] for k in sorted(reps)])
         for rep, X in got.items():
             feat[(rep, ws.key.split("|")[0], i, suffix)] = X
     p = ds.persons
@@ -418,7 +307,7 @@ def run_crossval(ds: Dataset, cfg: CrossvalConfig, cache: FeatureCache, *,
     data = prepare(ds, cfg, cache)
     # OpenCV's detector was trained on INRIA (level views): its source elevation is 0 only
     tasks = [(det, s, fold) for det in cfg.detectors for s in cfg.sources for fold in folds
-             if not (DETECTORS[det][2] == "pretrained" and s != 0.0)]
+             if not (detector_spec(det).pretrained and s != 0.0)]
     seeds = [task_seed(cfg.seed, d, s, f) for d, s, f in tasks]
     it = tqdm(list(zip(tasks, seeds)), desc="cross-validation", disable=not progress)
     if cfg.n_jobs == 1:

@@ -11,6 +11,7 @@ settings skip the feature computation.
 from __future__ import annotations
 
 import hashlib
+import re
 from pathlib import Path
 
 import numpy as np
@@ -20,6 +21,7 @@ from viewadapt.geometry import WINDOW_HEIGHT, WINDOW_WIDTH
 from viewadapt.warp import translation, warp_to_source_view
 
 from .data import Dataset, read_image
+from .detectors import feature_key
 
 __all__ = ["REPRESENTATIONS", "compute_representation", "compute_representations",
            "WindowSet", "person_windows",
@@ -68,11 +70,24 @@ def _window_features(w, reps) -> dict:
 
 
 def compute_representations(windows, reps) -> dict:
-    """``{rep: (n, d) float32}`` for an iterable of windows, one pass over the windows."""
-    rows = {r: [] for r in reps}
+    """``{key: (n, d) float32}`` for an iterable of windows, one pass over the windows.
+
+    ``reps`` are built-in representation names (:data:`REPRESENTATIONS`) or feature objects
+    of a detector spec (:mod:`benchmark.detectors`: a ``key`` and a call on one window);
+    the result is keyed by the name or the ``key``.
+    """
+    builtin = [r for r in reps if isinstance(r, str)]
+    custom = [r for r in reps if not isinstance(r, str)]
+    rows = {feature_key(r): [] for r in reps}
     for w in windows:
-        for r, v in _window_features(w, reps).items():
+        for r, v in _window_features(w, builtin).items():
             rows[r].append(v)
+        for r in custom:
+            v = np.asarray(r(w), dtype=np.float32)
+            if v.ndim != 1:
+                raise ValueError(f"features {feature_key(r)!r} must return a 1-D array per "
+                                 f"window, got shape {v.shape}")
+            rows[feature_key(r)].append(v)
     return {r: np.stack(v).astype(np.float32) for r, v in rows.items()}
 
 
@@ -193,18 +208,20 @@ class FeatureCache:
         self.progress = progress
         self._mem = {}
 
-    def _file(self, ws: WindowSet, rep: str) -> Path:
+    def _file(self, ws: WindowSet, rep) -> Path:
+        rep = feature_key(rep)
         h = hashlib.sha256(
             f"v{FEATURE_VERSION}|{self.ds.fingerprint}|{ws.key}|{rep}|{len(ws)}".encode())
         for rel, H in ws.items[:50]:
             h.update(rel.encode())
             for M in (H if isinstance(H, tuple) else (H,)):
                 h.update(np.round(M, 9).tobytes())
-        return self.dir / f"{rep}-{h.hexdigest()[:20]}.npy"
+        safe = re.sub(r"[^A-Za-z0-9_.-]", "_", rep)[:40]
+        return self.dir / f"{safe}-{h.hexdigest()[:20]}.npy"
 
-    def get(self, ws: WindowSet, rep: str) -> np.ndarray:
+    def get(self, ws: WindowSet, rep) -> np.ndarray:
         """(len(ws), d) float32 features of ``ws`` in representation ``rep``."""
-        return self.get_many(ws, [rep])[rep]
+        return self.get_many(ws, [rep])[feature_key(rep)]
 
     def _load(self, ws, rep):
         f = self._file(ws, rep)
@@ -221,10 +238,12 @@ class FeatureCache:
         return None
 
     def get_many(self, ws: WindowSet, reps) -> dict:
-        """Features of ``ws`` in several representations, computing the missing ones in a
+        """Features of ``ws`` in several representations (names or feature objects, see
+        :func:`compute_representations`), keyed by name, computing the missing ones in a
         single pass over the windows (shared reads, warps and gradients)."""
-        out = {r: self._load(ws, r) for r in reps}
-        missing = [r for r, X in out.items() if X is None]
+        by_key = {feature_key(r): r for r in reps}
+        out = {k: self._load(ws, r) for k, r in by_key.items()}
+        missing = [by_key[k] for k, X in out.items() if X is None]
         if missing:
             computed = self._compute(ws, missing)
             self.dir.mkdir(parents=True, exist_ok=True)
@@ -242,7 +261,7 @@ class FeatureCache:
         from tqdm.auto import tqdm
 
         if len(ws) == 0:
-            return {r: np.zeros((0, 0), np.float32) for r in reps}
+            return {feature_key(r): np.zeros((0, 0), np.float32) for r in reps}
         chunks = np.array_split(np.arange(len(ws)), max(1, min(len(ws) // 64, 256)))
         root = self.ds.root
 
@@ -250,10 +269,11 @@ class FeatureCache:
             sub = WindowSet(ws.key, [ws.items[i] for i in idx], ws.meta.iloc[idx])
             return compute_representations(list(sub.images(root)), reps)
 
-        it = tqdm(chunks, desc=f"features {'+'.join(reps)} {ws.key}", leave=False,
+        names = "+".join(r if isinstance(r, str) else str(r.key) for r in reps)
+        it = tqdm(chunks, desc=f"features {names} {ws.key}", leave=False,
                   disable=not self.progress)
         if self.n_jobs == 1:
             parts = [work(c) for c in it]
         else:
             parts = Parallel(n_jobs=self.n_jobs)(delayed(work)(c) for c in it)
-        return {r: np.concatenate([p[r] for p in parts]) for r in reps}
+        return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}

@@ -29,8 +29,8 @@ import numpy as np
 
 from viewadapt.boosting import cascade_step
 from viewadapt.detect import (
-    PERSON_BOX_WINDOW, AdaptedLinearOperator, AdaptedTreesOperator, FrameDetector,
-    SourceDetectors, acf_window_features, check_frame, hog_window_features, person_boxes,
+    ACF_DETECTOR, HOG_DETECTOR, PERSON_BOX_WINDOW, FrameDetector, SourceDetectors, check_frame,
+    detector_kind, person_boxes,
 )
 from viewadapt.geometry import WINDOW_HEIGHT, WINDOW_WIDTH, Camera
 from viewadapt.nms import detections_from_scores
@@ -147,21 +147,22 @@ def train_source_detectors(ds, *, seed: int = 0, quick: bool = False, source_ind
     # left-right mirrored crops double the positives (Dalal & Triggs)
     pos = pos + [np.ascontiguousarray(w[:, ::-1]) for w in pos]
 
-    def training_set(features, kind, copy_seed):
-        Xp = np.stack([features(w).ravel() for w in pos])
-        Xn = np.stack([features(w).ravel() for w in neg])
-        if frame_view in (kind, "both"):
-            kw = dict(kind=kind, upsample_below=UPSAMPLE_BELOW)
-            Xp = np.vstack([Xp, frame_view_copies(pos, seed=copy_seed, **kw)])
-            Xn = np.vstack([Xn, frame_view_copies(neg, seed=copy_seed + 1, **kw)])
+    def training_set(kind, copy_seed):
+        feats = kind.features
+        Xp = np.stack([feats.window_features(w).ravel() for w in pos])
+        Xn = np.stack([feats.window_features(w).ravel() for w in neg])
+        if frame_view in (kind.name, "both"):
+            kw = dict(upsample_below=UPSAMPLE_BELOW)
+            Xp = np.vstack([Xp, frame_view_copies(pos, feats, seed=copy_seed, **kw)])
+            Xn = np.vstack([Xn, frame_view_copies(neg, feats, seed=copy_seed + 1, **kw)])
         return np.vstack([Xp, Xn]), np.r_[np.ones(len(Xp), int), np.zeros(len(Xn), int)]
 
-    X, y = training_set(hog_window_features, "hog", seed)
+    X, y = training_set(HOG_DETECTOR, seed)
     # C = 0.01 as Dalal & Triggs (block-normalised, clipped cells as their descriptor)
     svm = LinearSVMDetector(C=0.01, initial_negatives=2000 if quick else 5000,
                             mining_rounds=1, random_state=seed).fit(X, y)
     # the channels the full-frame operator reads (float32 OpenCV path)
-    X, y = training_set(acf_window_features, "acf", seed + 2)
+    X, y = training_set(ACF_DETECTOR, seed + 2)
     n_trees = 64 if quick else 256
     trees = AdaBoostTrees(n_estimators=n_trees, stages=None, max_bins=32 if quick else 64,
                           max_features=0.25 if quick else 0.125, random_state=seed)
@@ -176,14 +177,21 @@ def train_source_detectors(ds, *, seed: int = 0, quick: bool = False, source_ind
 # ------------------------------------------------------------------------------ methods
 
 
-_OPERATOR_CLASS = {"hog": AdaptedLinearOperator, "acf": AdaptedTreesOperator}
+def _nms(boxes, scores, threshold, kind):
+    """Threshold and NMS with the setting of the adapted detector ``kind``."""
+    return detections_from_scores(boxes, scores, threshold=threshold, overlap=kind.nms_overlap,
+                                  nms_threshold=kind.nms_threshold)
 
 
-def _nms(boxes, scores, threshold, operator_class):
-    """Threshold and NMS with the setting of the adapted operator of that feature."""
-    return detections_from_scores(boxes, scores, threshold=threshold,
-                                  overlap=operator_class.nms_overlap,
-                                  nms_threshold=operator_class.nms_threshold)
+def _split_method(method):
+    """``"hog_adapted"`` -> (the hog DetectorKind, "adapted"); (None, method) otherwise."""
+    name, _, how = method.rpartition("_")
+    if how in ("adapted", "warp", "pyramid") and name:
+        try:
+            return detector_kind(name), how
+        except ValueError:
+            pass
+    return None, method
 
 
 class FrameMethods:
@@ -203,17 +211,15 @@ class FrameMethods:
     def detect(self, method: str, image) -> np.ndarray:
         """(D, 5) detections ``(x, y, w, h, score)`` of ``method`` on ``image``."""
         check_frame(image, self.size)
-        if method in ("hog_adapted", "acf_adapted"):
-            return self.adapted.detect(image, method[:3])
-        if method in ("hog_warp", "acf_warp"):
-            kind = method[:3]
+        kind, how = _split_method(method)
+        if how == "adapted":
+            return self.adapted.detect(image, kind.name)
+        if how == "warp":
             s = warp_scores(image, self.windows.homographies, self.models, kind)
-            return _nms(person_boxes(self.windows.homographies), s, self.thr[kind],
-                        _OPERATOR_CLASS[kind])
-        if method == "hog_pyramid":
-            return hog_pyramid_detect(image, self.models, threshold=self.thr["hog"])
-        if method == "acf_pyramid":
-            return acf_pyramid_detect(image, self.models, threshold=self.thr["acf"])
+            return _nms(person_boxes(self.windows.homographies), s, self.thr[kind.name], kind)
+        if how == "pyramid":
+            detect = hog_pyramid_detect if kind is HOG_DETECTOR else acf_pyramid_detect
+            return detect(image, self.models, threshold=self.thr[kind.name])
         if method == "opencv":
             return opencv_detect(image, upsample=4)
         if method == "opencv_native":
@@ -222,19 +228,18 @@ class FrameMethods:
 
 
 def warp_scores(image, homographies, models, kind, *, chunk: int = 512) -> np.ndarray:
-    """Image warping (Li et al. 2008): every window warped to 64x128, featurised, scored."""
+    """Image warping (Li et al. 2008): every window warped to 64x128, featurised and
+    scored by the source model of ``kind`` (a :class:`~viewadapt.detect.DetectorKind` or
+    its name)."""
     from viewadapt.warp import warp_to_source_view
 
+    kind = detector_kind(kind)
     out = np.empty(len(homographies))
     for a in range(0, len(homographies), chunk):
         Hs = homographies[a:a + chunk]
-        wins = [warp_to_source_view(image, H) for H in Hs]
-        if kind == "hog":
-            X = np.stack([hog_window_features(w).ravel() for w in wins]).astype(np.float64)
-            out[a:a + len(Hs)] = X @ models.hog_weights.ravel() + models.hog_bias
-        else:
-            X = np.stack([acf_window_features(w).ravel() for w in wins]).astype(np.float64)
-            out[a:a + len(Hs)] = models.acf.decision_function(X)
+        X = np.stack([kind.features.window_features(warp_to_source_view(image, H)).ravel()
+                      for H in Hs])
+        out[a:a + len(Hs)] = kind.window_scores(models, X)
     return out
 
 
@@ -290,7 +295,8 @@ def hog_pyramid_detect(image, models, *, upsample: int = 4, step: float = 1.05,
             scores.append(res[cy, cx])
     if not boxes:
         return np.zeros((0, 5))
-    return _nms(np.concatenate(boxes), np.concatenate(scores).astype(float), threshold, AdaptedLinearOperator)
+    return _nms(np.concatenate(boxes), np.concatenate(scores).astype(float), threshold,
+                HOG_DETECTOR)
 
 
 def _trees_dense(model, C, positions, block=32):
@@ -355,7 +361,7 @@ def acf_pyramid_detect(image, models, *, upsample: int = 4, per_octave: int = 4,
             scores.append(sc[keep])
     if not boxes:
         return np.zeros((0, 5))
-    return _nms(np.concatenate(boxes), np.concatenate(scores), threshold, AdaptedTreesOperator)
+    return _nms(np.concatenate(boxes), np.concatenate(scores), threshold, ACF_DETECTOR)
 
 
 def opencv_detect(image, *, upsample: int = 4, hit_threshold: float = -0.5) -> np.ndarray:
@@ -382,7 +388,7 @@ def opencv_detect(image, *, upsample: int = 4, hit_threshold: float = -0.5) -> n
     x0, y0, x1, y1 = PERSON_BOX_WINDOW
     boxes = np.stack([r[:, 0] + (x0 + 0.5) * s, r[:, 1] + (y0 + 0.5) * s, (x1 - x0) * s,
                       (y1 - y0) * s], 1)
-    return _nms(boxes, np.asarray(weights, float).ravel(), hit_threshold, AdaptedLinearOperator)
+    return _nms(boxes, np.asarray(weights, float).ravel(), hit_threshold, HOG_DETECTOR)
 
 
 # --------------------------------------------------------------------------- evaluation

@@ -10,8 +10,8 @@ from pathlib import Path
 import numpy as np
 
 from viewadapt.detect import (
-    CELLS_PER_SOURCE_CELL, DEFAULT_CACHE_LIMIT_GB, FAMILY_COLORS, HOG_TOLERANCE, UPSAMPLE_BELOW,
-    plot_det_figure,
+    CELLS_PER_SOURCE_CELL, DEFAULT_CACHE_LIMIT_GB, DETECTOR_KINDS, FAMILY_COLORS, HOG_TOLERANCE,
+    UPSAMPLE_BELOW, plot_det_figure,
 )
 from viewadapt.detect.command import add_cache_options, person_heights
 from viewadapt.geometry import PERSON_HEIGHT_M
@@ -44,7 +44,7 @@ def _detect_camera(group, models, methods, heights, cache_dir, cache_limit_gb, t
                        cache_limit_gb=cache_limit_gb, tolerance=tolerance,
                        cells_per_source_cell=cells_per_source_cell,
                        upsample_below=upsample_below)
-    for kind in ("hog", "acf"):                  # offline precomputation, not timed per frame
+    for kind in DETECTOR_KINDS:                  # offline precomputation, not timed per frame
         if f"{kind}_adapted" in methods:
             fd.adapted.operator(kind)
     dets = {m: [] for m in methods}
@@ -136,7 +136,7 @@ def _accuracy_targets(results, per_seed=None) -> list:
     lamr = ({m: float(np.mean([r[m] for r in per_seed.values() if m in r]))
              for m in results} if many else {m: r["lamr"] for m, r in results.items()})
     out = []
-    for kind in ("hog", "acf"):
+    for kind in DETECTOR_KINDS:
         ad = f"{kind}_adapted"
         if ad not in lamr:
             continue
@@ -198,7 +198,7 @@ def seed_summary(per_seed) -> list:
 def seed_gaps(per_seed) -> dict:
     """{detector: [adapted - warping LAMR per seed]} for the detectors with both."""
     out = {}
-    for kind in ("hog", "acf"):
+    for kind in DETECTOR_KINDS:
         if all(f"{kind}_{b}" in r for r in per_seed.values() for b in ("adapted", "warp")):
             out[kind] = [r[f"{kind}_adapted"] - r[f"{kind}_warp"] for r in per_seed.values()]
     return out

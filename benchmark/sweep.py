@@ -15,10 +15,10 @@ import pandas as pd
 from viewadapt.geometry import elevation_homography
 
 from .crossval import (
-    ADAPT_VARIANTS, DETECTORS, CrossvalConfig, Scorer, classifier_features, fit_detector,
-    fold_masks, prepare, task_seed, variant_remap, view_maps,
+    ADAPT_VARIANTS, CrossvalConfig, fold_masks, prepare, task_seed, variant_remap, view_maps,
 )
 from .data import Dataset
+from .detectors import detector_spec, feature_key
 from .features import FeatureCache
 from .folds import make_folds
 from .summarize import operating_threshold
@@ -75,7 +75,8 @@ def run_sweep(ds: Dataset, cfg: CrossvalConfig, cache: FeatureCache, *, detector
     p = ds.persons
     folds = make_folds(p["person_id"], p["scene_id"], rng=rng)
     data = prepare(ds, cfg, cache)
-    src_rep, fine_rep, kind = DETECTORS[detector]
+    spec = detector_spec(detector)
+    src_rep, fine_rep = feature_key(spec.source_features), feature_key(spec.target_features)
     es, et = data["index"][source], data["index"][cfg.target]
     estimates = np.arange(0.0, _MAX_ELEVATION, step)
     variants = [v for v in variants if ADAPT_VARIANTS[v][2] in cfg.object_models]
@@ -97,17 +98,14 @@ def run_sweep(ds: Dataset, cfg: CrossvalConfig, cache: FeatureCache, *, detector
     n_pos_all = len(meta_p)
     labels_all = np.r_[np.ones(n_pos_all, np.int8), np.zeros(len(meta_n), np.int8)]
     pids_all = np.r_[meta_p["person_id"].to_numpy(), np.full(len(meta_n), "")]
-    # per fold: the trained scorer and its test windows (rows of fine / plain)
-    tests, scorers = [], []
+    # per fold: the trained model and its test windows (rows of fine / plain)
+    tests, models = [], []
     for fold, seed in tqdm(list(zip(folds, seeds)), desc="sweep: training", disable=not progress):
         pm = fold_masks(data["meta"][("person", es)], fold, True)
         nm = fold_masks(data["meta"][("background", es)], fold, True)
-        if kind == "pretrained":
-            scorers.append(Scorer(detector))
-        else:
-            Xp = classifier_features(detector, F[(src_rep, "person", es, "")][pm])
-            Xn = classifier_features(detector, F[(src_rep, "background", es, "")][nm])
-            scorers.append(Scorer(detector, fit_detector(detector, cfg, Xp, Xn, int(seed))))
+        models.append(spec.fit(F[(src_rep, "person", es, "")][pm],
+                               F[(src_rep, "background", es, "")][nm], seed=int(seed),
+                               config=cfg))
         tests.append(np.flatnonzero(np.r_[fold_masks(meta_p, fold, False),
                                           fold_masks(meta_n, fold, False)]))
     used = np.unique(np.concatenate(tests))       # background windows serve three folds
@@ -119,16 +117,16 @@ def run_sweep(ds: Dataset, cfg: CrossvalConfig, cache: FeatureCache, *, detector
                                   "score": np.asarray(scores, np.float32),
                                   "person_id": pids_all[idx]}))
 
-    for fold, scorer, idx in zip(folds, scorers, tests):
-        record(fold, "unadapted", np.nan, idx, scorer.plain(plain[idx]))
+    for fold, model, idx in zip(folds, models, tests):
+        record(fold, "unadapted", np.nan, idx, spec.score(model, plain[idx]))
     Xu = fine[used]
     for (method, e), G in tqdm(list(Gs.items()), desc="sweep: estimates",
                                disable=not progress):
         # remap every test window once per estimate, then score it with each fold's model
-        prepared = scorers[0].prepare_adapted(Xu, G)
-        for fold, scorer, idx in zip(folds, scorers, tests):
+        prepared = spec.adapted_inputs(Xu, G)
+        for fold, model, idx in zip(folds, models, tests):
             record(fold, method, float(e), idx,
-                   scorer.score_prepared(prepared, np.searchsorted(used, idx), G))
+                   spec.score_adapted_inputs(model, prepared[np.searchsorted(used, idx)], G))
     return pd.concat(rows, ignore_index=True)
 
 

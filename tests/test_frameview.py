@@ -6,8 +6,7 @@ import pytest
 from tests.tolerances import FLOAT32
 
 from viewadapt.detect import (
-    FRAME_VIEW_SCALES, acf_frame_view_features, frame_view, frame_view_copies,
-    hog_frame_view_features,
+    ACF_FEATURES, FRAME_VIEW_SCALES, frame_view, frame_view_copies, frame_view_features,
 )
 from viewadapt.detect import (
     HOG_CHANNELS, build_adapted_linear_operator, build_adapted_trees_operator,
@@ -40,7 +39,7 @@ def test_linear_score_is_the_operators_score(window, scale, offset):
     rng = np.random.default_rng(4)
     w = rng.normal(size=(16, 8, HOG_CHANNELS))
     frame, H = frame_view(window, scale, offset=offset)
-    x = hog_frame_view_features(window, scale, offset=offset)
+    x = frame_view_features(window, scale, offset=offset)
     ref = _operator_score(frame, H, lambda ws: build_adapted_linear_operator(
         ws, w, 0.25, tolerance=0.0))
     assert float(w.ravel() @ x.ravel().astype(np.float64)) + 0.25 == pytest.approx(
@@ -55,7 +54,7 @@ def trees(window):
 
     rng = np.random.default_rng(6)
     scales = rng.choice(FRAME_VIEW_SCALES, 60)
-    X = np.stack([acf_frame_view_features(window, s, offset=tuple(rng.integers(0, 8, 2))).ravel()
+    X = np.stack([frame_view_features(window, s, ACF_FEATURES, offset=tuple(rng.integers(0, 8, 2))).ravel()
                   for s in scales])
     y = (scales < 0.6).astype(int) ^ (rng.random(60) < 0.2)
     return AdaBoostTrees(n_estimators=16, stages=None, max_bins=16, max_features=0.2,
@@ -66,7 +65,7 @@ def test_trees_score_is_the_operators_score(window, trees):
     got, ref = [], []
     for scale, offset in [(0.3, (0, 0)), (0.45, (5, 2)), (0.7, (3, 7)), (1.0, (1, 4))]:
         frame, H = frame_view(window, scale, offset=offset)
-        x = acf_frame_view_features(window, scale, offset=offset)
+        x = frame_view_features(window, scale, ACF_FEATURES, offset=offset)
         assert x.shape == (10, 32, 16)
         got.append(float(trees.decision_function(x.reshape(1, -1).astype(np.float64))[0]))
         ref.append(_operator_score(frame, H, lambda ws: build_adapted_trees_operator(
@@ -89,11 +88,11 @@ def test_aligned_copy_at_scale_one_is_the_window_features(window):
     # scale 1, 8-px frame cells, no offset: the frame's cells are the window's own (away
     # from the window's border, where the frame has context and the window has none)
     a = hog_window_features(window)[1:-1, 1:-1]
-    b = hog_frame_view_features(window, 1.0, cells_per_source_cell=1.0)[1:-1, 1:-1]
+    b = frame_view_features(window, 1.0, cells_per_source_cell=1.0)[1:-1, 1:-1]
     assert np.allclose(a, b, **FLOAT32)
     # half a cell off the grid, or coarser cells: resampled, no longer the same
-    c = hog_frame_view_features(window, 1.0, offset=(4, 4), cells_per_source_cell=1.0)
-    d = hog_frame_view_features(window, 1.0, cells_per_source_cell=0.5)      # 16-px cells
+    c = frame_view_features(window, 1.0, offset=(4, 4), cells_per_source_cell=1.0)
+    d = frame_view_features(window, 1.0, cells_per_source_cell=0.5)      # 16-px cells
     assert not np.allclose(a, c[1:-1, 1:-1], atol=1e-2)
     assert not np.allclose(a, d[1:-1, 1:-1], atol=1e-2)
 
@@ -106,9 +105,9 @@ def test_copies_are_seeded_and_cover_the_scales(window):
     assert np.array_equal(a, b) and not np.array_equal(a, c)
     assert min(FRAME_VIEW_SCALES) == 0.25 and max(FRAME_VIEW_SCALES) == 1.5
     assert frame_view_copies([], seed=0).shape == (0, 16 * 8 * HOG_CHANNELS)
-    assert frame_view_copies([window], kind="acf").shape == (1, 10 * 32 * 16)
+    assert frame_view_copies([window], ACF_FEATURES).shape == (1, 10 * 32 * 16)
     with pytest.raises(ValueError, match="kind must be"):
-        frame_view_copies([window], kind="sift")
+        frame_view_copies([window], "sift")
 
 
 @pytest.mark.parametrize("kw,msg", [
@@ -119,11 +118,11 @@ def test_copies_are_seeded_and_cover_the_scales(window):
 ])
 def test_bad_arguments(window, kw, msg):
     with pytest.raises(ValueError, match=msg):
-        hog_frame_view_features(window, **kw)
+        frame_view_features(window, **kw)
 
 
 def test_bad_window():
     with pytest.raises(ValueError, match="window must be 128x64"):
-        hog_frame_view_features(np.zeros((96, 48), np.uint8), 0.5)
+        frame_view_features(np.zeros((96, 48), np.uint8), 0.5)
     with pytest.raises(ValueError, match="scales must be"):
         frame_view_copies([np.zeros((128, 64), np.uint8)], scales=[0.5, -1])

@@ -552,3 +552,19 @@ def test_multiresolution_scores_are_the_layers_explicit_scores(windows, frame):
         op.scores(feats[:1])
     with pytest.raises(ValueError, match="calibration"):
         op.detect(frame[:-8])
+
+
+def test_detector_kinds_are_the_specs_every_part_reads(windows, frame):
+    """Each adapted detector kind's spec: its NMS is its operator's, its window features
+    have the layout its operator scores, and an unknown kind is a one-line error."""
+    from viewadapt.detect import DETECTOR_KINDS, detector_kind
+
+    assert set(DETECTOR_KINDS) == {"hog", "acf"}
+    for kind in DETECTOR_KINDS.values():
+        assert detector_kind(kind.name) is kind is detector_kind(kind)
+        assert (kind.nms_overlap, kind.nms_threshold) == (kind.operator_class.nms_overlap,
+                                                          kind.operator_class.nms_threshold)
+        x = kind.features.window_features(frame[:128, :64])
+        assert x.shape == kind.features.shape
+    with pytest.raises(ValueError, match=r"unknown detector 'sift'; choose from \('hog', 'acf'\)"):
+        detector_kind("sift")

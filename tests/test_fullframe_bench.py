@@ -160,6 +160,12 @@ def test_detect_cli(toy, bench, tmp_path):
                   str(bench / "models" / "source_detectors.pkl"), "--out", str(tmp_path / "b2"),
                   "--boxes", str(bad_csv), str(frames[0].path)]) == 2
     assert not (tmp_path / "b2").exists()
+    # a model file that is not one (truncated, or of another layout): one line, no traceback
+    junk = tmp_path / "junk.pkl"
+    junk.write_bytes(b"\x80\x04not a pickle")
+    assert _main(["detect", "--calibration", str(calib), "--model", str(junk),
+                  "--out", str(tmp_path / "b3"), str(frames[0].path)]) == 2
+    assert not (tmp_path / "b3").exists()
     # a missing frame, a frame of the wrong size: one-line errors, nothing written
     bad = tmp_path / "bad"
     assert _main(["detect", "--calibration", str(calib), "--model",

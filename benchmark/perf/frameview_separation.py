@@ -9,7 +9,7 @@ elevation-0 person crop and background window of ``--data`` is shrunk into a sma
 offset against the cell grid) and scored two ways with each model's HOG/SVM:
 
 * adapted: the cells the full-frame operator reads, remapped by ``G``
-  (:func:`viewadapt.detect.hog_frame_view_features`);
+  (:func:`viewadapt.detect.frame_view_features`);
 * warped: the window warped back to 64x128 and featurised (image warping).
 
 Printed per scale: ``d' = (mean person score - mean background score) / background sd``.
@@ -30,7 +30,7 @@ def separation(data, models: dict, scales, *, seed: int = 0) -> list:
     """Rows ``(scale, model name, "adapted" | "warped", d')``."""
     from benchmark.data import load_dataset
     from benchmark.features import background_windows, person_windows
-    from viewadapt.detect import frame_view, hog_frame_view_features
+    from viewadapt.detect import frame_view, frame_view_features
     from viewadapt.detect import hog_window_features
     from viewadapt.warp import warp_to_source_view
 
@@ -46,7 +46,7 @@ def separation(data, models: dict, scales, *, seed: int = 0) -> list:
         offsets = [tuple(int(v) for v in rng.integers(0, 8, 2)) for _ in range(len(is_pos))]
         A, W = [], []
         for w, o in zip(pos + neg, offsets):
-            A.append(hog_frame_view_features(w, s, offset=o).ravel())
+            A.append(frame_view_features(w, s, offset=o).ravel())
             frame, H = frame_view(w, s, offset=o)
             W.append(hog_window_features(warp_to_source_view(frame, H)).ravel())
         for name, m in models.items():

@@ -24,7 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from benchmark.frames import DEFAULT_FRAME_VIEW
-from viewadapt.detect import DEFAULT_CACHE_LIMIT_GB
+from viewadapt.detect import DEFAULT_CACHE_LIMIT_GB, DETECTOR_KINDS
 
 __all__ = ["timing_camera", "run_runtime", "format_table"]
 
@@ -65,7 +65,7 @@ def _worker(cache_dir, cache_limit_gb, model_path, heights, method, frames, seco
     models = SourceDetectors.load(model_path)
     det = FrameMethods(timing_camera(), models, person_heights=heights, cache_dir=cache_dir,
                        cache_limit_gb=cache_limit_gb, thresholds={"hog": 0.0, "acf": 0.0})
-    for kind in ("hog", "acf"):
+    for kind in DETECTOR_KINDS:
         if method.startswith(kind + "_adapted"):
             det.adapted.operator(kind)
     det.detect(method, frames[0])                  # warm-up
@@ -128,7 +128,7 @@ def run_runtime(data, *, n_frames=3, warp_windows=1000, heights=(1.65, 1.85), jo
         n_win = len(det.windows)
         info["candidate_windows"] = n_win
         cache = OperatorCache(cache_dir, cache_limit_gb)
-        for kind in ("hog", "acf"):
+        for kind in DETECTOR_KINDS:
             t = time.perf_counter()
             op = det.adapted.operator(kind)
             info[f"{kind}_precompute_s"] = round(time.perf_counter() - t, 2)
@@ -187,7 +187,7 @@ def run_runtime(data, *, n_frames=3, warp_windows=1000, heights=(1.65, 1.85), jo
                              f"scoring {r['scoring_ms']:.1f} ms, NMS {r['nms_ms']:.1f} ms"))
         k = min(warp_windows, n_win)
         idx = np.linspace(0, n_win - 1, k).astype(int)
-        for kind in ("hog", "acf"):
+        for kind in DETECTOR_KINDS:
             t = _best(lambda: warp_scores(frames[0], det.windows.homographies[idx], models,
                                           kind), 1)[1]
             rows.append(dict(method=f"{kind}_warp", seconds_per_frame=t / k * n_win,
@@ -272,7 +272,7 @@ def format_table(rows, info) -> str:
                    f"{row['feature_pixels']:.3g} | {row['how']}; {row['detail']} |")
     out += ["", "## Scoring, forms of the same operator (one core, same scores)", "",
             "| detector | form | ms per frame |", "|---|---|---|"]
-    for kind in ("hog", "acf"):
+    for kind in DETECTOR_KINDS:
         for k, v in info.get(f"{kind}_scoring_forms_ms", {}).items():
             out.append(f"| {kind.upper()} | {k} | {v} |")
     out += ["", f"Precompute (one camera, one model): HOG {info['hog_precompute_s']} s, ACF "

@@ -15,6 +15,7 @@ Modules (public names are re-exported here):
   and ACF operators.
 * :mod:`~viewadapt.detect.layers` -- small persons' windows on an upsampled frame band.
 * :mod:`~viewadapt.detect.frameview` -- training crops as the operators read them.
+* :mod:`~viewadapt.detect.kinds` -- one spec per adapted detector (HOG/SVM, ACF).
 * :mod:`~viewadapt.detect.detector` -- :class:`FrameDetector`, the detector a user calls;
   :mod:`~viewadapt.detect.models`, :mod:`~viewadapt.detect.cache`,
   :mod:`~viewadapt.detect.calibration`, :mod:`~viewadapt.detect.evaluation` -- its models,
@@ -40,6 +41,8 @@ from .evaluation import *  # noqa: F401,F403
 from .evaluation import __all__ as _evaluation_all
 from .frameview import *  # noqa: F401,F403
 from .frameview import __all__ as _frameview_all
+from .kinds import *  # noqa: F401,F403
+from .kinds import __all__ as _kinds_all
 from .layers import *  # noqa: F401,F403
 from .layers import __all__ as _layers_all
 from .linear import *  # noqa: F401,F403
@@ -54,5 +57,5 @@ from .windows import *  # noqa: F401,F403
 from .windows import __all__ as _windows_all
 
 __all__ = (_windows_all + _channels_all + _templates_all + _linear_all + _trees_all
-           + _layers_all + _frameview_all + _detector_all + _models_all + _cache_all
+           + _layers_all + _frameview_all + _kinds_all + _detector_all + _models_all + _cache_all
            + _calibration_all + _evaluation_all)

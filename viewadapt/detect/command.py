@@ -11,10 +11,12 @@ import numpy as np
 
 from ..files import atomic_output_dir, check_output_dir, run_metadata
 from ..geometry import PERSON_HEIGHT_M
+from ..remap import ANGLE_RULES
 from .cache import DEFAULT_CACHE_LIMIT_GB, check_cache_limit
 from .calibration import read_boxes, read_calibration, read_frame
 from .detector import FrameDetector
 from .evaluation import evaluate_detections, plot_det_figure
+from .kinds import DETECTOR_KINDS
 from .layers import UPSAMPLE_BELOW
 from .models import SourceDetectors
 
@@ -71,7 +73,7 @@ def cmd_detect(args) -> int:
                         cache_limit_gb=args.cache_limit,
                         upsample_below=UPSAMPLE_BELOW if args.upsample_below is None
                         else args.upsample_below,
-                        thresholds={args.detector: args.threshold})
+                        thresholds={args.detector: args.threshold}, rule=args.rule)
     method = f"{args.detector}_adapted"
     rows, coco_img, coco_ann = [], [], []
     t0 = time.perf_counter()
@@ -112,7 +114,8 @@ def cmd_detect(args) -> int:
             plot_det_figure({method: ev}, tmp / "det",
                             title=f"{len(paths)} frames, {evaluation['n_gt']} persons")
         (tmp / "metadata.json").write_text(json.dumps(run_metadata(
-            args.seed, detector=method, windows=len(det.windows), frames=len(paths),
+            args.seed, detector=method, rule=args.rule, windows=len(det.windows),
+            frames=len(paths),
             seconds=round(time.perf_counter() - t0, 2), camera=cam.to_dict()), indent=2))
     print(f"{len(rows)} detections in {len(paths)} frames ({len(det.windows)} candidate "
           f"windows); wrote {args.out}/detections.csv, detections_coco.json, annotated/")
@@ -136,7 +139,11 @@ def register(sub, common) -> None:
     p.add_argument("--model", type=Path, required=True,
                    help="source detectors (models/source_detectors.pkl written by "
                         "`viewadapt bench frames`)")
-    p.add_argument("--detector", choices=["hog", "acf"], default="hog")
+    p.add_argument("--detector", choices=list(DETECTOR_KINDS), default="hog",
+                   help="the adapted detector (default hog: HOG/SVM; acf: boosted trees on ACF)")
+    p.add_argument("--rule", choices=list(ANGLE_RULES), default="covariant",
+                   help="angle rule of A: covariant (default, J^-T), paper (the literal eq. 3) "
+                        "or none (S only)")
     p.add_argument("--threshold", type=float, default=0.0, help="score threshold (default 0)")
     p.add_argument("--heights", type=person_heights, default=(PERSON_HEIGHT_M,),
                    help="assumed person heights, metres, comma-separated (default 1.75)")

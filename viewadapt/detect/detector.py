@@ -15,17 +15,13 @@ import numpy as np
 from ..geometry import PERSON_HEIGHT_M, Camera
 from .cache import DEFAULT_CACHE_LIMIT_GB, OperatorCache
 from .channels import check_frame
+from .kinds import DETECTOR_KINDS, HOG_DETECTOR, detector_kind
 from .layers import UPSAMPLE_BELOW, build_multiresolution_operator
-from .linear import build_adapted_linear_operator
 from .models import SourceDetectors
-from .templates import ACF_TOLERANCE, CELLS_PER_SOURCE_CELL, HOG_TOLERANCE
-from .trees import build_adapted_trees_operator
+from .templates import CELLS_PER_SOURCE_CELL, HOG_TOLERANCE
 from .windows import select_candidate_windows
 
-__all__ = ["DETECTOR_KINDS", "DEFAULT_THRESHOLD", "FrameDetector"]
-
-#: The adapted detectors: HOG/SVM (a linear operator) and ACF (boosted trees).
-DETECTOR_KINDS = ("hog", "acf")
+__all__ = ["DEFAULT_THRESHOLD", "FrameDetector"]
 #: Score threshold of the detections kept for non-maximum suppression: low, so that a DET
 #: curve reaches high false-positive rates.
 DEFAULT_THRESHOLD = -1.0
@@ -48,8 +44,9 @@ class FrameDetector:
         That directory's size limit (least recently used operators go first); None or 0:
         no limit.
     tolerance : float
-        Shape tolerance of shared templates in HOG frame cells (ACF's cells are half as
-        large, so it uses twice as many of its cells).
+        Shape tolerance of shared templates in HOG frame cells; every detector kind scales
+        it by its own default (:attr:`DetectorKind.tolerance`) against HOG's, so that the
+        tolerance in pixels is the same.
     cells_per_source_cell, upsample_below
         See :func:`~viewadapt.detect.templates.choose_cell_sizes` and
         :func:`~viewadapt.detect.layers.build_multiresolution_operator`.
@@ -77,10 +74,8 @@ class FrameDetector:
                            cells_per_source_cell=float(cells_per_source_cell),
                            upsample_below=float(upsample_below), rule=str(rule))
         self.thresholds = {k: DEFAULT_THRESHOLD for k in DETECTOR_KINDS} | dict(thresholds or {})
-        unknown = set(self.thresholds) - set(DETECTOR_KINDS)
-        if unknown:
-            raise ValueError(f"thresholds for unknown detectors {sorted(unknown)}; "
-                             f"the detectors are {DETECTOR_KINDS}")
+        for k in self.thresholds:
+            detector_kind(k)
         self.cache_dir = cache_dir
         self.cache_limit_gb = cache_limit_gb
         self.windows = select_candidate_windows(camera, self.size,
@@ -90,13 +85,9 @@ class FrameDetector:
         self.build_seconds = {}
         self.cache_hit = {}
 
-    def _check_kind(self, kind):
-        if kind not in DETECTOR_KINDS:
-            raise ValueError(f"unknown detector {kind!r}; choose from {DETECTOR_KINDS}")
-
     def operator(self, kind: str):
         """The adapted operator of ``kind`` (built, or read from the cache, on first use)."""
-        self._check_kind(kind)
+        kind = detector_kind(kind).name
         if kind in self._ops:
             return self._ops[kind]
         t0 = time.perf_counter()
@@ -113,27 +104,21 @@ class FrameDetector:
         self._ops[kind] = op
         return op
 
-    def _build(self, kind):
-        kw = dict(cells_per_source_cell=self.params["cells_per_source_cell"],
-                  rule=self.params["rule"])
-        if kind == "hog":
-            def build(w):
-                return build_adapted_linear_operator(
-                    w, self.models.hog_weights, self.models.hog_bias,
-                    tolerance=self.params["tolerance"], **kw)
-        else:
-            # ACF cells are sized on 4-px blocks, HOG's on 8-px cells: the same pixel
-            # tolerance is twice as many ACF cells
-            tol = self.params["tolerance"] * ACF_TOLERANCE / HOG_TOLERANCE
+    def _build(self, name):
+        kind = detector_kind(name)
+        # the same tolerance in pixels for every kind: its cells against HOG's
+        tol = self.params["tolerance"] * kind.tolerance / HOG_DETECTOR.tolerance
 
-            def build(w):
-                return build_adapted_trees_operator(w, self.models.acf, tolerance=tol, **kw)
+        def build(w):
+            return kind.build_operator(w, self.models, tolerance=tol, rule=self.params["rule"],
+                                       cells_per_source_cell=self.params["cells_per_source_cell"])
+
         return build_multiresolution_operator(self.windows, build,
                                               upsample_below=self.params["upsample_below"])
 
     def detect(self, image, kind: str = "hog") -> np.ndarray:
         """(D, 5) detections ``(x, y, w, h, score)`` of the adapted ``kind`` detector on one
         frame of this camera, by decreasing score."""
-        self._check_kind(kind)
+        kind = detector_kind(kind).name
         check_frame(image, self.size)
         return self.operator(kind).detect(image, threshold=self.thresholds[kind])

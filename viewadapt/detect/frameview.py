@@ -7,7 +7,7 @@ tall is then a coarser, phase-shifted and resampled version of what the detector
 on. Image warping has the same loss of detail but computes its cells on the window's own
 grid.
 
-:func:`hog_frame_view_features` puts a source window into that situation without any target
+:func:`frame_view_features` puts a source window into that situation without any target
 data. It shrinks the window (with reflected context) to ``scale`` times its size, at a
 sub-cell offset, and computes the frame features there exactly as the operator does:
 the 2x band below ``upsample_below``, the cell size of :func:`choose_cell_sizes`, and
@@ -15,8 +15,7 @@ the 2x band below ``upsample_below``, the cell size of :func:`choose_cell_sizes`
 against the operator's score.
 
 A linear SVM trained on the crops plus one such copy of each learns weights that hold up
-under that resampling; :func:`acf_frame_view_features` does the same for the ACF trees
-(measured effects: docs/findings.md).
+under that resampling, and the ACF trees likewise (measured effects: docs/findings.md).
 """
 
 from __future__ import annotations
@@ -28,26 +27,19 @@ import scipy.sparse as sp
 
 from .._validation import check_image
 from ..geometry import WINDOW_HEIGHT, WINDOW_WIDTH
-from .channels import (
-    ACF_GRADIENT_LAMBDA, ACF_SHRINK, ACF_WEIGHT_SHAPE, HOG_CELL, HOG_WEIGHT_SHAPE,
-    acf_frame_features, hog_frame_features,
-)
+from .channels import HOG_CELL
 from .layers import UPSAMPLE_BELOW, UPSAMPLE_FACTOR, frame_to_band
 from .templates import (
-    CELLS_PER_SOURCE_CELL, FRAME_CELL_SIZES, TemplateGroup, acf_frame_remap, acf_gradient_rows,
-    choose_cell_sizes, hog_frame_remap, patch_grid,
+    CELLS_PER_SOURCE_CELL, FRAME_CELL_SIZES, HOG_FEATURES, FeatureKind, TemplateGroup,
+    choose_cell_sizes, patch_grid,
 )
 from .windows import window_scale
 
-__all__ = ["FRAME_VIEW_SCALES", "frame_view", "hog_frame_view_features",
-           "acf_frame_view_features", "frame_view_copies"]
+__all__ = ["FRAME_VIEW_SCALES", "frame_view", "frame_view_features", "frame_view_copies"]
 
 #: Scales (frame px per canonical px) the copies are drawn from: persons of 24 to 144 px,
 #: log-spaced (the surveillance frames' range; a grid so that ``G`` is built once each).
 FRAME_VIEW_SCALES = tuple(float(v) for v in np.round(np.geomspace(0.25, 1.5, 12), 4))
-
-#: Canonical feature layout per detector kind (``hog_window_features``, ``acf_window_features``).
-_SHAPES = {"hog": HOG_WEIGHT_SHAPE, "acf": ACF_WEIGHT_SHAPE}
 
 #: Reflected context around the window before shrinking, canonical px (3 source cells).
 _CONTEXT = 24
@@ -78,17 +70,13 @@ def _frame_view_remap(kind, scale, offset, f, image_shape, cells_per_source_cell
     # frame px per canonical px, computed as the operator does (a boundary case such as
     # 8 * 0.7 / 0.7 must pick the same cell size)
     s = window_scale(Hm)[0]
-    source_cell = HOG_CELL if kind == "hog" else ACF_SHRINK
-    c = int(choose_cell_sizes([s], source_cell, cells_per_source_cell=cells_per_source_cell,
+    c = int(choose_cell_sizes([s], kind.source_cell, cells_per_source_cell=cells_per_source_cell,
                               allowed=allowed_cell_sizes)[0])
     cx0, cy0, nx, ny = patch_grid(Hm, c)
     g = TemplateGroup(c, 0, (cx0, cy0), (ny, nx), np.zeros(1, int), np.zeros((1, 2), int))
-    if kind == "hog":
-        G = hog_frame_remap(Hm, g, rule)
-    else:
-        G = acf_frame_remap(Hm, g, rule)
-        if gradient_lambda:          # as build_adapted_trees_operator scales the rows
-            G = sp.diags(np.where(acf_gradient_rows(), s ** gradient_lambda, 1.0)) @ G
+    G = kind.frame_remap(Hm, g, rule)
+    if gradient_lambda and kind.gradient_rows is not None:   # as the trees operator scales
+        G = sp.diags(np.where(kind.gradient_rows, s ** gradient_lambda, 1.0)) @ G
     return G.tocsr(), c, (cx0, cy0, nx, ny), size
 
 
@@ -132,89 +120,62 @@ def frame_view(window, scale: float, *, offset=(0, 0)):
     return np.clip(np.rint(frame), 0, 255).astype(np.uint8), H
 
 
-def _read_through_frame(kind, window, scale, offset, *, cells_per_source_cell,
-                        upsample_below, factor, allowed_cell_sizes, rule,
-                        gradient_lambda=0.0):
-    import cv2
-
-    frame, _ = frame_view(window, scale, offset=offset)
-    f = int(factor) if scale < upsample_below else 1
-    G, c, (cx0, cy0, nx, ny), size = _frame_view_remap(
-        kind, float(scale), tuple(int(v) for v in offset), f, (WINDOW_HEIGHT, WINDOW_WIDTH),
-        float(cells_per_source_cell), tuple(int(v) for v in allowed_cell_sizes), rule,
-        float(gradient_lambda))
-    if f > 1:
-        frame = cv2.resize(frame, (f * size[0], f * size[1]), interpolation=cv2.INTER_LINEAR)
-    ny_map, nx_map = frame.shape[0] // c, frame.shape[1] // c
-    pad = max(1, -cx0, -cy0, cx0 + nx - nx_map, cy0 + ny - ny_map)
-    features = hog_frame_features if kind == "hog" else acf_frame_features
-    F = features(frame, [c], pad=pad).maps[c]
-    x = F[cy0 + pad:cy0 + pad + ny, cx0 + pad:cx0 + pad + nx].ravel()
-    return np.asarray(G @ x, dtype=np.float32).reshape(_SHAPES[kind])
-
-
-def hog_frame_view_features(window, scale: float, *, offset=(0, 0),
-                            cells_per_source_cell: float = CELLS_PER_SOURCE_CELL,
-                            upsample_below: float = UPSAMPLE_BELOW,
-                            factor: int = UPSAMPLE_FACTOR, allowed_cell_sizes=FRAME_CELL_SIZES,
-                            rule: str = "covariant") -> np.ndarray:
-    """The canonical HOG features of ``window`` as the adapted detector reads them from a
-    frame in which the window is ``scale`` times its size.
+def frame_view_features(window, scale: float, kind: FeatureKind = HOG_FEATURES, *,
+                        offset=(0, 0), cells_per_source_cell: float = CELLS_PER_SOURCE_CELL,
+                        upsample_below: float = UPSAMPLE_BELOW, factor: int = UPSAMPLE_FACTOR,
+                        allowed_cell_sizes=FRAME_CELL_SIZES, rule: str = "covariant",
+                        gradient_lambda: float | None = None) -> np.ndarray:
+    """The canonical features of ``window`` as the adapted detector of ``kind`` reads them
+    from a frame in which the window is ``scale`` times its size.
 
     The frame is :func:`frame_view`'s, upsampled ``factor`` times if ``scale <
-    upsample_below``, and featurised by :func:`viewadapt.detect.hog_frame_features` at
-    the cell size the operator would choose. The result is ``G x`` with ``G`` the window's
-    remapping from those cells to the canonical 8-px cells, the same ``G`` that an operator
-    built with ``tolerance=0`` and these parameters folds into its template: a linear
-    model's ``w . hog_frame_view_features(...) + b`` is that operator's score (tested).
+    upsample_below``, and featurised by ``kind.frame_features`` at the cell size the operator
+    would choose. The result is ``G x`` with ``G`` the window's remapping from those cells
+    to the canonical window's (``kind.frame_remap``, the gradient rows scaled by
+    ``s ** gradient_lambda`` for ACF), the same ``G`` that an operator built with
+    ``tolerance=0`` and these parameters applies: a model's score of the result is that
+    operator's score (tested).
 
     Parameters
     ----------
     window : (128, 64[, 3]) ndarray
     scale : float
         Frame pixels per canonical-window pixel, > 0.
+    kind : FeatureKind
+        :data:`~viewadapt.detect.templates.HOG_FEATURES` (default) or
+        :data:`~viewadapt.detect.templates.ACF_FEATURES`.
     offset : (int, int)
         The window's phase against the cell grid, ``0..7`` canonical px (:func:`frame_view`).
     cells_per_source_cell, upsample_below, factor, allowed_cell_sizes, rule
         As in :func:`viewadapt.detect.build_adapted_linear_operator` and
         :func:`viewadapt.detect.build_multiresolution_operator`.
+    gradient_lambda : float, optional
+        Default ``kind.gradient_lambda``.
 
     Returns
     -------
-    (16, 8, 13) float32 ndarray, the layout of
-    :func:`viewadapt.detect.hog_window_features`.
+    float32 ndarray of ``kind.shape``, the layout of ``kind.window_features``.
     """
-    return _read_through_frame(
-        "hog", window, scale, offset, cells_per_source_cell=cells_per_source_cell,
-        upsample_below=upsample_below, factor=factor, allowed_cell_sizes=allowed_cell_sizes,
-        rule=rule)
+    import cv2
+
+    lam = kind.gradient_lambda if gradient_lambda is None else gradient_lambda
+    frame, _ = frame_view(window, scale, offset=offset)
+    f = int(factor) if scale < upsample_below else 1
+    G, c, (cx0, cy0, nx, ny), size = _frame_view_remap(
+        kind, float(scale), tuple(int(v) for v in offset), f, (WINDOW_HEIGHT, WINDOW_WIDTH),
+        float(cells_per_source_cell), tuple(int(v) for v in allowed_cell_sizes), rule,
+        float(lam))
+    if f > 1:
+        frame = cv2.resize(frame, (f * size[0], f * size[1]), interpolation=cv2.INTER_LINEAR)
+    ny_map, nx_map = frame.shape[0] // c, frame.shape[1] // c
+    pad = max(1, -cx0, -cy0, cx0 + nx - nx_map, cy0 + ny - ny_map)
+    F = kind.frame_features(frame, [c], pad=pad).maps[c]
+    x = F[cy0 + pad:cy0 + pad + ny, cx0 + pad:cx0 + pad + nx].ravel()
+    return np.asarray(G @ x, dtype=np.float32).reshape(kind.shape)
 
 
-def acf_frame_view_features(window, scale: float, *, offset=(0, 0),
-                            cells_per_source_cell: float = CELLS_PER_SOURCE_CELL,
-                            upsample_below: float = UPSAMPLE_BELOW,
-                            factor: int = UPSAMPLE_FACTOR, allowed_cell_sizes=FRAME_CELL_SIZES,
-                            rule: str = "covariant",
-                            gradient_lambda: float = ACF_GRADIENT_LAMBDA) -> np.ndarray:
-    """The canonical ACF channels of ``window`` as the adapted ACF detector reads them from
-    a frame in which the window is ``scale`` times its size: :func:`hog_frame_view_features`
-    for :func:`viewadapt.detect.build_adapted_trees_operator` (4-px source blocks, the
-    gradient rows of ``G`` scaled by ``s ** gradient_lambda``). A boosted-trees model's
-    ``decision_function`` of the result is that operator's score (tested).
-
-    Returns
-    -------
-    (10, 32, 16) float32 ndarray, the layout of
-    :func:`viewadapt.detect.acf_window_features`.
-    """
-    return _read_through_frame(
-        "acf", window, scale, offset, cells_per_source_cell=cells_per_source_cell,
-        upsample_below=upsample_below, factor=factor, allowed_cell_sizes=allowed_cell_sizes,
-        rule=rule, gradient_lambda=gradient_lambda)
-
-
-def frame_view_copies(windows, *, seed=0, scales=FRAME_VIEW_SCALES, kind: str = "hog",
-                      **kwargs) -> np.ndarray:
+def frame_view_copies(windows, kind: FeatureKind = HOG_FEATURES, *, seed=0,
+                      scales=FRAME_VIEW_SCALES, **kwargs) -> np.ndarray:
     """One frame-view copy of each window: a random scale of ``scales`` and a random offset.
 
     Parameters
@@ -222,18 +183,16 @@ def frame_view_copies(windows, *, seed=0, scales=FRAME_VIEW_SCALES, kind: str = 
     windows : iterable of (128, 64[, 3]) ndarray
     seed : int or numpy Generator
     scales : sequence of float
-    kind : {"hog", "acf"}
+    kind : FeatureKind
     **kwargs
-        Passed to :func:`hog_frame_view_features` / :func:`acf_frame_view_features`.
+        Passed to :func:`frame_view_features`.
 
     Returns
     -------
-    (N, 1664) (HOG) or (N, 5120) (ACF) float32 ndarray, rows of
-    ``hog_frame_view_features(...).ravel()`` / ``acf_frame_view_features(...).ravel()``.
+    (N, prod(kind.shape)) float32 ndarray, rows of ``frame_view_features(...).ravel()``.
     """
-    if kind not in ("hog", "acf"):
-        raise ValueError(f"kind must be 'hog' or 'acf', got {kind!r}")
-    read = hog_frame_view_features if kind == "hog" else acf_frame_view_features
+    if not isinstance(kind, FeatureKind):
+        raise ValueError(f"kind must be a FeatureKind (HOG_FEATURES, ACF_FEATURES), got {kind!r}")
     rng = np.random.default_rng(seed)
     scales = np.asarray(scales, dtype=np.float64)
     if scales.ndim != 1 or not len(scales) or not np.all(np.isfinite(scales) & (scales > 0)):
@@ -242,7 +201,7 @@ def frame_view_copies(windows, *, seed=0, scales=FRAME_VIEW_SCALES, kind: str = 
     for w in windows:
         s = float(scales[rng.integers(len(scales))])
         off = (int(rng.integers(HOG_CELL)), int(rng.integers(HOG_CELL)))
-        rows.append(read(w, s, offset=off, **kwargs).ravel())
+        rows.append(frame_view_features(w, s, kind, offset=off, **kwargs).ravel())
     if not rows:
-        return np.zeros((0, int(np.prod(_SHAPES[kind]))), np.float32)
+        return np.zeros((0, int(np.prod(kind.shape))), np.float32)
     return np.stack(rows)

@@ -38,7 +38,11 @@ class SourceDetectors:
         p = Path(path)
         if not p.is_file():
             raise FileNotFoundError(f"model file {p} does not exist")
-        obj = pickle.loads(p.read_bytes())
+        try:
+            obj = pickle.loads(p.read_bytes())
+        except Exception:  # noqa: BLE001 - truncated, foreign, or of an older layout
+            raise ValueError(f"{p} cannot be read as source detectors: write it again with "
+                             "this version's `viewadapt bench frames`") from None
         if not isinstance(obj, SourceDetectors):
             raise ValueError(f"{p} is not a model written by `viewadapt bench frames`")
         if np.shape(obj.hog_weights) != HOG_WEIGHT_SHAPE:

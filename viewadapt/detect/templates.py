@@ -33,7 +33,8 @@ References
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from typing import Callable
 
 import numpy as np
 import scipy.sparse as sp
@@ -42,8 +43,9 @@ from ..adapt import acf_remap_matrix, hog_remap_matrix
 from ..geometry import WINDOW_CENTRE, WINDOW_CORNERS, map_points
 from ..remap import CellGrid
 from .channels import (
-    ACF_SHRINK, ACF_WEIGHT_SHAPE, HOG_CELL, HOG_CHANNELS, N_ACF_CHANNELS, N_ACF_ORIENTS,
-    N_HOG_BINS, FrameFeatures,
+    ACF_GRADIENT_LAMBDA, ACF_SHRINK, ACF_WEIGHT_SHAPE, HOG_CELL, HOG_CHANNELS, HOG_WEIGHT_SHAPE,
+    N_ACF_CHANNELS, N_ACF_ORIENTS, N_HOG_BINS, FrameFeatures, acf_frame_features,
+    acf_window_features, hog_frame_features, hog_window_features,
 )
 from .windows import CandidateWindows, person_boxes
 
@@ -52,7 +54,7 @@ __all__ = [
     "choose_cell_sizes", "group_windows", "patch_grid", "TemplateGroup",
     "build_template_groups", "required_padding", "check_windows",
     "hog_frame_remap", "acf_frame_remap", "acf_gradient_rows",
-    "SnappedBoxes", "TemplateOperator",
+    "SnappedBoxes", "TemplateOperator", "FeatureKind", "HOG_FEATURES", "ACF_FEATURES",
 ]
 
 #: Frame cell sizes the adapted operators may choose from (:func:`choose_cell_sizes`).
@@ -323,3 +325,45 @@ def check_windows(windows):
         raise ValueError("windows must be a non-empty CandidateWindows "
                          "(viewadapt.detect.select_candidate_windows)")
 
+
+@dataclass(frozen=True, eq=False)
+class FeatureKind:
+    """One feature family as the full-frame detectors read it: its layout on the canonical
+    window, its frame cell maps and its frame ``G``.
+
+    Attributes
+    ----------
+    name : str
+    source_cell : int
+        The canonical window's cell (or block) size, px: what frame cell sizes are chosen on.
+    shape : tuple
+        Layout of the canonical window's features (and of a source model's weights).
+    window_features : callable
+        ``window_features(window) -> ndarray`` of ``shape`` (what source models train on).
+    frame_features : callable
+        ``frame_features(image, cell_sizes, *, pad, image_size) -> FrameFeatures``.
+    frame_remap : callable
+        ``frame_remap(H, group, rule) -> G`` from a frame patch to the window's features.
+    gradient_lambda : float
+        Power-law exponent of the rows in ``gradient_rows`` across scales (0: none).
+    gradient_rows : (n,) bool ndarray or None
+        Rows of ``G`` scaled by ``s ** gradient_lambda``.
+    """
+
+    name: str
+    source_cell: int
+    shape: tuple
+    window_features: Callable
+    frame_features: Callable
+    frame_remap: Callable
+    gradient_lambda: float = 0.0
+    gradient_rows: object = field(default=None, repr=False)
+
+
+#: block-normalised HOG cells (:func:`~viewadapt.detect.channels.hog_window_features`)
+HOG_FEATURES = FeatureKind("hog", HOG_CELL, HOG_WEIGHT_SHAPE, hog_window_features,
+                           hog_frame_features, hog_frame_remap)
+#: ACF channels (:func:`~viewadapt.detect.channels.acf_window_features`)
+ACF_FEATURES = FeatureKind("acf", ACF_SHRINK, ACF_WEIGHT_SHAPE, acf_window_features,
+                           acf_frame_features, acf_frame_remap, ACF_GRADIENT_LAMBDA,
+                           acf_gradient_rows())

@@ -1,0 +1,112 @@
+"""The full-frame detector kinds: one spec each for the adapted HOG/SVM and ACF detectors.
+
+A :class:`DetectorKind` holds everything the full-frame code needs to know about one
+detector: its features (:class:`~viewadapt.detect.templates.FeatureKind`: layout, frame
+cell maps, frame ``G``), its model within :class:`~viewadapt.detect.models.SourceDetectors`,
+how its adapted operator is built, its template tolerance and its non-maximum suppression.
+:class:`~viewadapt.detect.FrameDetector`, the frames benchmark, its runtime table and the
+training of the source detectors all read these specs instead of switching on names.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .linear import AdaptedLinearOperator, build_adapted_linear_operator
+from .templates import ACF_FEATURES, ACF_TOLERANCE, HOG_FEATURES, HOG_TOLERANCE
+from .trees import AdaptedTreesOperator, build_adapted_trees_operator
+
+__all__ = ["DetectorKind", "HOG_DETECTOR", "ACF_DETECTOR", "DETECTOR_KINDS", "detector_kind"]
+
+
+class DetectorKind:
+    """One adapted full-frame detector (see the module notes).
+
+    Attributes
+    ----------
+    name : str
+    features : FeatureKind
+    tolerance : float
+        Default shape tolerance of shared templates, in this detector's frame cells.
+    operator_class : type
+        Its operator; gives the NMS setting (``nms_overlap``, ``nms_threshold``).
+    """
+
+    name: str
+    features: object
+    tolerance: float
+    operator_class: type
+
+    @property
+    def nms_overlap(self) -> str:
+        return self.operator_class.nms_overlap
+
+    @property
+    def nms_threshold(self) -> float:
+        return self.operator_class.nms_threshold
+
+    def model(self, models):
+        """This detector's model within ``models`` (:class:`SourceDetectors`)."""
+        raise NotImplementedError
+
+    def build_operator(self, windows, models, **kw):
+        """The adapted operator of ``windows`` (keywords of the operator's builder)."""
+        raise NotImplementedError
+
+    def window_scores(self, models, X) -> np.ndarray:
+        """(n,) source-model scores of (n, d) canonical-window features (image warping)."""
+        raise NotImplementedError
+
+    def __repr__(self):
+        return f"DetectorKind({self.name!r})"
+
+
+class _HogDetector(DetectorKind):
+    """Linear SVM on block-normalised HOG cells: one adapted template per group, ``G^T w``."""
+
+    name, features, tolerance = "hog", HOG_FEATURES, HOG_TOLERANCE
+    operator_class = AdaptedLinearOperator
+
+    def model(self, models):
+        return models.hog_weights, models.hog_bias
+
+    def build_operator(self, windows, models, **kw):
+        w, b = self.model(models)
+        return build_adapted_linear_operator(windows, w, b, **kw)
+
+    def window_scores(self, models, X):
+        w, b = self.model(models)
+        return np.asarray(X, np.float64) @ np.ravel(w) + b
+
+
+class _AcfDetector(DetectorKind):
+    """Boosted trees on ACF channels: the used rows of ``G`` per group, a soft cascade."""
+
+    name, features, tolerance = "acf", ACF_FEATURES, ACF_TOLERANCE
+    operator_class = AdaptedTreesOperator
+
+    def model(self, models):
+        return models.acf
+
+    def build_operator(self, windows, models, **kw):
+        return build_adapted_trees_operator(windows, self.model(models), **kw)
+
+    def window_scores(self, models, X):
+        return self.model(models).decision_function(np.asarray(X, np.float64))
+
+
+HOG_DETECTOR = _HogDetector()
+ACF_DETECTOR = _AcfDetector()
+#: the adapted full-frame detectors by name
+DETECTOR_KINDS = {k.name: k for k in (HOG_DETECTOR, ACF_DETECTOR)}
+
+
+def detector_kind(name) -> DetectorKind:
+    """The :class:`DetectorKind` called ``name`` (or ``name`` itself if it is one)."""
+    if isinstance(name, DetectorKind):
+        return name
+    try:
+        return DETECTOR_KINDS[name]
+    except (KeyError, TypeError):
+        raise ValueError(f"unknown detector {name!r}; choose from {tuple(DETECTOR_KINDS)}") \
+            from None
