@@ -13,7 +13,7 @@ from viewadapt.metrics import det_curve_windows
 from .summarize import PAPER_MISS_RATES
 
 __all__ = ["plot_det", "plot_sweep", "sweep_table", "plot_score_shift", "write_report",
-           "elevation_label"]
+           "elevation_label", "closing_summary"]
 
 _STYLE = {"unadapted": "-", "oracle": "-", "image warping": "--", "adapted": ":",
           "synthesised": "-.", "adapted[S only]": (0, (1, 1)),
@@ -238,3 +238,54 @@ def write_report(out: Path) -> Path:
     tmp.write_text("\n".join(lines))
     tmp.replace(path)
     return path
+
+
+#: the rows the closing summary lists, in this order (the oracle is the ``s == t`` row)
+_SUMMARY_METHODS = ("unadapted", "adapted", "image warping", "synthesised")
+
+
+def closing_summary(out: Path, *, source: float = 0.0) -> list:
+    """A few console lines on a cross-validation results directory, read from its
+    ``summary.csv`` and ``paired_differences.csv`` (nothing is recomputed): per detector, the
+    miss rates at 10⁻² fppw of the main methods ``source`` → target and of the oracle, and
+    ``adapted − unadapted`` with its paired 95% interval, said in words."""
+    out = Path(out)
+    s = pd.read_csv(out / "summary.csv")
+    p = pd.read_csv(out / "paired_differences.csv")
+    same = lambda col, v: np.isclose(col.astype(float), v)  # noqa: E731
+    lines, unresolved = [], []
+    for det in dict.fromkeys(s["detector"]):
+        d = s[(s["detector"] == det)]
+        rows = d[same(d["source_elevation"], source) & (d["method"] != "oracle")]
+        if rows.empty:
+            continue
+        t = float(rows["target_elevation"].iloc[0])
+        mr = {m: float(r["mr_at_fppw_0.01"]) for m in _SUMMARY_METHODS
+              for _, r in rows[rows["method"] == m].iterrows()}
+        orc = d[(d["method"] == "oracle") & same(d["target_elevation"], t)]
+        if len(orc):
+            mr["oracle"] = float(orc["mr_at_fppw_0.01"].iloc[0])
+        pair = f"{elevation_label(source)}→{elevation_label(t)}"
+        lines.append(f"{det} {pair}, miss rate at 10⁻² fppw ({int(rows['n_pos'].iloc[0])} test "
+                     "positives): " + ", ".join(f"{m} {v:.3f}" for m, v in mr.items()))
+        if "oracle" in mr and len(mr) > 1:
+            best = min(mr, key=mr.get)
+            lines.append("  oracle (trained on the target view) is best" if best == "oracle"
+                         else f"  oracle is NOT best: {best} is lower")
+        q = p[(p["detector"] == det) & same(p["source_elevation"], source)
+              & (p["method_a"] == "adapted") & (p["method_b"] == "unadapted")]
+        if len(q):
+            r = q.iloc[0]
+            lo, hi = float(r["ci_low"]), float(r["ci_high"])
+            verdict = ("adapted is better than unadapted" if hi < 0 else
+                       "adapted is WORSE than unadapted" if lo > 0 else
+                       "it includes 0, so this run cannot tell adapted from unadapted")
+            lines.append(f"  adapted − unadapted {float(r['diff']):+.3f}, paired 95% interval "
+                         f"[{lo:+.3f}, {hi:+.3f}]: {verdict}")
+            if lo <= 0 <= hi:
+                unresolved.append(det)
+    if unresolved:
+        lines.append(f"not shown at this size for {', '.join(unresolved)}: this run shows no "
+                     "difference either way; more test persons and scenes (e.g. the paper-scale "
+                     "dataset) give narrower intervals")
+    return lines

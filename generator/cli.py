@@ -111,8 +111,9 @@ def register(subparsers, common_parser: argparse.ArgumentParser) -> None:
                     "calibrated surveillance frames; write images, manifest.parquet/.csv, "
                     "frames_coco.json and dataset.json into --out. Rerunning with the same "
                     "--out finishes an interrupted run.")
-    p.add_argument("--preset", choices=("tiny", "small", "paper"), default="tiny",
-                   help="dataset size (tiny: 6 persons x 3 scenes, ~1 min; small: 24 x 9 x 2 "
+    p.add_argument("--preset", choices=("tiny", "demo", "small", "paper"), default="tiny",
+                   help="dataset size (tiny: 6 persons x 3 scenes, ~1 min; demo: 18 x 9 at "
+                        "elevations 0 and pi/4 only, for `viewadapt demo`; small: 24 x 9 x 2 "
                         "instances; paper: 68 x 13 x 3 = 7956 crops)")
     p.add_argument("--renderer", choices=("cycles", "pyrender"), default="cycles")
     p.add_argument("--shard", metavar="I/N", help="render only block I of N (job arrays)")
@@ -128,7 +129,7 @@ def register(subparsers, common_parser: argparse.ArgumentParser) -> None:
     p.add_argument("--scenes", type=int, help="number of scenes")
     p.add_argument("--frames", type=int,
                    help="calibrated surveillance frames in total, spread over the scenes "
-                        "(presets: tiny 1, small 9, paper 26); frame k of a scene is the "
+                        "(presets: tiny 1, demo 1, small 9, paper 26); frame k of a scene is the "
                         "same whatever the total, so a larger --frames extends a set")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_generate)
