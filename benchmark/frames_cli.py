@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import copy
 import json
 import time
 from pathlib import Path
@@ -474,7 +475,11 @@ def register(sub, common) -> None:
                         "and figure show all. Pass that run's --model so the detectors "
                         "are the same")
     p.set_defaults(func=cmd_bench_frames)
-    p = bsub.add_parser("runtime", parents=[common, opts],
+    # its own copy of the shared options: a --jobs default set on it must not reach the
+    # other subcommands (argparse shares a parent's argument objects)
+    own = copy.deepcopy(common)
+    own.set_defaults(jobs=-1)
+    p = bsub.add_parser("runtime", parents=[own, opts],
                         help="frames per second per method (Table 1)",
                         description="The paper's Table 1 for this implementation: frames "
                                     "per second per method on one core, and on all cores "
@@ -485,4 +490,4 @@ def register(sub, common) -> None:
                    help="windows timed for the image-warping methods, extrapolated to all "
                         "(default 1000)")
     # two heights on the CAVIAR-like timing camera give ~30,000 windows (the paper's 31,603)
-    p.set_defaults(func=cmd_bench_runtime, heights=(1.65, 1.85), jobs=-1)
+    p.set_defaults(func=cmd_bench_runtime, heights=(1.65, 1.85))

@@ -40,8 +40,10 @@ def user_module(tmp_path, monkeypatch):
 
 def test_a_users_detector_runs_in_the_cross_validation(toy, tmp_path, user_module):
     out = tmp_path / "res"
+    # one process: worker processes started earlier in the session would not see the
+    # temporary module (with --jobs > 1 a user's module must be importable, as installed)
     assert main(["bench", "crossval", "--data", str(toy), "--out", str(out), "--quick",
-                 "--detectors", "hog", user_module]) == 0
+                 "--jobs", "1", "--detectors", "hog", user_module]) == 0
     s = pd.read_csv(out / "summary.csv")
     mine = s[s["detector"] == "hog12"]
     assert set(mine["method"]) >= {"unadapted", "adapted", "adapted[S only]",

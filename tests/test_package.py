@@ -60,3 +60,19 @@ def test_cli_fidelity_writes_everything(tmp_path):
     s = pd.read_csv(out / "fidelity_summary.csv")
     assert {"feature", "rule", "form", "median", "p10"} <= set(s.columns)
     assert set(s["rule"]) == {"unadapted", "covariant", "paper", "none"}
+
+
+def test_jobs_defaults_are_per_command():
+    """--jobs is 1 unless a command says otherwise (demo, reproduce, bench runtime: all
+    cores), and one command's default never leaks into the others (argparse shares a parent
+    parser's arguments between subcommands)."""
+    from viewadapt.cli import build_parser
+
+    p = build_parser()
+    one = (["bench", "crossval", "--data", "d"], ["bench", "sweep", "--data", "d"],
+           ["bench", "frames", "--data", "d"], ["generate"], ["fidelity"])
+    for argv in one:
+        assert p.parse_args(argv + ["--out", "o"]).jobs == 1, argv
+    for argv in (["demo"], ["reproduce"], ["bench", "runtime", "--data", "d"]):
+        assert p.parse_args(argv + ["--out", "o"]).jobs == -1, argv
+    assert p.parse_args(["demo", "--out", "o", "--jobs", "2"]).jobs == 2

@@ -20,14 +20,20 @@ from .version import __version__
 __all__ = ["main", "common_parser", "build_parser"]
 
 
-def common_parser() -> argparse.ArgumentParser:
-    """Options every subcommand shares: ``--seed``, ``--out``, ``--jobs``."""
+def common_parser(*, jobs: int = 1) -> argparse.ArgumentParser:
+    """Options every subcommand shares: ``--seed``, ``--out``, ``--jobs`` (default ``jobs``).
+
+    Each call makes new argument objects: a parent parser's arguments are shared by every
+    subcommand built from it, so a subcommand with another ``--jobs`` default takes its own
+    ``common_parser(jobs=...)`` (``set_defaults`` on one subcommand would change them all).
+    """
     p = argparse.ArgumentParser(add_help=False)
     p.add_argument("--seed", type=int, default=0,
                    help="master random seed; written into every output's metadata (default 0)")
     p.add_argument("--out", type=Path, required=True, help="output directory")
-    p.add_argument("--jobs", type=int, default=1,
-                   help="parallel worker processes (default 1; -1 = all cores)")
+    p.add_argument("--jobs", type=int, default=jobs,
+                   help=f"parallel worker processes (default {'all cores' if jobs == -1 else jobs}"
+                        "; -1 = all cores)")
     return p
 
 
@@ -288,7 +294,7 @@ def build_parser() -> argparse.ArgumentParser:
     if register_generator is not None:
         register_generator(sub, common)
 
-    p = sub.add_parser("demo", parents=[common],
+    p = sub.add_parser("demo", parents=[common_parser(jobs=-1)],
                        help="show the effect in a few minutes (behind `make demo`)",
                        description="The short run behind `make demo` (about 3-4 min on 2 "
                                    "cores): render the demo preset (18 persons x 9 scenes at "
@@ -305,10 +311,9 @@ def build_parser() -> argparse.ArgumentParser:
                                    "`viewadapt fidelity`. --jobs defaults to all cores here.")
     p.add_argument("--toy", action="store_true",
                    help="use the numpy planar toy dataset even when Blender is installed")
-    p.set_defaults(jobs=-1)
     p.set_defaults(func=_cmd_demo)
 
-    p = sub.add_parser("reproduce", parents=[common],
+    p = sub.add_parser("reproduce", parents=[common_parser(jobs=-1)],
                        help="the paper-scale run end to end (render, cross-validate, sweep, "
                             "frames)",
                        description="Render the paper-scale dataset (68 persons x 13 scenes x "
