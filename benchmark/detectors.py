@@ -236,6 +236,25 @@ BUILTIN_DETECTORS = {d.name: d for d in (HogDescriptorDetector(), LinearCellsDet
 _REQUIRED = ("name", "source_features", "target_features", "remap_matrix", "fit", "score")
 
 
+class _UserDetector(CropDetector):
+    """A user's spec with :class:`CropDetector`'s defaults for the optional parts it lacks
+    (the user's object itself is left as it is)."""
+
+    def __init__(self, spec):
+        self.spec = spec
+        for a in _REQUIRED[:3] + ("pretrained", "ablations", "exact_geometry"):
+            setattr(self, a, getattr(spec, a, getattr(CropDetector, a)))
+        self.remap_matrix, self.fit, self.score = spec.remap_matrix, spec.fit, spec.score
+        if hasattr(spec, "score_adapted"):
+            self.score_adapted = spec.score_adapted
+            if hasattr(spec, "adapted_inputs"):
+                self.adapted_inputs = spec.adapted_inputs
+                self.score_adapted_inputs = spec.score_adapted_inputs
+            else:                        # its own adapted scoring, nothing shared
+                self.adapted_inputs = lambda Xt, G: Xt
+                self.score_adapted_inputs = spec.score_adapted
+
+
 @functools.lru_cache(maxsize=None)
 def detector_spec(name: str):
     """The detector spec called ``name``: a built-in (:data:`BUILTIN_DETECTORS`) or
@@ -262,16 +281,4 @@ def detector_spec(name: str):
     if not re.fullmatch(r"[A-Za-z0-9_.-]+", str(spec.name)) or spec.name in BUILTIN_DETECTORS:
         raise ValueError(f"detector {name!r}: its name {spec.name!r} must be letters, digits, "
                          "'_', '.' or '-' and not a built-in detector's")
-    for opt, default in (("pretrained", False), ("ablations", False),
-                         ("exact_geometry", False)):
-        if not hasattr(spec, opt):
-            setattr(spec, opt, default)
-    if not hasattr(spec, "score_adapted"):
-        base = CropDetector()
-        spec.adapted_inputs = base.adapted_inputs
-        spec.score_adapted_inputs = lambda model, A, G: spec.score(model, A)
-        spec.score_adapted = lambda model, Xt, G: spec.score(model, remap_features(G, Xt))
-    elif not hasattr(spec, "adapted_inputs"):
-        spec.adapted_inputs = lambda Xt, G: Xt
-        spec.score_adapted_inputs = spec.score_adapted
-    return spec
+    return _UserDetector(spec)

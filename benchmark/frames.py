@@ -204,13 +204,20 @@ class FrameMethods:
     def __init__(self, camera, models, **kw):
         self.adapted = FrameDetector(camera, models, **kw)
         self.models = models
-        self.windows = self.adapted.windows
-        self.size = self.adapted.size
-        self.thr = self.adapted.thresholds
+
+    @property
+    def windows(self):
+        """The candidate windows every method scores (the adapted detector's)."""
+        return self.adapted.windows
+
+    @property
+    def thr(self) -> dict:
+        """Score threshold per detector kind (the adapted detector's)."""
+        return self.adapted.thresholds
 
     def detect(self, method: str, image) -> np.ndarray:
         """(D, 5) detections ``(x, y, w, h, score)`` of ``method`` on ``image``."""
-        check_frame(image, self.size)
+        check_frame(image, self.adapted.size)
         kind, how = _split_method(method)
         if how == "adapted":
             return self.adapted.detect(image, kind.name)
