@@ -8,7 +8,8 @@ Methods (Wang et al. 2017, Sec. 5.2 and Table 1), all on the same frames:
 
 ``hog_adapted`` / ``acf_adapted``
     the viewpoint-adapted detectors over world-space windows
-    (:class:`viewadapt.detect.FrameDetector`);
+    (:class:`viewadapt.detect.FrameDetector`); ``hog_adapted[body, paper eq.3]`` and the
+    other :data:`ADAPTED_VARIANTS`: the same with another angle rule or object model;
 ``hog_warp`` / ``acf_warp``
     every candidate window warped into the canonical view, then featurised and classified
     (Li et al. 2008; Algorithm 1);
@@ -36,7 +37,8 @@ from viewadapt.geometry import WINDOW_HEIGHT, WINDOW_WIDTH, Camera
 from viewadapt.nms import detections_from_scores
 
 __all__ = ["FrameRecord", "load_frames", "train_source_detectors", "FRAME_VIEW_CHOICES",
-           "DEFAULT_FRAME_VIEW", "METHODS", "FrameMethods", "evaluate_method", "PAPER_FPS"]
+           "DEFAULT_FRAME_VIEW", "METHODS", "ADAPTED_VARIANTS", "adapted_method", "split_method",
+           "check_method", "FrameMethods", "evaluate_method", "PAPER_FPS"]
 
 #: Table 1 of the paper: frames per second on one Intel Core i7 core, CAVIAR 384x288.
 PAPER_FPS = {"hog_pyramid": 0.439, "acf_pyramid": 3.54, "hog_warp": 0.0666,
@@ -183,27 +185,67 @@ def _nms(boxes, scores, threshold, kind):
                                   nms_threshold=kind.nms_threshold)
 
 
-def _split_method(method):
-    """``"hog_adapted"`` -> (the hog DetectorKind, "adapted"); (None, method) otherwise."""
-    name, _, how = method.rpartition("_")
-    if how in ("adapted", "warp", "pyramid") and name:
+#: the adapted detector's variants on frames -> (angle rule, object model): the
+#: cross-validation's names (:data:`benchmark.crossval.ADAPT_VARIANTS`, per-cell ``A``)
+ADAPTED_VARIANTS = {"adapted": ("covariant", "plane"),
+                    "adapted[S only]": ("none", "plane"),
+                    "adapted[paper eq.3]": ("paper", "plane"),
+                    "adapted[body]": ("covariant", "body"),
+                    "adapted[body, S only]": ("none", "body"),
+                    "adapted[body, paper eq.3]": ("paper", "body")}
+
+
+def adapted_method(kind, rule: str = "covariant", object_model: str = "plane") -> str:
+    """The frames method name of the adapted ``kind`` detector with ``rule`` and
+    ``object_model``: e.g. ``"hog_adapted"``, ``"acf_adapted[body, paper eq.3]"``."""
+    for variant, key in ADAPTED_VARIANTS.items():
+        if key == (rule, object_model):
+            return f"{detector_kind(kind).name}_{variant}"
+    raise ValueError(f"no adapted variant with rule {rule!r} and object model "
+                     f"{object_model!r}; variants: {list(ADAPTED_VARIANTS.values())}")
+
+
+def split_method(method):
+    """``"hog_adapted[body]"`` -> (the hog DetectorKind, "adapted", ("covariant", "body"));
+    ``"hog_warp"`` -> (kind, "warp", None); (None, method, None) for the others."""
+    name, sep, how = method.partition("_")
+    if sep and name and how.startswith("adapted") and how in ADAPTED_VARIANTS:
         try:
-            return detector_kind(name), how
+            return detector_kind(name), "adapted", ADAPTED_VARIANTS[how]
         except ValueError:
             pass
-    return None, method
+    name, _, how = method.rpartition("_")
+    if how in ("warp", "pyramid") and name:
+        try:
+            return detector_kind(name), how, None
+        except ValueError:
+            pass
+    return None, method, None
+
+
+def check_method(method) -> str:
+    """``method`` if the frames benchmark knows it, else ValueError naming the choices."""
+    kind, how, _ = split_method(method)
+    if kind is None and how not in ("opencv", "opencv_native"):
+        raise ValueError(f"unknown method {method!r}; choose from {METHODS}, or an adapted "
+                         f"variant such as 'hog_adapted[body]' ({list(ADAPTED_VARIANTS)})")
+    return method
 
 
 class FrameMethods:
     """Every method of the frames benchmark on one camera: the adapted detectors of
-    :class:`viewadapt.detect.FrameDetector` and the baselines, on the same windows.
+    :class:`viewadapt.detect.FrameDetector` (one per angle rule and object model asked
+    for) and the baselines, on the same windows.
 
-    Parameters are those of :class:`~viewadapt.detect.FrameDetector`.
+    Parameters are those of :class:`~viewadapt.detect.FrameDetector` (without ``rule`` and
+    ``object_model``: each adapted method names its own).
     """
 
     def __init__(self, camera, models, **kw):
         self.adapted = FrameDetector(camera, models, **kw)
         self.models = models
+        self._camera, self._kw = camera, kw
+        self._variants = {("covariant", "plane"): self.adapted}
 
     @property
     def windows(self):
@@ -215,12 +257,28 @@ class FrameMethods:
         """Score threshold per detector kind (the adapted detector's)."""
         return self.adapted.thresholds
 
+    def detector(self, rule: str = "covariant", object_model: str = "plane") -> FrameDetector:
+        """The :class:`FrameDetector` of one angle rule and object model (made on first use,
+        on the same windows)."""
+        key = (rule, object_model)
+        if key not in self._variants:
+            self._variants[key] = FrameDetector(self._camera, self.models, rule=rule,
+                                                object_model=object_model, **self._kw)
+        return self._variants[key]
+
+    def prepare(self, method: str) -> None:
+        """Build (or load) ``method``'s adapted operator now: the offline step, not timed
+        per frame; nothing for the other methods."""
+        kind, how, variant = split_method(check_method(method))
+        if how == "adapted":
+            self.detector(*variant).operator(kind.name)
+
     def detect(self, method: str, image) -> np.ndarray:
         """(D, 5) detections ``(x, y, w, h, score)`` of ``method`` on ``image``."""
         check_frame(image, self.adapted.size)
-        kind, how = _split_method(method)
+        kind, how, variant = split_method(check_method(method))
         if how == "adapted":
-            return self.adapted.detect(image, kind.name)
+            return self.detector(*variant).detect(image, kind.name)
         if how == "warp":
             s = warp_scores(image, self.windows.homographies, self.models, kind)
             return _nms(person_boxes(self.windows.homographies), s, self.thr[kind.name], kind)
@@ -229,9 +287,7 @@ class FrameMethods:
             return detect(image, self.models, threshold=self.thr[kind.name])
         if method == "opencv":
             return opencv_detect(image, upsample=4)
-        if method == "opencv_native":
-            return opencv_detect(image, upsample=1)
-        raise ValueError(f"unknown method {method!r}; choose from {METHODS}")
+        return opencv_detect(image, upsample=1)
 
 
 def warp_scores(image, homographies, models, kind, *, chunk: int = 512) -> np.ndarray:

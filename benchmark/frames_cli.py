@@ -16,8 +16,12 @@ from viewadapt.detect import (
 )
 from viewadapt.detect.command import add_cache_options, person_heights
 from viewadapt.geometry import PERSON_HEIGHT_M
+from viewadapt.objectmodel import OBJECT_MODELS
+from viewadapt.remap import ANGLE_RULES
 
-from .frames import DEFAULT_FRAME_VIEW, FRAME_VIEW_CHOICES
+from .frames import (
+    DEFAULT_FRAME_VIEW, FRAME_VIEW_CHOICES, METHODS, adapted_method, check_method, split_method,
+)
 
 __all__ = ["register", "cmd_bench_frames", "cmd_bench_runtime", "plot_det_figure"]
 
@@ -45,9 +49,8 @@ def _detect_camera(group, models, methods, heights, cache_dir, cache_limit_gb, t
                        cache_limit_gb=cache_limit_gb, tolerance=tolerance,
                        cells_per_source_cell=cells_per_source_cell,
                        upsample_below=upsample_below)
-    for kind in DETECTOR_KINDS:                  # offline precomputation, not timed per frame
-        if f"{kind}_adapted" in methods:
-            fd.adapted.operator(kind)
+    for m in methods:                           # offline precomputation, not timed per frame
+        fd.prepare(m)
     dets = {m: [] for m in methods}
     secs = {m: 0.0 for m in methods}
     for f in group:
@@ -289,12 +292,36 @@ def _frame_key(f) -> str:
     return f"{f.path.name}@{f.scene_id}"
 
 
+def _method_arg(text):
+    try:
+        return check_method(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
+def expand_adapted(methods, rules=None, object_models=None) -> list:
+    """``methods`` with each adapted method replaced by one per rule and object model
+    (:func:`benchmark.frames.adapted_method`); unchanged when both are None."""
+    if not rules and not object_models:
+        return list(methods)
+    out = []
+    for m in methods:
+        kind, how, variant = split_method(m)
+        if how != "adapted":
+            out.append(m)
+            continue
+        for model in object_models or (variant[1],):
+            for rule in rules or (variant[0],):
+                out.append(adapted_method(kind, rule, model))
+    return list(dict.fromkeys(out))
+
+
 def cmd_bench_frames(args) -> int:
     from viewadapt.files import atomic_output_dir, check_output_dir, run_metadata
 
     from viewadapt.detect import SourceDetectors
 
-    from .frames import METHODS, evaluate_method
+    from .frames import evaluate_method
 
     check_output_dir(args.out)
     if args.seeds < 1:
@@ -302,7 +329,7 @@ def cmd_bench_frames(args) -> int:
     if args.seeds > 1 and (args.model or args.keep_other_methods):
         raise ValueError("--seeds trains the detectors once per seed; it does not combine "
                          "with --model or --keep-other-methods")
-    methods = args.methods or list(METHODS)
+    methods = expand_adapted(args.methods or list(METHODS), args.rules, args.object_models)
     earlier = _earlier_results(args.out, args.data) if args.keep_other_methods else {}
     models = SourceDetectors.load(args.model) if args.model else None
     seeds = [args.seed + i for i in range(args.seeds)]
@@ -338,12 +365,16 @@ def cmd_bench_frames(args) -> int:
     with atomic_output_dir(args.out) as tmp:
         which = f", seed {seeds[0]}" if len(seeds) > 1 else ""
         lines = [f"| method | LAMR{which} (1e-2..1e0 fppi) | s / frame |", "|---|---|---|"]
-        csv = ["method,lamr,seconds_per_frame,n_frames,n_gt"]
+        csv = []
         for m in methods:
             r = results[m]
             lines.append(f"| {m} | {r['lamr']:.3f} | {r['seconds_per_frame']:.3f} |")
-            csv.append(f"{m},{r['lamr']:.5f},{r['seconds_per_frame']:.5f},"
-                       f"{info['n_frames']},{info['n_gt']}")
+            _, how, variant = split_method(m)
+            rule, model = variant if how == "adapted" else ("", "")
+            csv.append(dict(method=m, lamr=r["lamr"],
+                            seconds_per_frame=r["seconds_per_frame"],
+                            n_frames=info["n_frames"], n_gt=info["n_gt"], rule=rule,
+                            object_model=model))
         lamrs = {s: {m: r["lamr"] for m, r in res.items()} for s, res in per_seed.items()}
         lines += _accuracy_targets(results, lamrs)
         if len(seeds) > 1:
@@ -355,7 +386,9 @@ def cmd_bench_frames(args) -> int:
                 for s, res in per_seed.items() for m, r in res.items()))
             plot_seed_figure(lamrs, tmp / "seeds")
         (tmp / "frames_summary.md").write_text("\n".join(lines) + "\n")
-        (tmp / "frames_summary.csv").write_text("\n".join(csv) + "\n")
+        import pandas as pd
+
+        pd.DataFrame(csv).to_csv(tmp / "frames_summary.csv", index=False, float_format="%.5f")
         (tmp / "det_curves.json").write_text(json.dumps(
             {m: dict(zip(("fppi", "miss_rate"), (a.tolist() for a in curve_corners(
                 results[m]["fppi"], results[m]["miss_rate"]))), lamr=results[m]["lamr"])
@@ -445,9 +478,16 @@ def register(sub, common) -> None:
                                     "detect on its surveillance frames with the adapted "
                                     "detectors and the baselines, and write DET curves, "
                                     "log-average miss rates and a table.")
-    p.add_argument("--methods", nargs="+", default=None,
-                   choices=["hog_adapted", "hog_warp", "hog_pyramid", "opencv",
-                            "opencv_native", "acf_adapted", "acf_warp", "acf_pyramid"])
+    p.add_argument("--methods", nargs="+", default=None, type=_method_arg, metavar="METHOD",
+                   help="methods to run (default: " + " ".join(METHODS) + "); also "
+                        "opencv_native and adapted variants such as 'hog_adapted[body]' "
+                        "(quoted)")
+    p.add_argument("--rules", nargs="+", choices=list(ANGLE_RULES), default=None,
+                   help="run every adapted method once per angle rule of A: covariant "
+                        "(default), paper (the literal eq. 3), none (S only); one row each")
+    p.add_argument("--object-models", nargs="+", choices=list(OBJECT_MODELS), default=None,
+                   help="and once per object model: plane (default, the paper's) or body "
+                        "(the shipped mean body); one row each")
     p.add_argument("--max-frames", type=int, default=None)
     p.add_argument("--tolerance", type=float, default=HOG_TOLERANCE,
                    help="shape tolerance (HOG frame cells) for windows sharing an adapted "

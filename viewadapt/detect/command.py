@@ -11,6 +11,7 @@ import numpy as np
 
 from ..files import atomic_output_dir, check_output_dir, run_metadata
 from ..geometry import PERSON_HEIGHT_M
+from ..objectmodel import OBJECT_MODELS
 from ..remap import ANGLE_RULES
 from .cache import DEFAULT_CACHE_LIMIT_GB, check_cache_limit
 from .calibration import read_boxes, read_calibration, read_frame
@@ -73,7 +74,8 @@ def cmd_detect(args) -> int:
                         cache_limit_gb=args.cache_limit,
                         upsample_below=UPSAMPLE_BELOW if args.upsample_below is None
                         else args.upsample_below,
-                        thresholds={args.detector: args.threshold}, rule=args.rule)
+                        thresholds={args.detector: args.threshold}, rule=args.rule,
+                        object_model=args.object_model)
     method = f"{args.detector}_adapted"
     rows, coco_img, coco_ann = [], [], []
     t0 = time.perf_counter()
@@ -114,7 +116,8 @@ def cmd_detect(args) -> int:
             plot_det_figure({method: ev}, tmp / "det",
                             title=f"{len(paths)} frames, {evaluation['n_gt']} persons")
         (tmp / "metadata.json").write_text(json.dumps(run_metadata(
-            args.seed, detector=method, rule=args.rule, windows=len(det.windows),
+            args.seed, detector=method, rule=args.rule, object_model=args.object_model,
+            windows=len(det.windows),
             frames=len(paths),
             seconds=round(time.perf_counter() - t0, 2), camera=cam.to_dict()), indent=2))
     print(f"{len(rows)} detections in {len(paths)} frames ({len(det.windows)} candidate "
@@ -144,6 +147,10 @@ def register(sub, common) -> None:
     p.add_argument("--rule", choices=list(ANGLE_RULES), default="covariant",
                    help="angle rule of A: covariant (default, J^-T), paper (the literal eq. 3) "
                         "or none (S only)")
+    p.add_argument("--object-model", choices=list(OBJECT_MODELS), default="plane",
+                   help="how a person's pixels move between the views: plane (default, the "
+                        "paper's person plane) or body (a mean body shape shipped with the "
+                        "package; slower to build, cached)")
     p.add_argument("--threshold", type=float, default=0.0, help="score threshold (default 0)")
     p.add_argument("--heights", type=person_heights, default=(PERSON_HEIGHT_M,),
                    help="assumed person heights, metres, comma-separated (default 1.75)")

@@ -13,6 +13,8 @@ import time
 import numpy as np
 
 from ..geometry import PERSON_HEIGHT_M, Camera
+from ..objectmodel import OBJECT_MODELS
+from ..remap import ANGLE_RULES
 from .cache import DEFAULT_CACHE_LIMIT_GB, OperatorCache
 from .channels import check_frame
 from .kinds import DETECTOR_KINDS, HOG_DETECTOR, detector_kind
@@ -55,6 +57,10 @@ class FrameDetector:
         default :data:`DEFAULT_THRESHOLD`).
     rule : {"covariant", "paper", "none"}
         Angle rule of ``A`` (:func:`viewadapt.remap.map_angles`).
+    object_model : {"plane", "body"}
+        How a person's pixels move between the source view and the frame: the paper's
+        plane, or the mean body of :mod:`viewadapt.objectmodel`
+        (:func:`~viewadapt.detect.templates.window_mapping`).
     """
 
     def __init__(self, camera: Camera, models: SourceDetectors, *,
@@ -63,7 +69,7 @@ class FrameDetector:
                  tolerance: float = HOG_TOLERANCE,
                  cells_per_source_cell: float = CELLS_PER_SOURCE_CELL,
                  upsample_below: float = UPSAMPLE_BELOW, thresholds=None,
-                 rule: str = "covariant"):
+                 rule: str = "covariant", object_model: str = "plane"):
         if not isinstance(camera, Camera) or camera.image_size is None:
             raise ValueError("camera must be a Camera with its image_size (width, height)")
         self.camera = camera
@@ -73,6 +79,12 @@ class FrameDetector:
                            tolerance=float(tolerance),
                            cells_per_source_cell=float(cells_per_source_cell),
                            upsample_below=float(upsample_below), rule=str(rule))
+        if rule not in ANGLE_RULES:
+            raise ValueError(f"rule must be one of {ANGLE_RULES}, got {rule!r}")
+        if object_model not in OBJECT_MODELS:
+            raise ValueError(f"object_model must be one of {OBJECT_MODELS}, got {object_model!r}")
+        if object_model != "plane":        # the plane's cache keys stay those of before
+            self.params["object_model"] = str(object_model)
         self.thresholds = {k: DEFAULT_THRESHOLD for k in DETECTOR_KINDS} | dict(thresholds or {})
         for k in self.thresholds:
             detector_kind(k)
@@ -111,7 +123,8 @@ class FrameDetector:
 
         def build(w):
             return kind.build_operator(w, self.models, tolerance=tol, rule=self.params["rule"],
-                                       cells_per_source_cell=self.params["cells_per_source_cell"])
+                                       cells_per_source_cell=self.params["cells_per_source_cell"],
+                                       object_model=self.params.get("object_model", "plane"))
 
         return build_multiresolution_operator(self.windows, build,
                                               upsample_below=self.params["upsample_below"])

@@ -82,9 +82,12 @@ def plot_det_figure(results, path_stem, title=""):
 
     dash = {"pyramid": "-", "warp": "--", "adapted": ":", "opencv": "-.", "native": "-."}
     fig, ax = plt.subplots(figsize=(5.5, 4.5))
+    variants = sorted({m.partition("[")[2] for m in results if "[" in m})
     for m, r in sorted(results.items(), key=lambda kv: kv[1]["lamr"]):
         fam = m.split("_")[0]
         ls = dash.get(m.split("_")[-1], "-")
+        if "[" in m:          # an adapted variant (rule, object model): its own dash pattern
+            ls = (0, (4, 1 + variants.index(m.partition("[")[2]), 1, 1))
         fppi = np.r_[1e-3, r["fppi"]] if len(r["fppi"]) else np.array([1e-3, 10])
         mr = np.r_[1.0, r["miss_rate"]] if len(r["miss_rate"]) else np.array([1.0, 1.0])
         ax.step(np.maximum(fppi, 1e-3), mr, where="post", ls=ls, lw=2,

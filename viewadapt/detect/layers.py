@@ -54,7 +54,8 @@ def _band_windows(windows, f, rows):
     r0, r1 = rows
     return CandidateWindows(windows.ground_xy, windows.person_height,
                             frame_to_band(f, r0) @ windows.homographies,
-                            (f * windows.image_size[0], f * (r1 - r0)), windows.grid_index)
+                            (f * windows.image_size[0], f * (r1 - r0)), windows.grid_index,
+                            windows.camera)
 
 
 class _Layer(NamedTuple):

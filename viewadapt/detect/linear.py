@@ -30,6 +30,7 @@ from .channels import (
 from .templates import (
     CELLS_PER_SOURCE_CELL, FRAME_CELL_SIZES, HOG_TOLERANCE, TemplateOperator,
     build_template_groups, check_windows, choose_cell_sizes, hog_frame_remap, required_padding,
+    resolve_object_model, window_mapping,
 )
 from .windows import CandidateWindows
 
@@ -251,7 +252,8 @@ def build_adapted_linear_operator(windows: CandidateWindows, weights, bias: floa
                                   tolerance: float = HOG_TOLERANCE,
                                   cells_per_source_cell: float = CELLS_PER_SOURCE_CELL,
                                   allowed_cell_sizes=FRAME_CELL_SIZES,
-                                  rule: str = "covariant") -> AdaptedLinearOperator:
+                                  rule: str = "covariant",
+                                  object_model="plane") -> AdaptedLinearOperator:
     """Precompute the adapted linear detector of every candidate window (eq. (7)).
 
     Parameters
@@ -270,6 +272,10 @@ def build_adapted_linear_operator(windows: CandidateWindows, weights, bias: floa
     allowed_cell_sizes : sequence of int
     rule : {"covariant", "paper", "none"}
         Angle rule of ``A`` (:func:`viewadapt.remap.map_angles`).
+    object_model : {"plane", "body"} or an object model
+        How a person's pixels move between the views (:func:`window_mapping`): the paper's
+        plane (each window's homography) or e.g. the mean body of
+        :mod:`viewadapt.objectmodel` (needs ``windows.camera``).
 
     Returns
     -------
@@ -286,9 +292,10 @@ def build_adapted_linear_operator(windows: CandidateWindows, weights, bias: floa
     scale = windows.scale
     cell = choose_cell_sizes(scale, HOG_CELL, cells_per_source_cell=cells_per_source_cell,
                              allowed=allowed_cell_sizes)
+    model = resolve_object_model(object_model)
     groups = build_template_groups(windows, cell, tolerance)
     for g in groups:
-        G = hog_frame_remap(windows.homographies[g.prototype], g, rule)
+        G = hog_frame_remap(window_mapping(windows, g.prototype, model), g, rule)
         g.template = np.asarray(G.T @ w, dtype=np.float32).reshape(g.shape[0], g.shape[1],
                                                                      HOG_CHANNELS)
     pad = required_padding(groups, windows.image_size)

@@ -30,7 +30,7 @@ from .channels import (
 from .templates import (
     ACF_TOLERANCE, CELLS_PER_SOURCE_CELL, FRAME_CELL_SIZES, TemplateOperator,
     acf_frame_remap, acf_gradient_rows, build_template_groups, check_windows,
-    choose_cell_sizes, required_padding,
+    choose_cell_sizes, required_padding, resolve_object_model, window_mapping,
 )
 from .windows import CandidateWindows
 
@@ -165,7 +165,7 @@ def build_adapted_trees_operator(windows: CandidateWindows, model, *,
                                  allowed_cell_sizes=FRAME_CELL_SIZES,
                                  rule: str = "covariant",
                                  gradient_lambda: float = ACF_GRADIENT_LAMBDA,
-                                 acf_kwargs=None) -> AdaptedTreesOperator:
+                                 acf_kwargs=None, object_model="plane") -> AdaptedTreesOperator:
     """Precompute ``G[used]`` of every window for an ACF boosted-trees model.
 
     Parameters
@@ -184,6 +184,8 @@ def build_adapted_trees_operator(windows: CandidateWindows, model, *,
         off. Colour channels are intensive and need no scaling.
     acf_kwargs : dict, optional
         Passed to :func:`acf_frame_features`.
+    object_model : {"plane", "body"} or an object model
+        As :func:`build_adapted_linear_operator`.
 
     Returns
     -------
@@ -199,13 +201,14 @@ def build_adapted_trees_operator(windows: CandidateWindows, model, *,
                              allowed=allowed_cell_sizes)
     if not np.isfinite(gradient_lambda):
         raise ValueError(f"gradient_lambda must be finite, got {gradient_lambda!r}")
+    shape_model = resolve_object_model(object_model)
     groups = build_template_groups(windows, cell, tolerance)
     used = model.used_features_
     gradient_row = acf_gradient_rows()
     scale = windows.scale
     factor = np.ones(len(windows))
     for g in groups:
-        G = acf_frame_remap(windows.homographies[g.prototype], g, rule)
+        G = acf_frame_remap(window_mapping(windows, g.prototype, shape_model), g, rule)
         if gradient_lambda:
             factor[g.members] = scale[g.prototype] ** gradient_lambda
             G = sp.diags(np.where(gradient_row, factor[g.prototype], 1.0)) @ G

@@ -80,6 +80,10 @@ class CandidateWindows:
         ``(width, height)`` of the frame.
     grid_index : (N, 2) int ndarray
         ``(forward, lateral)`` index of each window on its height's ground grid.
+    camera : Camera or None
+        The camera the windows were selected for (its frame pixels, not those of an
+        upsampled band): what an object model other than the plane maps through
+        (:func:`~viewadapt.detect.templates.window_mapping`).
     """
 
     ground_xy: np.ndarray
@@ -87,6 +91,7 @@ class CandidateWindows:
     homographies: np.ndarray
     image_size: tuple
     grid_index: np.ndarray
+    camera: object = None
 
     def __len__(self) -> int:
         return int(self.ground_xy.shape[0])
@@ -113,7 +118,7 @@ class CandidateWindows:
         """The windows selected by ``index`` (boolean mask or integer array)."""
         return CandidateWindows(self.ground_xy[index], self.person_height[index],
                                 self.homographies[index], self.image_size,
-                                self.grid_index[index])
+                                self.grid_index[index], self.camera)
 
 
 def window_scale(homographies) -> np.ndarray:
@@ -381,7 +386,7 @@ def select_candidate_windows(camera: Camera, image_size=None, *,
     return CandidateWindows(np.concatenate([p[0] for p in parts]),
                             np.concatenate([p[1] for p in parts]),
                             np.concatenate([p[2] for p in parts]), (w, h),
-                            np.concatenate([p[3] for p in parts]))
+                            np.concatenate([p[3] for p in parts]), camera)
 
 
 def _too_close(occupied: dict, p, d: float) -> bool:
