@@ -9,7 +9,10 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["register", "check_results_dir"]
+__all__ = ["register", "check_results_dir", "write_report_with_warnings"]
+
+#: how long ``--scheduler`` waits for the Dask scheduler before giving up
+SCHEDULER_TIMEOUT_S = 10
 
 
 def _elevations(text: str) -> tuple:
@@ -24,9 +27,11 @@ def _elevations(text: str) -> tuple:
                 val = (float(k) if k else 1.0) * np.pi / (float(den) if den else 1.0)
             else:
                 val = float(tok)
-        except ValueError:
+        except (ValueError, ZeroDivisionError):
             raise argparse.ArgumentTypeError(f"cannot read elevation {tok!r} "
                                              "(use radians or forms like pi/8, 3pi/8)") from None
+        if not np.isfinite(val):
+            raise argparse.ArgumentTypeError(f"elevation {tok!r} is not a finite angle")
         out.append(val)
     return tuple(out)
 
@@ -42,6 +47,46 @@ def check_results_dir(out: Path, fingerprint: str) -> None:
         if old.get("fingerprint") != fingerprint:
             raise ValueError(f"{out} holds results of another dataset ({old.get('data')}, "
                              f"fingerprint {old.get('fingerprint')}); use another --out")
+
+
+def _incomplete(ds, args):
+    """The incomplete-dataset warning (printed loudly) or None; refuses without the flag."""
+    import sys
+
+    from .crossval import require_complete
+
+    msg = require_complete(ds, allow_incomplete=getattr(args, "allow_incomplete", False))
+    if msg:
+        bar = "!" * 78
+        print(f"{bar}\nWARNING: {msg}.\nRunning on it anyway (--allow-incomplete): the "
+              f"results do not describe the planned dataset; run.json and report.md say "
+              f"so.\n{bar}", file=sys.stderr, flush=True)
+    return msg
+
+
+#: the warning line ``report.md`` opens with for results of an incomplete dataset
+INCOMPLETE_NOTE = "> **Warning: computed on an incomplete dataset (--allow-incomplete):** "
+
+
+def write_report_with_warnings(out) -> Path:
+    """:func:`benchmark.report.write_report`, then the warnings ``run.json`` records (an
+    incomplete dataset) inserted under the title."""
+    from viewadapt.files import atomic_write_text
+
+    from .report import write_report
+
+    path = write_report(out)
+    try:
+        run = json.loads((Path(out) / "run.json").read_text())
+    except (OSError, ValueError):
+        return path
+    notes = [n for n in (run.get("incomplete_dataset"),
+                         (run.get("sweep") or {}).get("incomplete_dataset")) if n]
+    if notes:
+        lines = path.read_text().split("\n")
+        add = [INCOMPLETE_NOTE + n for n in dict.fromkeys(notes)] + [""]
+        atomic_write_text(path, "\n".join(lines[:2] + add + lines[2:]))
+    return path
 
 
 def _run_json(ds, args, extra=None) -> dict:
@@ -92,7 +137,13 @@ def _scheduler(args):
         raise ValueError("--scheduler needs dask.distributed: pip install 'viewadapt[scale]'") from None
     import joblib
 
-    client = Client(args.scheduler)
+    from viewadapt.files import UserError
+
+    try:
+        client = Client(args.scheduler, timeout=f"{SCHEDULER_TIMEOUT_S}s")
+    except (OSError, TimeoutError, ValueError) as exc:
+        raise UserError(f"--scheduler {args.scheduler}: cannot reach a Dask scheduler there "
+                        f"within {SCHEDULER_TIMEOUT_S} s ({exc.__class__.__name__})") from None
     stack = contextlib.ExitStack()
     stack.callback(client.close)
     stack.enter_context(joblib.parallel_backend("dask"))
@@ -109,13 +160,14 @@ def cmd_crossval(args) -> int:
     from .detectors import detector_spec
     from .features import FeatureCache
     from .figures import save_figure
-    from .report import plot_det, plot_score_shift, write_report
+    from .report import plot_det, plot_score_shift
     from .summarize import paired_differences, summarize
 
-    check_output_dir(args.out)
+    check_output_dir(args.out, overwrite=args.overwrite)
     ds = load_dataset(args.data)
     check_results_dir(args.out, ds.fingerprint)
     cfg = _config(args, ds)
+    incomplete = _incomplete(ds, args)
     cache = FeatureCache(ds, args.cache or (args.out / "cache"), n_jobs=args.jobs)
     t0 = time.perf_counter()
     with _scheduler(args):
@@ -143,9 +195,10 @@ def cmd_crossval(args) -> int:
             plt.close(fig)
         _remap_figure(tmp, ds, cfg)
         (tmp / "run.json").write_text(json.dumps(_run_json(ds, args, {
-            "crossval": config_dict(cfg), "crossval_seconds": round(time.perf_counter() - t0, 1)}),
+            "crossval": config_dict(cfg), "crossval_seconds": round(time.perf_counter() - t0, 1),
+            "incomplete_dataset": incomplete}),
             indent=2, default=str))
-    write_report(args.out)
+    write_report_with_warnings(args.out)
     print(_markdown(summary))
     print(f"\nwrote {args.out}/ (summary.csv, scores.parquet, det_*.png, report.md)")
     return 0
@@ -194,13 +247,14 @@ def cmd_sweep(args) -> int:
     from .data import load_dataset
     from .features import FeatureCache
     from .figures import save_figure
-    from .report import plot_sweep, write_report
+    from .report import plot_sweep
     from .sweep import run_sweep, sweep_summary
 
-    check_output_dir(args.out)
+    check_output_dir(args.out, overwrite=args.overwrite)
     ds = load_dataset(args.data)
     check_results_dir(args.out, ds.fingerprint)
     cfg = _config(args, ds)
+    incomplete = _incomplete(ds, args)
     from .detectors import detector_spec
 
     detector_spec(args.detector)                 # resolves, before any work
@@ -222,21 +276,20 @@ def cmd_sweep(args) -> int:
         run_path = Path(args.out) / "run.json"
         run = json.loads(run_path.read_text()) if run_path.is_file() else _run_json(ds, args)
         run["sweep"] = {"detector": args.detector, "source": args.source, "step": args.step,
-                        "sigma": args.sigma, "seconds": round(time.perf_counter() - t0, 1)}
+                        "sigma": args.sigma, "seconds": round(time.perf_counter() - t0, 1),
+                        "incomplete_dataset": incomplete}
         (tmp / "run.json").write_text(json.dumps(run, indent=2, default=str))
-    write_report(args.out)
+    write_report_with_warnings(args.out)
     print(summ.to_string(index=False))
     return 0
 
 
 def cmd_report(args) -> int:
-    from .report import write_report
-
     out = Path(args.results)
     if not out.is_dir() or not (out / "run.json").is_file():
         raise ValueError(f"{out} is not a results directory (no run.json); run "
                          "`viewadapt bench crossval` first")
-    print(write_report(out))
+    print(write_report_with_warnings(out))
     return 0
 
 
@@ -256,6 +309,9 @@ def register(sub, common) -> None:
                            help="address of a Dask scheduler to run the folds on")
     data_opts.add_argument("--quick", action="store_true",
                            help="smaller boosted detectors and negative sets (tests, demos)")
+    data_opts.add_argument("--allow-incomplete", action="store_true",
+                           help="run on a dataset missing images its dataset.json plans (an "
+                                "unfinished generate): warns, and run.json and report.md say so")
     data_opts.add_argument("--object-models", nargs="+", choices=["plane", "body"],
                            default=None, help="object models of the adapted and image-warping "
                            "rows (default both: the person plane and the mean body)")

@@ -36,12 +36,13 @@ import pandas as pd
 from viewadapt.geometry import elevation_homography
 from viewadapt.objectmodel import correspondence_mapping, crop_view_mapping, object_model
 
-from .data import Dataset, manifest_camera, read_depth_map
+from .data import Dataset, DatasetError, manifest_camera, missing_planned_images, read_depth_map
 from .detectors import detector_spec, feature_key
 from .features import FeatureCache, background_windows, person_windows
 from .folds import Fold, make_folds
 
-__all__ = ["CrossvalConfig", "ADAPT_VARIANTS", "EXACT_VARIANTS", "run_crossval"]
+__all__ = ["CrossvalConfig", "ADAPT_VARIANTS", "EXACT_VARIANTS", "run_crossval",
+           "require_complete"]
 #: method name -> (angle rule, per-cell A, object model)
 ADAPT_VARIANTS = {
     "adapted": ("covariant", True, "plane"),
@@ -57,6 +58,23 @@ CORE_VARIANTS = ("adapted", "adapted[body]")
 #: upper-bound rows -> (angle rule, the variant whose negatives they share)
 EXACT_VARIANTS = {"exact geometry": ("covariant", "adapted"),
                   "exact geometry[paper eq.3]": ("paper", "adapted[paper eq.3]")}
+
+
+def require_complete(ds: Dataset, *, allow_incomplete: bool = False) -> str | None:
+    """Refuse (:class:`DatasetError`) a dataset whose manifest lacks images its
+    ``dataset.json`` plans: its folds would silently miss persons or scenes. With
+    ``allow_incomplete`` return the warning to print and record instead (None if complete).
+    """
+    gap = missing_planned_images(ds)
+    if gap is None:
+        return None
+    missing, planned = gap
+    msg = (f"{ds.root} is incomplete: {missing} of the {planned} images its dataset.json "
+           "plans are missing (an unfinished or sharded `viewadapt generate`; rerun it "
+           "with the same --out to finish)")
+    if not allow_incomplete:
+        raise DatasetError(msg + ", or pass --allow-incomplete to run on it anyway")
+    return msg
 
 
 def variant_names(spec, cfg) -> list:

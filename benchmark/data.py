@@ -17,11 +17,13 @@ import numpy as np
 import pandas as pd
 
 __all__ = ["DatasetError", "Dataset", "load_dataset", "read_image", "read_json", "read_depth_map",
-           "manifest_camera",
+           "manifest_camera", "missing_planned_images",
            "REQUIRED_COLUMNS"]
 
 REQUIRED_COLUMNS = ("path", "kind", "person_id", "scene_id", "instance", "elevation",
                     "elevation_index", "H_window_to_image", "width", "height")
+#: the required columns that must hold numbers (the rest hold strings)
+NUMERIC_COLUMNS = ("instance", "elevation", "elevation_index", "width", "height")
 KINDS = ("person", "background", "frame")
 
 
@@ -67,6 +69,18 @@ class Dataset:
 
     def path(self, rel: str) -> Path:
         return self.root / rel
+
+
+def missing_planned_images(ds: Dataset) -> tuple[int, int] | None:
+    """``(missing, planned)`` when the manifest lists fewer images than ``dataset.json``
+    plans (``counts.images``: a generation that did not finish, or one shard of several);
+    None when it lists them all or the dataset does not say what it plans."""
+    counts = ds.config.get("counts") if isinstance(ds.config, dict) else None
+    planned = counts.get("images") if isinstance(counts, dict) else None
+    if isinstance(planned, bool) or not isinstance(planned, int):
+        return None
+    missing = planned - len(ds.manifest)
+    return (missing, planned) if missing > 0 else None
 
 
 def manifest_camera(row):
@@ -144,6 +158,17 @@ def load_dataset(root, *, check_files: bool = True) -> Dataset:
     missing = [c for c in REQUIRED_COLUMNS if c not in manifest.columns]
     if missing:
         raise DatasetError(f"{man_path}: missing columns {missing}")
+    for col in NUMERIC_COLUMNS:
+        c = manifest[col]
+        if c.dtype == object:               # manifest.csv: NaN read as ""
+            try:
+                c = manifest[col] = pd.to_numeric(c.where(c != "", None))
+            except (ValueError, TypeError):
+                pass
+        if not pd.api.types.is_numeric_dtype(c) or pd.api.types.is_bool_dtype(c):
+            raise DatasetError(f"{man_path}: column {col!r} must hold numbers, it holds "
+                               f"{c.dtype} values such as {c.iloc[0]!r}" if len(c) else
+                               f"{man_path}: column {col!r} must hold numbers")
     bad = sorted(set(manifest["kind"]) - set(KINDS))
     if bad:
         raise DatasetError(f"{man_path}: unknown kind values {bad} (expected {KINDS})")

@@ -323,7 +323,7 @@ def cmd_bench_frames(args) -> int:
 
     from .frames import evaluate_method
 
-    check_output_dir(args.out)
+    check_output_dir(args.out, overwrite=args.overwrite)
     if args.seeds < 1:
         raise ValueError(f"--seeds must be at least 1, got {args.seeds}")
     if args.seeds > 1 and (args.model or args.keep_other_methods):
@@ -399,16 +399,16 @@ def cmd_bench_frames(args) -> int:
         plot_det_figure(results, tmp / "det_frames",
                         title=f"{info['n_frames']} frames, {info['n_gt']} persons")
         (tmp / "models").mkdir()
-        models.save(tmp / "models" / "source_detectors.pkl")
+        models.save(tmp / "models" / "source_detectors.npz")
         for seed, m in seed_models.items():
-            m.save(tmp / "models" / f"source_detectors_seed{seed}.pkl")
+            m.save(tmp / "models" / f"source_detectors_seed{seed}.npz")
         (tmp / "run.json").write_text(json.dumps(run_metadata(
             args.seed, data=str(args.data), methods=methods, kept_from_earlier_run=kept, **info,
             seeds=seeds, training=models.training,
             seconds=round(time.perf_counter() - t0, 1)), indent=2, default=str))
     print("\n".join(lines))
     print(f"\nwrote {args.out}/frames_summary.{{md,csv}}, det_frames.{{png,pdf}}, "
-          "models/source_detectors.pkl"
+          "models/source_detectors.npz"
           + (", seeds.{md,csv,png} (per seed; the rest is seed "
              f"{seeds[0]}'s)" if len(seeds) > 1 else ""))
     return 0
@@ -422,7 +422,7 @@ def cmd_bench_runtime(args) -> int:
 
     from .perf.runtime import format_table, run_runtime
 
-    check_output_dir(args.out)
+    check_output_dir(args.out, overwrite=args.overwrite)
     t0 = time.perf_counter()
     table, info = run_runtime(args.data, n_frames=args.frames, warp_windows=args.warp_windows,
                               heights=args.heights, jobs=args.jobs, seed=args.seed,
@@ -500,7 +500,8 @@ def register(sub, common) -> None:
                         f"upsampled 2x (default {UPSAMPLE_BELOW:g}, i.e. "
                         f"{96 * UPSAMPLE_BELOW:.0f} px; 0 = never)")
     p.add_argument("--model", type=Path, default=None,
-                   help="reuse trained source detectors instead of training")
+                   help="reuse trained source detectors (models/source_detectors.npz of "
+                        "an earlier run) instead of training")
     p.add_argument("--seeds", type=int, default=1,
                    help="train and detect with this many training seeds (--seed, --seed + "
                         "1, ...) and write each method's LAMR per seed, its mean and spread "

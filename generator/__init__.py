@@ -11,13 +11,16 @@ Modules (describe first, render second):
 * :mod:`generator.layout` -- scenes expanded into primitives; ray casting.
 * :mod:`generator.sampling` -- config, presets, seeds, the sampling plan and its cameras.
 * :mod:`generator.annotate` -- silhouette boxes, frame visibility/occlusion.
-* :mod:`generator.manifest` -- dataset directory, manifest, part files, depth maps.
+* :mod:`generator.manifest` -- dataset directory, manifest, part files, depth maps, the
+  content hash; :mod:`generator.contents` -- ``dataset.json`` and every planned path;
+  :mod:`generator.png` -- the full PNG check and byte-reproducible PNGs.
 * :mod:`generator.verify` -- checking a dataset directory (``viewadapt dataset verify``).
 * :mod:`generator.body` -- posed, clothed anny meshes (imports torch/anny lazily); its gait
   cycle and rotations in :mod:`generator.kinematics`.
 * :mod:`generator.blender` -- the Cycles renderer (the only module importing ``bpy``); the
   values it sets are computed in :mod:`generator.blendparams`.
-* :mod:`generator.pipeline` -- workers, process pool / Dask, shards, resume.
+* :mod:`generator.pipeline` -- workers, process pool / Dask, shards; :mod:`generator.resume`
+  -- what a rerun may change, which kept files are sound, what an interrupted run kept.
 * :mod:`generator.preview`, :mod:`generator.cli`, :mod:`generator.bench`.
 
 ``import generator`` imports neither bpy nor torch.

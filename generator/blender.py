@@ -20,6 +20,8 @@ import numpy as np
 
 from viewadapt.files import atomic_path
 
+from .png import strip_png_metadata
+
 # A process started by one that had imported bpy (multiprocessing/Dask workers inherit
 # sys.path) sees Blender's scripts/modules/bpy before the real module; drop those entries
 # so that `import bpy` finds the compiled module (which adds them back itself).
@@ -571,6 +573,11 @@ class BlenderRenderer:
         with atomic_path(path, suffix=".png") as tmp:
             sc.render.filepath = str(tmp)
             bpy.ops.render.render(write_still=True)
+            # Blender writes the date and render time into the file: drop those chunks so
+            # the bytes depend on the pixels only (generator.png)
+            stripped = strip_png_metadata(tmp.read_bytes())
+            if stripped is not None:
+                tmp.write_bytes(stripped)
             if ss > 1:
                 import cv2
 

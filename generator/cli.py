@@ -42,11 +42,11 @@ def parse_elevations(text: str) -> tuple[float, ...]:
             vals = [lo + (hi - lo) * i / max(n - 1, 1) for i in range(n)]
         else:
             vals = [one(t) for t in text.split(",")]
-    except ValueError:
+    except (ValueError, ZeroDivisionError, OverflowError):
         raise ValueError(f"--elevations: cannot parse {text!r}; use e.g. 0,pi/8,pi/4 or "
                          f"0deg,22.5deg,45deg or 0:pi/4:3") from None
     for v in vals:
-        if not 0 <= v < math.pi / 2:
+        if not math.isfinite(v) or not 0 <= v < math.pi / 2:
             raise ValueError(f"--elevations: {v:.4f} rad is outside [0, pi/2)")
     return tuple(vals)
 
@@ -71,7 +71,8 @@ def cmd_generate(args) -> int:
     if args.jobs == 0 or args.jobs < -1:
         raise ValueError("--jobs must be a positive number of workers or -1 (all cores)")
     res = generate(config, args.seed, args.out, jobs=args.jobs, shard=shard,
-                   scheduler=args.scheduler, progress=not args.quiet)
+                   scheduler=args.scheduler, progress=not args.quiet,
+                   overwrite=getattr(args, "overwrite", False))
     print(res.summary())
     return 0
 
@@ -79,12 +80,15 @@ def cmd_generate(args) -> int:
 def cmd_verify(args) -> int:
     from .verify import verify_dataset
 
-    rep = verify_dataset(args.directory, decode=not args.fast, check_plan=not args.no_plan)
+    rep = verify_dataset(args.directory, decode=not args.fast, check_plan=not args.no_plan,
+                         check_hash=args.hash)
     print(rep.summary())
     if args.json:
-        Path(args.json).write_text(json.dumps({"ok": rep.ok, "n_rows": rep.n_rows,
-                                               "n_ok": rep.n_ok, "problems": rep.problems},
-                                              indent=1))
+        from viewadapt.files import atomic_write_text
+
+        atomic_write_text(args.json, json.dumps({"ok": rep.ok, "n_rows": rep.n_rows,
+                                                 "n_ok": rep.n_ok, "problems": rep.problems},
+                                                indent=1))
     return 0 if rep.ok else 1
 
 
@@ -110,7 +114,10 @@ def register(subparsers, common_parser: argparse.ArgumentParser) -> None:
                     "elevations (paper: 0, pi/8, pi/4), person-free backgrounds and "
                     "calibrated surveillance frames; write images, manifest.parquet/.csv, "
                     "frames_coco.json and dataset.json into --out. Rerunning with the same "
-                    "--out finishes an interrupted run.")
+                    "--out finishes an interrupted run (every kept file is checked and a "
+                    "truncated or corrupt one rendered again) or, with a larger --frames, "
+                    "extends a finished one; dataset.json records the content hash of a "
+                    "complete set (the same for the same seed and settings).")
     p.add_argument("--preset", choices=("tiny", "demo", "small", "paper"), default="tiny",
                    help="dataset size (tiny: 6 persons x 3 scenes, ~1 min; demo: 18 x 9 at "
                         "elevations 0 and pi/4 only, for `viewadapt demo`; small: 24 x 9 x 2 "
@@ -144,6 +151,9 @@ def register(subparsers, common_parser: argparse.ArgumentParser) -> None:
     v.add_argument("directory", type=Path)
     v.add_argument("--fast", action="store_true", help="skip decoding the images")
     v.add_argument("--no-plan", action="store_true", help="skip re-planning the dataset")
+    v.add_argument("--hash", action="store_true",
+                   help="also recompute the content hash (sha256 over every data file) and "
+                        "compare it with the one dataset.json records")
     v.add_argument("--json", type=Path, help="also write the report as JSON")
     v.set_defaults(func=cmd_verify)
     pv = dsub.add_parser("preview", help="contact sheets (one block per elevation) as PNG")

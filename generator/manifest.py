@@ -32,9 +32,10 @@ import numpy as np
 
 from viewadapt.files import atomic_write_bytes, atomic_write_text
 
-__all__ = ["MANIFEST_COLUMNS", "part_path", "read_part", "write_part", "png_is_complete",
-           "assemble_manifest", "read_manifest", "json_matrix", "versions", "spec_hashes",
-           "write_depth", "read_depth", "depth_is_complete"]
+__all__ = ["MANIFEST_COLUMNS", "INT_COLUMNS", "FLOAT_COLUMNS", "part_path", "read_part",
+           "write_part", "png_is_complete", "assemble_manifest", "read_manifest",
+           "json_matrix", "versions", "spec_hashes", "write_depth", "read_depth",
+           "depth_is_complete", "content_hash", "HASH_EXCLUDED"]
 
 #: Column order of manifest.parquet / manifest.csv.
 MANIFEST_COLUMNS = [
@@ -95,7 +96,9 @@ def png_is_complete(path) -> bool:
 
 
 def write_depth(path, depth) -> None:
-    """Write a crop's depth map (float32, NaN off the body) atomically as ``.npz``."""
+    """Write a crop's depth map (float32, NaN off the body) atomically as ``.npz``.
+
+    The bytes depend on the values only: numpy's zip entries carry a fixed time stamp."""
     import io
 
     d = np.asarray(depth, dtype=np.float32)
@@ -223,12 +226,16 @@ def assemble_manifest(out, uids: list[str]):
     return df, missing
 
 
+#: manifest columns of integers and of floats (the others hold strings)
+INT_COLUMNS = ("instance", "elevation_index", "n_area_lights", "n_persons", "width", "height",
+               "seed", "render_seed", "samples", "supersample")
+FLOAT_COLUMNS = ("elevation", "azimuth", "rotation", "ground_x", "ground_y", "gait_phase",
+                 "stature", "sun_elevation", "sun_azimuth", "sun_strength", "sky_strength",
+                 "area_light_strength", "exposure", "distance", "person_height")
+
+
 def _typed(df):
-    ints = ["instance", "elevation_index", "n_area_lights", "n_persons", "width", "height",
-            "seed", "render_seed", "samples", "supersample"]
-    floats = ["elevation", "azimuth", "rotation", "ground_x", "ground_y", "gait_phase",
-              "stature", "sun_elevation", "sun_azimuth", "sun_strength", "sky_strength",
-              "area_light_strength", "exposure", "distance", "person_height"]
+    ints, floats = list(INT_COLUMNS), list(FLOAT_COLUMNS)
     for c in ints:
         df[c] = df[c].astype("int64")
     for c in floats:
@@ -247,3 +254,38 @@ def read_manifest(out):
         raise FileNotFoundError(f"{out}: no manifest.parquet (generation unfinished? run "
                                 f"`viewadapt generate` again with the same --out to finish)")
     return pd.read_parquet(p)
+
+
+# --------------------------------------------------------------------------- content hash
+
+#: files of a dataset directory its content hash leaves out: ``dataset.json`` (it records
+#: the hash, and the absolute spec paths and package versions of the machine), the
+#: ownership marker and every hidden file or folder (``.parts/``: the per-unit bookkeeping
+#: the manifest is assembled from; temporary files). No data file records a time: the PNGs
+#: carry no text or time chunks (generator.png); numpy writes the depth files' zip entries
+#: with a fixed time stamp.
+HASH_EXCLUDED = ("dataset.json", ".*")
+
+
+def content_hash(out) -> dict:
+    """The dataset's content hash: sha256 over the sorted ``(relative path, sha256)`` of
+    every data file (images, depth maps, manifest.parquet/.csv, frames_coco.json; not
+    :data:`HASH_EXCLUDED`). Returns ``{"sha256": ..., "n_files": ..., "excludes": ...}``."""
+    out = Path(out)
+    entries = []
+    for p in out.rglob("*"):
+        rel = p.relative_to(out)
+        if any(part.startswith(".") for part in rel.parts) or not p.is_file():
+            continue
+        if rel.as_posix() == "dataset.json":
+            continue
+        h = hashlib.sha256()
+        with open(p, "rb") as fh:
+            for block in iter(lambda: fh.read(1 << 20), b""):
+                h.update(block)
+        entries.append((rel.as_posix(), h.hexdigest()))
+    total = hashlib.sha256()
+    for rel, digest in sorted(entries):
+        total.update(f"{rel}\0{digest}\n".encode())
+    return {"sha256": total.hexdigest(), "n_files": len(entries),
+            "excludes": list(HASH_EXCLUDED)}

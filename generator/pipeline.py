@@ -12,8 +12,10 @@ Execution engines:
 manifest always covers every finished unit of the whole plan, so the last shard to finish
 (or a plain rerun) writes the complete manifest.
 
-Resuming: a unit whose part file and files exist is skipped; inside an unfinished unit
-every image already on disk (a complete PNG) is kept and only the rest is rendered. Person
+Resuming (:mod:`generator.resume`): a unit whose part file exists and whose files all pass
+a full check (:func:`generator.png.png_problem`; depth maps read back) is skipped, a bad
+file is removed and rendered again; inside an unfinished unit every sound image already on
+disk is kept and only the rest is rendered; a larger ``frames`` extends a finished set. Person
 crops also get a depth map of the posed body (``depth/``, numpy, no rendering): a dataset
 rendered before depth maps existed gets them from a rerun, without re-rendering.
 """
@@ -29,23 +31,26 @@ from pathlib import Path
 
 import numpy as np
 
-from viewadapt.files import atomic_write_text
+from viewadapt.files import UserError, atomic_write_text, check_output_dir, write_marker
 from viewadapt.geometry import Camera, window_to_image_homography, window_to_plane
 from viewadapt.surface import surface_depth
 
+from .contents import (
+    dataset_metadata, depth_relpath, planned_paths, unit_depth_paths, unit_paths,
+)
 from .layout import layout_scene
 from .manifest import (
-    assemble_manifest, depth_is_complete, json_matrix, part_path, png_is_complete, read_part,
-    spec_hashes, versions, write_depth, write_part,
+    assemble_manifest, content_hash, json_matrix, part_path, write_depth, write_part,
 )
+from .resume import check_depth, check_image, check_resumable, interrupted, pending_units
 from .sampling import (
-    GeneratorConfig, Plan, WorkUnit, image_relpath, plan_dataset, select_shard,
+    GeneratorConfig, WorkUnit, image_relpath, plan_dataset, select_shard,
 )
 from .specs import default_roster_path, default_scene_dir, load_roster, load_scenes
 
 __all__ = ["generate", "GenerateResult", "run_unit", "planned_paths", "dataset_metadata",
-           "depth_relpath", "STATE", "worker_state", "scene_layout", "cpu_count",
-           "unit_person_ids"]
+           "depth_relpath", "unit_paths", "unit_depth_paths", "STATE", "worker_state",
+           "scene_layout", "cpu_count", "unit_person_ids"]
 
 
 @dataclass
@@ -58,105 +63,17 @@ class GenerateResult:
     n_kept: int
     seconds: float
     complete: bool
+    #: kept files found truncated or corrupt and rendered again
+    n_repaired: int = 0
 
     def summary(self) -> str:
         rate = self.n_rendered / self.seconds if self.seconds > 0 else float("nan")
         state = "complete" if self.complete else "INCOMPLETE (other shards or units pending)"
-        return (f"{self.out}: {self.n_images} images in plan; rendered {self.n_rendered}, "
-                f"kept {self.n_kept} in {self.seconds:.1f} s ({rate:.2f} images/s); "
+        fixed = (f" ({self.n_repaired} of them replacing truncated or corrupt files)"
+                 if self.n_repaired else "")
+        return (f"{self.out}: {self.n_images} images in plan; rendered {self.n_rendered}"
+                f"{fixed}, kept {self.n_kept} in {self.seconds:.1f} s ({rate:.2f} images/s); "
                 f"dataset {state}")
-
-
-# --------------------------------------------------------------------------- metadata
-
-
-def dataset_metadata(config: GeneratorConfig, seed: int, plan: Plan, scene_dir, roster) -> dict:
-    scene_dir = Path(scene_dir)
-    return {
-        "format": "viewadapt-multiview-v1",
-        "preset": config.preset,
-        "seed": int(seed),
-        "framing": config.framing,
-        "elevations": [float(e) for e in config.elevations],
-        "distance": config.distance,
-        "person_height": config.person_height,
-        "counts": {"persons": len(plan.persons), "scenes": len(plan.scenes),
-                   "instances": config.instances,
-                   "backgrounds_per_scene": config.backgrounds_per_scene,
-                   "frames": config.frames, "images": plan.n_images},
-        "renderer": {"name": config.renderer, "samples": config.samples,
-                     "background_samples": config.background_samples,
-                     "frame_samples": config.frame_samples, "denoise": config.denoise,
-                     "supersample": config.supersample, "light_tree": config.light_tree,
-                     "fast_gi": config.fast_gi, "max_bounces": config.max_bounces},
-        "config": config.to_dict(),
-        "persons": list(plan.persons),
-        "scenes": list(plan.scenes),
-        "specs": {"scene_dir": str(scene_dir), "roster": str(roster),
-                  "hashes": spec_hashes(sorted(scene_dir.glob("*.json")) + [Path(roster)])},
-        "versions": versions(),
-        "conventions": {
-            "world": "metres, Z up, ground Z=0; person yaw 0 faces -Y",
-            "camera": "OpenCV: x_cam = R X + t, x right, y down, z forward",
-            "azimuth": "crops/backgrounds: direction from the person (aim point) to the "
-                       "camera, radians counter-clockwise from -Y (viewadapt crop_camera); "
-                       "NaN for frames",
-            "rotation": "person yaw, radians counter-clockwise about +Z; 0 faces -Y",
-            "pixels": "pixel centres at integer coordinates; boxes [x, y, w, h] in that frame",
-            "H_window_to_image": "canonical 64x128 window (person plane, 96 px tall "
-                                 "person_height) -> image; identity at elevation 0 for "
-                                 "plane framing; centre window for backgrounds",
-            "H_plane_to_image": "person-plane metres (u right, z up, origin at the feet) "
-                                "-> image",
-        },
-    }
-
-
-def _same_config(a: dict, b: dict) -> bool:
-    keys = ("seed", "config")
-    return all(json.dumps(a.get(k), sort_keys=True) == json.dumps(b.get(k), sort_keys=True)
-               for k in keys)
-
-
-def planned_paths(meta: dict) -> list[str]:
-    """Every image path a dataset's ``dataset.json`` plans (re-planned in numpy)."""
-    config = GeneratorConfig.from_dict(meta["config"])
-    specs = meta.get("specs", {})
-    scene_dir = specs.get("scene_dir") or default_scene_dir()
-    roster = specs.get("roster") or default_roster_path()
-    plan = plan_dataset(config, meta["seed"], scenes=load_scenes(scene_dir),
-                        persons=load_roster(roster))
-    return [p for u in plan.units for p in unit_paths(u)]
-
-
-def unit_depth_paths(unit: WorkUnit) -> list[str]:
-    """Depth maps of a person unit's crops (one per image; none for other units)."""
-    if unit.kind != "person":
-        return []
-    return [depth_relpath(p) for p in unit_paths(unit)]
-
-
-def depth_relpath(image_path: str) -> str:
-    """``person/<scene>/<name>.png`` -> ``depth/<scene>/<name>.npz``."""
-    head, rest = image_path.split("/", 1)
-    if head != "person" or not rest.endswith(".png"):
-        raise ValueError(f"only person crops have depth maps, got {image_path!r}")
-    return f"depth/{rest[:-4]}.npz"
-
-
-def unit_paths(unit: WorkUnit) -> list[str]:
-    out = []
-    for s in unit.samples:
-        if unit.kind == "person":
-            out += [image_relpath("person", s.scene_id, person_id=s.person_id,
-                                  instance=s.instance, elevation_index=e)
-                    for e in range(len(s.cameras))]
-        elif unit.kind == "background":
-            out += [image_relpath("background", s.scene_id, index=s.index, elevation_index=e)
-                    for e in range(len(s.cameras))]
-        else:
-            out.append(image_relpath("frame", s.scene_id, index=s.index))
-    return out
 
 
 # --------------------------------------------------------------------------- worker
@@ -276,18 +193,20 @@ def run_unit(payload: dict) -> dict:
     )
 
     rows, coco = [], None
-    n_rendered = n_kept = 0
+    n_rendered = n_kept = n_repaired = 0
     plane_inv = np.linalg.inv(window_to_plane(config.person_height))
 
     def render_to(rel, cam, width, height, samples, seed):
-        nonlocal n_rendered, n_kept
+        nonlocal n_rendered, n_kept, n_repaired
         path = out / rel
-        if path.is_file() and png_is_complete(path):
+        problem = check_image(path, (width, height))     # a full check; a bad file goes
+        if problem is None:
             n_kept += 1
             return
         renderer.set_camera(cam.K, cam.R, cam.t, width, height, config.supersample)
         renderer.render(path, samples=samples, seed=seed)
         n_rendered += 1
+        n_repaired += problem != "missing"
 
     if unit.kind == "person":
         person = persons[unit.samples[0].person_id]
@@ -310,7 +229,7 @@ def run_unit(payload: dict) -> dict:
                 rs = _render_seed(s.seed, e)
                 render_to(rel, cam, w, h, config.samples, rs)
                 drel = depth_relpath(rel)
-                if not depth_is_complete(out / drel, (h, w)):
+                if check_depth(out / drel, (h, w)) is not None:
                     write_depth(out / drel, surface_depth(verts, faces, cam, (h, w)))
                 row = _base_row(config, "person", rel, spec.id, s.lighting, cam, w, h,
                                 s.seed, rs, config.samples)
@@ -391,7 +310,8 @@ def run_unit(payload: dict) -> dict:
         raise ValueError(f"unknown unit kind {unit.kind!r}")
     write_part(out, unit.uid, rows, coco)
     return {"uid": unit.uid, "n_images": unit.n_images, "rendered": n_rendered,
-            "kept": n_kept, "seconds": time.perf_counter() - t0, "pid": os.getpid()}
+            "kept": n_kept, "repaired": n_repaired, "seconds": time.perf_counter() - t0,
+            "pid": os.getpid()}
 
 
 # --------------------------------------------------------------------------- driver
@@ -407,8 +327,9 @@ def cpu_count() -> int:
 
 def generate(config: GeneratorConfig, seed: int, out, *, jobs: int = 1, shard=None,
              scheduler: str | None = None, progress: bool = True, scene_dir=None,
-             roster=None, threads: int | None = None, log=None) -> GenerateResult:
-    """Generate (or finish) a dataset in ``out``.
+             roster=None, threads: int | None = None, log=None,
+             overwrite: bool = False) -> GenerateResult:
+    """Generate (or finish, or extend by more frames) a dataset in ``out``.
 
     Parameters
     ----------
@@ -416,13 +337,22 @@ def generate(config: GeneratorConfig, seed: int, out, *, jobs: int = 1, shard=No
     seed : int
         Master seed.
     out : path
-        Dataset directory (created; an existing one must hold the same config and seed).
+        Dataset directory (created; an existing dataset must hold the same config and seed,
+        up to a larger ``frames``; a non-empty directory that is no output of the project is
+        refused unless ``overwrite``).
     jobs : int
         Worker processes (``-1``: one per core; ``0``: render in this process).
     shard : (int, int), optional
         Render only block ``i`` of ``n``.
     scheduler : str, optional
         Dask scheduler address; ``jobs`` is then ignored.
+
+    Every kept file of a finished unit is checked (a full PNG check, depth maps read back)
+    and a bad one rendered again. The manifest is assembled when the run ends cleanly; a
+    complete dataset's ``dataset.json`` records its content hash
+    (:func:`generator.manifest.content_hash`). An interrupted or failing run keeps what it
+    rendered (a rerun resumes) and says so; it removes ``out`` if it made it and kept
+    nothing.
     """
     t0 = time.perf_counter()
     out = Path(out)
@@ -439,27 +369,27 @@ def generate(config: GeneratorConfig, seed: int, out, *, jobs: int = 1, shard=No
     plan = plan_dataset(config, seed, scenes=load_scenes(scene_dir),
                         persons=load_roster(roster))
     meta = dataset_metadata(config, seed, plan, scene_dir, roster)
-    out.mkdir(parents=True, exist_ok=True)
     meta_p = out / "dataset.json"
     if meta_p.is_file():
         try:
             old = json.loads(meta_p.read_text())
         except json.JSONDecodeError:
             old = None
-        if old is not None and not _same_config(old, meta):
-            raise ValueError(f"{out} holds a dataset with a different config or seed "
-                             f"(preset {old.get('preset')!r}, seed {old.get('seed')}); "
-                             f"choose another --out")
-    atomic_write_text(meta_p, json.dumps(meta, indent=2))
-
-    units = select_shard(plan.units, shard)
-    pending = []
-    for u in units:
-        part = read_part(out, u.uid)
-        if part is not None and all((out / p).is_file()
-                                    for p in unit_paths(u) + unit_depth_paths(u)):
-            continue
-        pending.append(u)
+        if isinstance(old, dict) and str(old.get("format", "")).startswith("viewadapt"):
+            check_resumable(old, meta, out)
+    check_output_dir(out, overwrite=overwrite)
+    client = _dask_client(scheduler) if scheduler else None    # reachable, before writing
+    created = not out.exists()
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        write_marker(out, "generate")
+        atomic_write_text(meta_p, json.dumps(meta, indent=2))
+        units = select_shard(plan.units, shard)
+        pending, repaired = pending_units(out, units, config)
+    except BaseException as exc:
+        if client is not None:
+            client.close()
+        raise interrupted(exc, out, plan, created) from None
     n_done_images = sum(u.n_images for u in units) - sum(u.n_images for u in pending)
     payloads = [{"unit": u, "scene": plan.scenes[u.scene_id],
                  "persons": {pid: plan.persons[pid] for pid in unit_person_ids(u)},
@@ -471,19 +401,30 @@ def generate(config: GeneratorConfig, seed: int, out, *, jobs: int = 1, shard=No
                desc=f"generate {config.preset}", disable=not progress, dynamic_ncols=True,
                smoothing=0.05)
     rendered = kept = 0
+    runs = _execute(payloads, jobs=jobs, client=client, threads=threads)
     try:
-        for res in _execute(payloads, jobs=jobs, scheduler=scheduler, threads=threads):
+        for res in runs:
             rendered += res["rendered"]
             kept += res["kept"]
+            repaired += res.get("repaired", 0)
             bar.update(res["n_images"])
             if log is not None:
                 log(res)
+    except BaseException as exc:
+        bar.close()
+        runs.close()                 # the workers are stopped before what is kept is counted
+        raise interrupted(exc, out, plan, created) from None
     finally:
         bar.close()
-        # assemble whatever is finished, even after an interruption
-        df, missing = assemble_manifest(out, [u.uid for u in plan.units])
+        if client is not None:
+            client.close()
+    df, missing = assemble_manifest(out, [u.uid for u in plan.units])
+    if not missing:
+        atomic_write_text(meta_p, json.dumps(dict(meta, content_hash=content_hash(out)),
+                                             indent=2))
     return GenerateResult(out, len(plan.units), len(pending), plan.n_images, rendered,
-                          kept + n_done_images, time.perf_counter() - t0, not missing)
+                          kept + n_done_images, time.perf_counter() - t0, not missing,
+                          repaired)
 
 
 def unit_person_ids(u: WorkUnit) -> list[str]:
@@ -495,11 +436,11 @@ def unit_person_ids(u: WorkUnit) -> list[str]:
     return []
 
 
-def _execute(payloads, *, jobs, scheduler, threads):
+def _execute(payloads, *, jobs, client=None, threads=None):
     if not payloads:
         return
-    if scheduler:
-        yield from _execute_dask(payloads, scheduler, threads)
+    if client is not None:
+        yield from _execute_dask(payloads, client, threads)
         return
     ncpu = cpu_count()
     if jobs is None or jobs < 0:
@@ -526,17 +467,32 @@ def _execute(payloads, *, jobs, scheduler, threads):
             raise
 
 
-def _execute_dask(payloads, scheduler, threads):
+#: how long ``--scheduler`` waits for the Dask scheduler before giving up
+SCHEDULER_TIMEOUT_S = 10
+
+
+def _dask_client(scheduler: str):
+    """A client of the Dask scheduler at ``scheduler``; a one-line error if unreachable."""
     try:
-        from distributed import Client, as_completed
+        from distributed import Client
     except ImportError as exc:
         raise ValueError("--scheduler needs dask: pip install 'dask[distributed]'") from exc
-    client = Client(scheduler, set_as_default=False)
     try:
-        futs = client.map(run_unit, [dict(p, threads=threads or 0) for p in payloads],
-                          pure=False, key=[f"unit-{p['unit'].uid}" for p in payloads])
+        return Client(scheduler, set_as_default=False, timeout=f"{SCHEDULER_TIMEOUT_S}s")
+    except (OSError, TimeoutError, ValueError) as exc:
+        raise UserError(f"--scheduler {scheduler}: cannot reach a Dask scheduler there within "
+                        f"{SCHEDULER_TIMEOUT_S} s ({exc.__class__.__name__}); nothing was "
+                        "written") from None
+
+
+def _execute_dask(payloads, client, threads):
+    from distributed import as_completed
+
+    futs = client.map(run_unit, [dict(p, threads=threads or 0) for p in payloads],
+                      pure=False, key=[f"unit-{p['unit'].uid}" for p in payloads])
+    try:
         for f in as_completed(futs, loop=client.loop):
             yield f.result()
-    finally:
-        client.close()
-
+    except BaseException:
+        client.cancel(futs)
+        raise

@@ -25,6 +25,7 @@ from viewadapt.geometry import (
 )
 
 from .layout import SceneLayout, footprint_distance, layout_scene, segments_clear
+from .specreader import check_field_types
 from .specs import PersonSpec, SceneSpec, load_roster, load_scenes
 
 __all__ = [
@@ -103,6 +104,7 @@ class GeneratorConfig:
     def validate(self) -> "GeneratorConfig":
         def bad(msg):
             raise ValueError(f"generator config: {msg}")
+        check_field_types(self, bad)
         if self.instances < 1:
             bad(f"instances must be >= 1, got {self.instances}")
         if not self.elevations:

@@ -13,7 +13,7 @@ import math
 from pathlib import Path
 from typing import Any
 
-__all__ = ["SpecError", "SpecReader", "read_json"]
+__all__ = ["check_field_types", "SpecError", "SpecReader", "read_json"]
 
 
 class SpecError(ValueError):
@@ -145,3 +145,41 @@ def read_json(path) -> Any:
         return json.loads(path.read_text())
     except json.JSONDecodeError as exc:
         raise SpecError(f"{path}: not valid JSON: {exc}") from None
+
+
+def check_field_types(obj, bad) -> None:
+    """Each field of a dataclass ``obj`` of the type of its default (a bool, an integer, a
+    number, a string; ``elevations`` numbers, ``*_ids`` strings, other tuples two
+    integers); ``bad(message)`` raises, naming the field (a config read from a file may
+    hold anything, and ``float('steep')`` would not say where it came from)."""
+    import dataclasses
+    import numbers
+
+    import numpy as np
+
+    def number(v, integer=False):
+        return (not isinstance(v, (bool, np.bool_))
+                and isinstance(v, numbers.Integral if integer else numbers.Real)
+                and (integer or math.isfinite(v)))
+
+    for f in dataclasses.fields(obj):
+        v, d = getattr(obj, f.name), f.default
+        if isinstance(d, bool):
+            ok, want = isinstance(v, bool), "true or false"
+        elif isinstance(d, (int, float)):
+            integer = isinstance(d, int)
+            ok, want = number(v, integer), "an integer" if integer else "a number"
+        elif isinstance(d, str):
+            ok, want = isinstance(v, str), "a string"
+        elif f.name == "elevations":
+            ok = isinstance(v, (tuple, list)) and all(number(x) for x in v)
+            want = "a list of numbers (radians)"
+        elif f.name.endswith("_ids"):
+            ok = isinstance(v, (tuple, list)) and all(isinstance(x, str) for x in v)
+            want = "a list of ids"
+        else:
+            ok = (isinstance(v, (tuple, list)) and len(v) == 2
+                  and all(number(x, integer=True) for x in v))
+            want = "two integers"
+        if not ok:
+            bad(f"{f.name} must be {want}, got {v!r}")

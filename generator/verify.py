@@ -1,9 +1,12 @@
 """``viewadapt dataset verify``: check a dataset directory against its manifest and plan.
 
-Every manifest row's image exists, is a complete PNG and decodes to the recorded size; every
-person crop has its depth map; no file is listed twice or lies there unlisted (leftover
-temporary files included); everything ``dataset.json`` plans was generated (re-planned in
-numpy by :func:`generator.pipeline.planned_paths`); every frame is in ``frames_coco.json``.
+The manifest has every column of :data:`generator.manifest.MANIFEST_COLUMNS` with its type;
+every row's image exists, is a complete PNG and decodes to the recorded size; every person
+crop has its depth map; no file is listed twice or lies there unlisted (leftover temporary
+files included); everything ``dataset.json`` plans was generated (re-planned in numpy by
+:func:`generator.contents.planned_paths`); every frame is in ``frames_coco.json``; with
+``check_hash``, the content hash recomputed (:func:`generator.manifest.content_hash`)
+equals the one ``dataset.json`` records.
 """
 
 from __future__ import annotations
@@ -12,8 +15,12 @@ import json
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from .manifest import png_is_complete, read_depth, read_manifest
-from .pipeline import planned_paths
+from .contents import planned_paths
+from .manifest import (
+    FLOAT_COLUMNS, INT_COLUMNS, MANIFEST_COLUMNS, content_hash, png_is_complete, read_depth,
+    read_manifest,
+)
+from .png import png_problem
 
 __all__ = ["VerifyReport", "verify_dataset"]
 
@@ -27,6 +34,8 @@ class VerifyReport:
     n_ok: int = 0
     n_planned: int | None = None
     problems: list = field(default_factory=list)     # (path, message)
+    #: True when the content hash was recomputed and matches dataset.json's
+    hash_ok: bool | None = None
 
     @property
     def ok(self) -> bool:
@@ -35,6 +44,8 @@ class VerifyReport:
     def summary(self) -> str:
         head = (f"{self.directory}: {self.n_ok}/{self.n_rows} images OK"
                 + (f", {self.n_planned} planned" if self.n_planned is not None else ""))
+        if self.hash_ok:
+            head += "; content hash matches"
         if self.ok:
             return head + "; no problems found"
         lines = [head + f"; {len(self.problems)} problem(s):"]
@@ -64,9 +75,43 @@ def _depth_ok(out: Path, row, rep: VerifyReport) -> bool:
     return True
 
 
-def verify_dataset(out, *, decode: bool = True, check_plan: bool = True) -> VerifyReport:
-    """Check a dataset directory: every manifest row's image exists, is a complete PNG that
-    decodes to the recorded size; no duplicate or stray files; nothing planned is missing.
+#: the columns the per-row checks read
+_ROW_COLUMNS = ("path", "kind", "width", "height", "depth_path")
+
+
+def _column_problems(df) -> list:
+    """(column, problem) for each manifest column that is missing or of the wrong type."""
+    import pandas as pd
+
+    out = []
+    for c in MANIFEST_COLUMNS:
+        if c not in df.columns:
+            out.append((c, "missing"))
+            continue
+        col = df[c]
+        if c in INT_COLUMNS:
+            ok = pd.api.types.is_integer_dtype(col) and not pd.api.types.is_bool_dtype(col)
+            want = "integers"
+        elif c in FLOAT_COLUMNS:
+            ok = pd.api.types.is_numeric_dtype(col) and not pd.api.types.is_bool_dtype(col)
+            want = "numbers"
+        else:
+            ok = (pd.api.types.is_string_dtype(col) or col.dtype == object) and all(
+                isinstance(v, str) for v in col)
+            want = "strings"
+        if not ok:
+            bad = next((v for v in col if not isinstance(v, str)), None) \
+                if want == "strings" else col.dtype
+            out.append((c, f"must hold {want}, holds {bad!r}" if want == "strings"
+                        else f"must hold {want}, holds {bad}"))
+    return out
+
+
+def verify_dataset(out, *, decode: bool = True, check_plan: bool = True,
+                   check_hash: bool = False) -> VerifyReport:
+    """Check a dataset directory: the manifest's columns and types; every row's image
+    exists, is a complete PNG that decodes to the recorded size; no duplicate or stray
+    files; nothing planned is missing; with ``check_hash`` the content hash.
     """
     import cv2
 
@@ -91,6 +136,12 @@ def verify_dataset(out, *, decode: bool = True, check_plan: bool = True) -> Veri
         rep.problems.append(("manifest.parquet", f"unreadable: {exc}"))
         df = None
     if df is not None:
+        bad_cols = _column_problems(df)
+        rep.problems += [(f"manifest.parquet column {c!r}", m) for c, m in bad_cols]
+        if {c for c, _ in bad_cols} & set(_ROW_COLUMNS):
+            rep.n_rows = len(df)
+            return rep                       # the row checks cannot read this manifest
+    if df is not None:
         rep.n_rows = len(df)
         dup = df["path"][df["path"].duplicated()]
         for p in dup:
@@ -107,6 +158,11 @@ def verify_dataset(out, *, decode: bool = True, check_plan: bool = True) -> Veri
                 rep.problems.append((row.path, "truncated or not a PNG"))
                 continue
             if decode:
+                problem = png_problem(f, (row.width, row.height))
+                if problem is not None:
+                    rep.problems.append((row.path, f"unreadable ({problem})"
+                                         if not problem.startswith("size") else problem))
+                    continue
                 img = cv2.imread(str(f), cv2.IMREAD_UNCHANGED)
                 if img is None:
                     rep.problems.append((row.path, "unreadable (does not decode)"))
@@ -155,4 +211,19 @@ def verify_dataset(out, *, decode: bool = True, check_plan: bool = True) -> Veri
                     rep.problems.append((p, "frame missing from frames_coco.json"))
         except (OSError, json.JSONDecodeError, KeyError) as exc:
             rep.problems.append(("frames_coco.json", f"unreadable: {exc}"))
+    if check_hash:
+        want = (meta.get("content_hash") or {}).get("sha256") if isinstance(meta, dict) else None
+        if not want:
+            rep.problems.append(("dataset.json", "records no content hash (generation "
+                                                 "unfinished, or made before hashes: rerun "
+                                                 "`viewadapt generate` with the same --out)"))
+        else:
+            got = content_hash(out)
+            if got["sha256"] != want:
+                rep.problems.append(("dataset.json", f"content hash differs: recorded "
+                                                     f"{want[:16]}…, the files give "
+                                                     f"{got['sha256'][:16]}… ({got['n_files']} "
+                                                     "files)"))
+            else:
+                rep.hash_ok = True
     return rep

@@ -375,35 +375,40 @@ def test_operator_cache_invalidates_on_calibration_change(tmp_path, frame):
     d3 = FrameDetector(moved, Models(), cache_dir=tmp_path)
     d3.operator("hog")
     assert d3.cache_hit["hog"] is False
-    assert len(list(tmp_path.glob("operator-*.pkl"))) == 2
+    assert len(list(tmp_path.glob("operator-*.npz"))) == 2
 
 
-def test_operator_cache_keeps_to_its_size_limit(tmp_path):
+def test_operator_cache_keeps_to_its_size_limit(tmp_path, windows):
     import os
-    import pickle
 
     from viewadapt.detect import OperatorCache
 
-    blob = np.zeros(1000)                                   # about 8 kB pickled
-    size = len(pickle.dumps(blob))
+    w = np.random.default_rng(0).normal(size=(16, 8, HOG_CHANNELS))
+    op = build_adapted_linear_operator(windows.subset(np.arange(40)), w, 0.0)
+    size = OperatorCache(tmp_path / "probe", limit_gb=None).save({}, op).stat().st_size
     cache = OperatorCache(tmp_path, limit_gb=2.5 * size / 2**30)   # two fit
     keys = [{"camera": i} for i in range(4)]
     for i in (0, 1):
-        os.utime(cache.save(keys[i], blob + i), (1000 + i, 1000 + i))
-    assert cache.load(keys[0])[0] == 0                      # used now: evicted last
-    cache.save(keys[2], blob)
+        os.utime(cache.save(keys[i], op), (1000 + i, 1000 + i))
+    assert cache.load(keys[0]) is not None                  # used now: evicted last
+    cache.save(keys[2], op)
     assert cache.load(keys[1]) is None                      # the least recently used went
     assert cache.load(keys[0]) is not None and cache.load(keys[2]) is not None
+    # a legacy pickle entry is never read and goes first, however recent
+    legacy = tmp_path / "operator-0123456789abcdef01234567.pkl"
+    legacy.write_bytes(b"\x80\x04" + bytes(size))
+    os.utime(legacy, (5000, 5000))
+    assert cache.evict() == [legacy] and not legacy.exists()
     # a limit below one operator keeps just the newest
     small = OperatorCache(tmp_path, limit_gb=size / 4 / 2**30)
-    newest = small.save(keys[3], blob)
-    assert list(tmp_path.glob("operator-*.pkl")) == [newest]
+    newest = small.save(keys[3], op)
+    assert list(tmp_path.glob("operator-*.npz")) == [newest]
     # no limit: nothing is deleted
     for limit in (None, 0):
         free = OperatorCache(tmp_path, limit_gb=limit)
         for k in keys:
-            free.save(k, blob)
-        assert free.evict() == [] and len(list(tmp_path.glob("operator-*.pkl"))) == 4
+            free.save(k, op)
+        assert free.evict() == [] and len(list(tmp_path.glob("operator-*.npz"))) == 4
     with pytest.raises(ValueError, match="cache limit"):
         OperatorCache(tmp_path, limit_gb=-1)
 

@@ -67,7 +67,7 @@ def test_bench_frames_outputs(bench):
     summary = (bench / "frames_summary.csv").read_text().splitlines()
     assert len(summary) == 5
     for name in ("det_frames.png", "det_frames.pdf", "det_curves.json",
-                 "models/source_detectors.pkl", "run.json"):
+                 "models/source_detectors.npz", "run.json"):
         assert (bench / name).is_file()
     curves = json.loads((bench / "det_curves.json").read_text())
     for m, c in curves.items():
@@ -102,7 +102,7 @@ def test_rerun_some_methods_keeping_the_others(toy, bench, tmp_path):
     shutil.copytree(bench, out)
     before = (bench / "frames_summary.csv").read_text().splitlines()
     rc = _main(["bench", "frames", "--data", str(toy), "--out", str(out), "--quick",
-                "--model", str(bench / "models" / "source_detectors.pkl"),
+                "--model", str(bench / "models" / "source_detectors.npz"),
                 "--methods", "acf_adapted", "--keep-other-methods"])
     assert rc == 0
     after = (out / "frames_summary.csv").read_text().splitlines()
@@ -127,7 +127,7 @@ def test_detect_cli(toy, bench, tmp_path):
                                  "R": cam.R.tolist(), "t": cam.t.tolist()}))
     out = tmp_path / "det"
     rc = _main(["detect", "--calibration", str(calib), "--model",
-                str(bench / "models" / "source_detectors.pkl"), "--out", str(out),
+                str(bench / "models" / "source_detectors.npz"), "--out", str(out),
                 "--threshold", "-0.5", str(frames[0].path), str(frames[1].path)])
     assert rc == 0
     assert (out / "detections.csv").is_file() and (out / "detections_coco.json").is_file()
@@ -146,7 +146,7 @@ def test_detect_cli(toy, bench, tmp_path):
     for k, boxes in enumerate((csv, coco)):
         ev_out = tmp_path / f"ev{k}"
         assert _main(["detect", "--calibration", str(calib), "--model",
-                      str(bench / "models" / "source_detectors.pkl"), "--out", str(ev_out),
+                      str(bench / "models" / "source_detectors.npz"), "--out", str(ev_out),
                       "--threshold", "-0.5", "--boxes", str(boxes),
                       str(frames[0].path), str(frames[1].path)]) == 0
         ev = json.loads((ev_out / "evaluation.json").read_text())
@@ -157,7 +157,7 @@ def test_detect_cli(toy, bench, tmp_path):
     bad_csv = tmp_path / "bad.csv"
     bad_csv.write_text("image,x,y\nf.png,1,2\n")
     assert _main(["detect", "--calibration", str(calib), "--model",
-                  str(bench / "models" / "source_detectors.pkl"), "--out", str(tmp_path / "b2"),
+                  str(bench / "models" / "source_detectors.npz"), "--out", str(tmp_path / "b2"),
                   "--boxes", str(bad_csv), str(frames[0].path)]) == 2
     assert not (tmp_path / "b2").exists()
     # a model file that is not one (truncated, or of another layout): one line, no traceback
@@ -169,21 +169,21 @@ def test_detect_cli(toy, bench, tmp_path):
     # a missing frame, a frame of the wrong size: one-line errors, nothing written
     bad = tmp_path / "bad"
     assert _main(["detect", "--calibration", str(calib), "--model",
-                  str(bench / "models" / "source_detectors.pkl"), "--out", str(bad),
+                  str(bench / "models" / "source_detectors.npz"), "--out", str(bad),
                   str(tmp_path / "nope.png")]) == 2
     import cv2
 
     small = tmp_path / "small.png"
     cv2.imwrite(str(small), np.zeros((50, 60, 3), np.uint8))
     assert _main(["detect", "--calibration", str(calib), "--model",
-                  str(bench / "models" / "source_detectors.pkl"), "--out", str(bad),
+                  str(bench / "models" / "source_detectors.npz"), "--out", str(bad),
                   str(small)]) == 2
     assert _main(["detect", "--calibration", str(calib), "--model",
-                  str(bench / "models" / "source_detectors.pkl"), "--out", str(bad),
+                  str(bench / "models" / "source_detectors.npz"), "--out", str(bad),
                   "--upsample-below", "-1", str(frames[0].path)]) == 2
     assert not bad.exists()
     assert _main(["bench", "frames", "--data", str(toy), "--out", str(bad), "--quick",
-                  "--model", str(bench / "models" / "source_detectors.pkl"),
+                  "--model", str(bench / "models" / "source_detectors.npz"),
                   "--upsample-below", "nan", "--methods", "hog_adapted"]) == 2
     with pytest.raises(SystemExit):                          # argparse: usage and exit 2
         _main(["bench", "frames", "--data", str(toy), "--out", str(bad),
@@ -313,7 +313,7 @@ def test_frame_view_copies_change_the_svm_and_the_separation_script_runs(toy, be
     from benchmark.perf.frameview_separation import main as separation_main
 
     crops_only = train_source_detectors(load_dataset(toy), quick=True, frame_view="none")
-    with_copies = SourceDetectors.load(bench / "models" / "source_detectors.pkl")
+    with_copies = SourceDetectors.load(bench / "models" / "source_detectors.npz")
     assert not np.allclose(crops_only.hog_weights, with_copies.hog_weights)
     # the default copies both detectors' crops: the trees differ from the crops-only ones
     assert not (crops_only.acf.feature_.shape == with_copies.acf.feature_.shape
@@ -326,7 +326,7 @@ def test_frame_view_copies_change_the_svm_and_the_separation_script_runs(toy, be
     with pytest.raises(ValueError, match="frame_view must be one of"):
         train_source_detectors(load_dataset(toy), quick=True, frame_view="yes")
     assert separation_main(["--data", str(toy), "--model",
-                            str(bench / "models" / "source_detectors.pkl"),
+                            str(bench / "models" / "source_detectors.npz"),
                             "--scales", "0.4,0.8"]) == 0
     rows = [r for r in capsys.readouterr().out.splitlines() if r.startswith("| 0.")]
     assert len(rows) == 2
@@ -351,11 +351,11 @@ def test_seed_study(toy, tmp_path):
                                   (out / "frames_summary.csv").read_text().splitlines()[1:])}
     assert {r[1]: r[2] for r in rows if r[0] == "0"} == first    # the main table is seed 0's
     # the second seed's detectors are those trained with that seed
-    m1 = SourceDetectors.load(out / "models" / "source_detectors_seed1.pkl")
+    m1 = SourceDetectors.load(out / "models" / "source_detectors_seed1.npz")
     ref = train_source_detectors(load_dataset(toy), seed=1, quick=True)
     assert m1.fingerprint() == ref.fingerprint()
     assert m1.fingerprint() != SourceDetectors.load(
-        out / "models" / "source_detectors.pkl").fingerprint()
+        out / "models" / "source_detectors.npz").fingerprint()
     lamr = {(r[0], r[1]): float(r[2]) for r in rows}
     mean = np.mean([lamr["0", "hog_adapted"], lamr["1", "hog_adapted"]])
     summary = (out / "frames_summary.md").read_text()
@@ -364,7 +364,7 @@ def test_seed_study(toy, tmp_path):
     assert json.loads((out / "run.json").read_text())["seeds"] == [0, 1]
     # bad combinations: one-line errors, nothing written
     for extra in (["--seeds", "0"],
-                  ["--seeds", "2", "--model", str(out / "models" / "source_detectors.pkl")]):
+                  ["--seeds", "2", "--model", str(out / "models" / "source_detectors.npz")]):
         assert _main(["bench", "frames", "--data", str(toy), "--out", str(tmp_path / "bad"),
                       "--quick", "--methods", "hog_adapted", *extra]) == 2
         assert not (tmp_path / "bad").exists()
@@ -406,7 +406,7 @@ def test_bench_frames_one_row_per_rule_and_object_model(toy, bench, tmp_path):
 
     out = tmp_path / "rules"
     rc = _main(["bench", "frames", "--data", str(toy), "--out", str(out), "--quick",
-                "--model", str(bench / "models" / "source_detectors.pkl"), "--max-frames", "1",
+                "--model", str(bench / "models" / "source_detectors.npz"), "--max-frames", "1",
                 "--methods", "hog_adapted", "opencv_native", "--rules", "covariant", "none",
                 "--object-models", "plane", "body"])
     assert rc == 0
@@ -433,7 +433,7 @@ def test_detect_takes_the_rule_and_the_object_model(toy, bench, tmp_path):
     for model in ("plane", "body"):
         out = tmp_path / model
         assert _main(["detect", "--calibration", str(calib), "--model",
-                      str(bench / "models" / "source_detectors.pkl"), "--out", str(out),
+                      str(bench / "models" / "source_detectors.npz"), "--out", str(out),
                       "--threshold", "-0.5", "--rule", "paper", "--object-model", model,
                       str(frames[0].path)]) == 0
         meta = json.loads((out / "metadata.json").read_text())
@@ -442,5 +442,5 @@ def test_detect_takes_the_rule_and_the_object_model(toy, bench, tmp_path):
     assert not rows["plane"].equals(rows["body"])
     with pytest.raises(SystemExit):                          # argparse: usage and exit 2
         _main(["detect", "--calibration", str(calib), "--model",
-               str(bench / "models" / "source_detectors.pkl"), "--out",
+               str(bench / "models" / "source_detectors.npz"), "--out",
                str(tmp_path / "bad"), "--object-model", "cube", str(frames[0].path)])

@@ -102,7 +102,7 @@ def test_bench_frames_on_rendered_frames(rendered, frames_bench):
     s = pd.read_csv(frames_bench / "frames_summary.csv")
     assert len(s) == 3
     for name in ("det_frames.png", "det_frames.pdf", "det_curves.json",
-                 "models/source_detectors.pkl"):
+                 "models/source_detectors.npz"):
         assert (frames_bench / name).is_file(), name
     curves = json.loads((frames_bench / "det_curves.json").read_text())
     assert set(curves) == {"hog_adapted", "acf_adapted", "hog_pyramid"}
@@ -119,7 +119,7 @@ def test_detect_on_rendered_frames_with_a_yaml_calibration(rendered, frames_benc
         *cam.image_size, cam.K.tolist(), cam.R.tolist(), cam.t.tolist()))
     out = tmp_path / "det"
     rc = main(["detect", "--calibration", str(calib), "--model",
-               str(frames_bench / "models" / "source_detectors.pkl"), "--out", str(out),
+               str(frames_bench / "models" / "source_detectors.npz"), "--out", str(out),
                "--threshold", "-1", str(f.path)])
     assert rc == 0
     det = pd.read_csv(out / "detections.csv")

@@ -407,6 +407,86 @@ class AdaBoostTrees(ClassifierMixin, BaseEstimator):
                         np.searchsorted(used, np.maximum(self.feature_, 0)), -1)
         return self._scores(Xs, cols, self.n_estimators_)
 
+    # ------------------------------------------------------------------ storage
+    def to_arrays(self):
+        """The fitted model as plain data: ``(params, arrays)``.
+
+        ``params`` are the hyper-parameters (JSON-ready; ``random_state`` only when it is
+        an int or None -- it seeds training alone -- else None) and ``n_features_in_``;
+        ``arrays`` the fitted arrays (``classes_``, ``feature_``, ``threshold_``,
+        ``value_``, ``train_loss_``, and ``feature_names_in_`` as text if fitted on named
+        columns). :meth:`from_arrays` rebuilds the model; nothing needs pickling.
+        """
+        check_is_fitted(self, "feature_")
+        params = {}
+        for k, v in self.get_params().items():
+            if k == "random_state" and not (v is None or isinstance(v, numbers.Integral)):
+                v = None
+            elif k == "stages" and v is not None:
+                v = [int(s) for s in v]
+            elif isinstance(v, numbers.Integral) and not isinstance(v, bool):
+                v = int(v)
+            elif isinstance(v, numbers.Real) and not isinstance(v, bool):
+                v = float(v)
+            params[k] = v
+        params["n_features_in_"] = int(self.n_features_in_)
+        classes = np.asarray(self.classes_)
+        if classes.dtype.kind not in "biufU":
+            classes = classes.astype(str)
+        arrays = dict(classes_=classes, feature_=self.feature_, threshold_=self.threshold_,
+                      value_=self.value_, train_loss_=self.train_loss_)
+        if hasattr(self, "feature_names_in_"):
+            arrays["feature_names_in_"] = np.asarray(self.feature_names_in_, dtype=str)
+        return params, arrays
+
+    @classmethod
+    def from_arrays(cls, params: dict, arrays: dict) -> "AdaBoostTrees":
+        """The fitted model :meth:`to_arrays` gave; ``ValueError`` for unknown parameters
+        or missing, mis-shaped or out-of-range arrays."""
+        params = dict(params)
+        n_in = params.pop("n_features_in_", None)
+        unknown = set(params) - set(cls().get_params())
+        if unknown:
+            raise ValueError(f"unknown AdaBoostTrees parameters {sorted(unknown)}")
+        model = cls(**params)
+        n_max, depth, _, _ = model._checked_params()
+        if isinstance(n_in, bool) or not isinstance(n_in, int) or n_in < 1:
+            raise ValueError(f"n_features_in_ must be a positive integer, got {n_in!r}")
+
+        def get(key, kinds):
+            a = arrays.get(key)
+            if a is None or np.asarray(a).dtype.kind not in kinds:
+                raise ValueError(f"the stored AdaBoostTrees lacks its {key} array")
+            return np.asarray(a)
+
+        feature = get("feature_", "iu")
+        n_nodes = 2 ** (depth + 1) - 1
+        if feature.ndim != 2 or feature.shape[1] != n_nodes or not 1 <= len(feature) <= n_max:
+            raise ValueError(f"feature_ has shape {feature.shape}, not (<= {n_max}, {n_nodes})")
+        if feature.size and (feature.min() < -1 or feature.max() >= n_in):
+            raise ValueError(f"feature_ holds features outside -1..{n_in - 1}")
+        threshold, value = get("threshold_", "f"), get("value_", "f")
+        loss, classes = get("train_loss_", "f"), get("classes_", "biufU")
+        if threshold.shape != feature.shape or value.shape != feature.shape \
+                or loss.shape != feature.shape[:1] or classes.shape != (2,):
+            raise ValueError("threshold_, value_, train_loss_ or classes_ do not match "
+                             "feature_'s shape")
+        if np.isnan(threshold).any() or not np.all(np.isfinite(value)):
+            raise ValueError("threshold_ or value_ holds NaN or infinite values")
+        model.n_features_in_ = n_in
+        if "feature_names_in_" in arrays:
+            names = get("feature_names_in_", "U")
+            if names.shape != (n_in,):
+                raise ValueError(f"feature_names_in_ has shape {names.shape}, not ({n_in},)")
+            model.feature_names_in_ = names.astype(object)
+        model.classes_ = classes
+        model.n_estimators_ = int(len(feature))
+        model.feature_ = np.ascontiguousarray(feature, dtype=np.int32)
+        model.threshold_ = np.ascontiguousarray(threshold, dtype=np.float64)
+        model.value_ = np.ascontiguousarray(value, dtype=np.float64)
+        model.train_loss_ = np.ascontiguousarray(loss, dtype=np.float64)
+        return model
+
     def _stage_ends(self):
         T = self.n_estimators_
         stages = _check_stages(self.stages, check_int(self.n_estimators, "n_estimators", minimum=1))

@@ -14,7 +14,10 @@ from pathlib import Path
 
 import numpy as np
 
-from .files import UserError, atomic_output_dir, check_output_dir, run_metadata
+from .files import (
+    MARKER, RunError, UserError, atomic_output_dir, atomic_write_text, check_output_dir,
+    claim_output_dir, clean_stale_partials, run_metadata, running_command, write_marker,
+)
 from .version import __version__
 
 __all__ = ["main", "common_parser", "build_parser"]
@@ -34,6 +37,9 @@ def common_parser(*, jobs: int = 1) -> argparse.ArgumentParser:
     p.add_argument("--jobs", type=int, default=jobs,
                    help=f"parallel worker processes (default {'all cores' if jobs == -1 else jobs}"
                         "; -1 = all cores)")
+    p.add_argument("--overwrite", action="store_true",
+                   help="write into a non-empty --out that viewadapt did not write (files of "
+                        "the same names are replaced; no other file is deleted)")
     return p
 
 
@@ -44,7 +50,7 @@ def _cmd_fidelity(args) -> int:
     from benchmark.figures import plot_fidelity, plot_remap_illustration, save_figure
     from viewadapt.geometry import elevation_homography
 
-    check_output_dir(args.out)
+    check_output_dir(args.out, overwrite=args.overwrite)
     if args.windows < 1:
         raise UserError("--windows must be at least 1")
     rng = np.random.default_rng(args.seed)
@@ -117,11 +123,12 @@ def _cmd_demo(args) -> int:
 
     from benchmark.report import closing_summary
 
-    check_output_dir(args.out)
+    overwrite = getattr(args, "overwrite", False)
+    claim_output_dir(args.out, overwrite=overwrite)
     out = Path(args.out)
     data, results = out / "data", out / "results"
     t0 = time.perf_counter()
-    seed = ["--seed", str(args.seed)]
+    seed = ["--seed", str(args.seed)] + (["--overwrite"] if overwrite else [])
     jobs = ["--jobs", str(args.jobs)]
     timings = []
 
@@ -143,6 +150,7 @@ def _cmd_demo(args) -> int:
 
         def render():
             if not (data / "dataset.json").is_file():
+                check_output_dir(data, overwrite=overwrite)
                 with atomic_output_dir(data) as tmp:
                     make_toy_frame_dataset(tmp, n_persons=9, n_scenes=3, n_backgrounds=3,
                                            n_frame_scenes=1, frames_per_scene=2,
@@ -205,19 +213,22 @@ def _demo_frames(data: Path, out: Path, extra: list) -> int:
     calib = out / "frames" / "camera.json"
     calib.write_text(json.dumps(cam, indent=2))
     return main(["detect", "--calibration", str(calib), "--model",
-                 str(out / "frames" / "models" / "source_detectors.pkl"),
-                 "--out", str(out / "detections")] + [str(f.path) for f in same])
+                 str(out / "frames" / "models" / "source_detectors.npz"),
+                 "--out", str(out / "detections")] + [x for x in extra if x == "--overwrite"]
+                + [str(f.path) for f in same])
 
 
 def _cmd_reproduce(args) -> int:
     """paper-scale dataset -> cross-validation -> sweep -> full frames, end to end."""
-    check_output_dir(args.out)
+    overwrite = getattr(args, "overwrite", False)
+    check_output_dir(args.out, overwrite=overwrite)
     if not _blender_available():
         raise UserError("reproduce renders the paper-scale dataset with Blender: install the "
                         "generator extra (pip install -e '.[generator]')")
+    claim_output_dir(args.out, overwrite=overwrite)
     out = Path(args.out)
     data, results, frames = out / "data", out / "results", out / "frames"
-    seed = ["--seed", str(args.seed)]
+    seed = ["--seed", str(args.seed)] + (["--overwrite"] if overwrite else [])
     jobs = ["--jobs", str(args.jobs)]
     stages = {}
 
@@ -245,7 +256,7 @@ def _cmd_reproduce(args) -> int:
         if rc:
             return rc
     out.mkdir(parents=True, exist_ok=True)
-    (out / "reproduce.json").write_text(json.dumps({"stage_seconds": stages}, indent=2))
+    atomic_write_text(out / "reproduce.json", json.dumps({"stage_seconds": stages}, indent=2))
     print(f"\nreproduce finished; open {results / 'report.md'} and {frames / 'frames_summary.md'}")
     return 0
 
@@ -329,19 +340,117 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def command_name(args) -> str:
+    """``"bench crossval"``, ``"dataset verify"``, ``"generate"``: the command of ``args``."""
+    return " ".join(str(v) for v in (args.command, getattr(args, "bench_command", None),
+                                     getattr(args, "dataset_command", None)) if v)
+
+
+def _files_under(d: Path) -> set:
+    if not d.is_dir():
+        return set()
+    return {p.relative_to(d).as_posix() for p in d.rglob("*") if p.is_file()}
+
+
+class _FailedRunCleanup:
+    """What a failed or interrupted command leaves in its ``--out``.
+
+    Outputs are atomic, so a failing command leaves only what it wrote outside them
+    (caches). Empty folders it made go; if it made ``--out`` and left nothing in it, that
+    goes too; files it left (cached features or operators, a demo's dataset: a rerun
+    reuses them) are kept, named in the error line, and ``--out`` stays marked as the
+    project's so a rerun is accepted. ``generate`` is not handled here: its images are
+    kept for a resume and it says so itself.
+    """
+
+    def __init__(self, out, name: str):
+        self.out = Path(out)
+        self.name = name
+        self.existed = self.out.exists()
+        self.before = _files_under(self.out)
+        self.dirs_before = ({p for p in self.out.rglob("*") if p.is_dir()}
+                            if self.out.is_dir() else set())
+        self.marked_before = (self.out / MARKER).is_file()
+
+    def finish(self) -> str:
+        """Clean up after a failure; returns what was kept, for the error line."""
+        if not self.out.is_dir():
+            return "nothing was written"
+        made = (p for p in self.out.rglob("*") if p.is_dir() and p not in self.dirs_before)
+        for d in sorted(made, key=lambda p: len(p.parts), reverse=True):
+            try:
+                d.rmdir()                        # only empty folders this run made
+            except OSError:
+                pass
+        new = sorted(_files_under(self.out) - self.before - {MARKER})
+        if not new:
+            if not self.marked_before:           # the marker this run put there goes too
+                (self.out / MARKER).unlink(missing_ok=True)
+            if not self.existed:
+                try:
+                    self.out.rmdir()
+                except OSError:
+                    pass
+                return "nothing was written"
+            return f"nothing in {self.out} was changed"
+        tops = sorted({f.split("/", 1)[0] + ("/" if "/" in f else "") for f in new})
+        write_marker(self.out, self.name)
+        return (f"kept {len(new)} file(s) it wrote under {self.out}: {', '.join(tops)}; a "
+                "rerun reuses them")
+
+
+def _close_progress_bars() -> None:
+    """Close live progress bars, so an error line starts on a line of its own."""
+    tq = sys.modules.get("tqdm.std")
+    if tq is None:
+        return
+    for bar in list(getattr(tq.tqdm, "_instances", ())):
+        try:
+            bar.close()
+        except Exception:  # noqa: BLE001 - a bar that cannot close must not hide the error
+            pass
+    sys.stdout.flush()
+
+
 def main(argv=None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     if not getattr(args, "command", None):
         parser.print_help()
         return 2
+    name = command_name(args)
+    # the commands writing an --out directory (generate checks and marks its own)
+    out = getattr(args, "out", None) if hasattr(args, "overwrite") else None
+    cleanup = None
+
+    def fail(what: str, exc, rc: int) -> int:
+        _close_progress_bars()
+        kept = cleanup.finish() if cleanup is not None else None
+        msg = str(exc) or exc.__class__.__name__
+        if kept and kept.startswith("kept"):
+            msg += f" ({kept})"
+        print(f"viewadapt {name}: {what}: {msg}", file=sys.stderr)
+        return rc
+
     try:
-        return int(args.func(args) or 0)
+        with running_command(name):
+            if out is not None and args.command != "generate":
+                clean_stale_partials(out)
+                check_output_dir(out, overwrite=args.overwrite)
+                cleanup = _FailedRunCleanup(out, name)
+                # marked from the start: a run killed before its outputs (caches written
+                # meanwhile) leaves a directory its rerun accepts
+                claim_output_dir(out, overwrite=args.overwrite, command=name)
+            return int(args.func(args) or 0)
     except (UserError, ValueError, FileNotFoundError, PermissionError) as exc:
-        print(f"viewadapt {args.command}: error: {exc}", file=sys.stderr)
-        return 2
-    except KeyboardInterrupt:
-        print(f"viewadapt {args.command}: interrupted; nothing was written", file=sys.stderr)
+        return fail("error", exc, 2)
+    except (RunError, OSError) as exc:
+        return fail("error", exc, 1)
+    except KeyboardInterrupt as exc:
+        _close_progress_bars()
+        kept = cleanup.finish() if cleanup is not None else None
+        msg = str(exc) or kept or "nothing was written"
+        print(f"viewadapt {name}: interrupted; {msg}", file=sys.stderr)
         return 130
 
 

@@ -4,26 +4,83 @@ One leaf module (it imports nothing else of the project but the version) that th
 the generator, the benchmark and the command line all use, so every file is written the
 same way: into a temporary file or folder beside its destination, moved into place only
 when complete. An interrupted or failing run leaves the destination as it was.
+
+Ownership: every output directory the project writes holds a marker file,
+:data:`MARKER` (``.viewadapt-output``: JSON with the commands that wrote there and the
+files its atomic outputs moved in). A non-empty ``--out`` without it (and without the
+``dataset.json`` / ``run.json`` / ``metadata.json`` of an output written before markers
+existed) is refused unless ``--overwrite`` is given, and files the project did not write
+are never deleted, ``--overwrite`` or not.
+
+Files are created with the permissions the process's umask allows (``0o666 & ~umask``,
+directories ``0o777 & ~umask``), like any ``open()``, not the 0600 of ``mkstemp``.
 """
 
 from __future__ import annotations
 
 import contextlib
+import contextvars
+import json
 import os
 import shutil
 import sys
 import tempfile
+import threading
 import time
 from pathlib import Path
 
 from .version import __version__
 
-__all__ = ["UserError", "atomic_path", "atomic_write_bytes", "atomic_write_text",
-           "atomic_output_dir", "check_output_dir", "run_metadata"]
+__all__ = ["UserError", "RunError", "MARKER", "atomic_path", "atomic_write_bytes",
+           "atomic_write_text", "atomic_output_dir", "check_output_dir", "claim_output_dir",
+           "is_project_output", "read_marker", "write_marker", "clean_stale_partials",
+           "current_command", "running_command", "umask", "run_metadata"]
+
+#: the marker file in every output directory the project writes
+MARKER = ".viewadapt-output"
+
+#: the command being run (``"bench crossval"``), set by the command line for the markers
+_COMMAND: contextvars.ContextVar = contextvars.ContextVar("viewadapt_command", default=None)
 
 
 class UserError(Exception):
     """A mistake in the command line or its inputs: reported in one line, no traceback."""
+
+
+class RunError(Exception):
+    """A run that failed for a reason outside the user's inputs (a worker died, a disk
+    filled): reported in one line saying what was kept, exit code 1."""
+
+
+# --------------------------------------------------------------------------- permissions
+
+_UMASK_LOCK = threading.Lock()
+
+
+def umask() -> int:
+    """The process's umask (read from ``/proc`` where possible, without changing it)."""
+    try:
+        with open("/proc/self/status") as fh:
+            for line in fh:
+                if line.startswith("Umask:"):
+                    return int(line.split()[1], 8)
+    except (OSError, ValueError, IndexError):
+        pass
+    with _UMASK_LOCK:                      # the portable way: set and restore
+        mask = os.umask(0o022)
+        os.umask(mask)
+    return mask
+
+
+def _file_mode() -> int:
+    return 0o666 & ~umask()
+
+
+def _dir_mode() -> int:
+    return 0o777 & ~umask()
+
+
+# --------------------------------------------------------------------------- atomic files
 
 
 @contextlib.contextmanager
@@ -32,7 +89,8 @@ def atomic_path(path, *, suffix: str = ".tmp"):
 
     For writers that need a file name (an encoder, a renderer). On an exception the
     temporary file is removed and ``path`` is untouched. The parent folder is created.
-    ``suffix`` keeps the extension writers infer the format from (e.g. ``".png"``).
+    ``suffix`` keeps the extension writers infer the format from (e.g. ``".png"``). The
+    file gets the umask's permissions (``0o666 & ~umask``).
     """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -40,6 +98,8 @@ def atomic_path(path, *, suffix: str = ".tmp"):
     os.close(fd)
     try:
         yield Path(tmp)
+        if os.path.exists(tmp):
+            os.chmod(tmp, _file_mode())
         os.replace(tmp, path)
     finally:
         if os.path.exists(tmp):
@@ -60,41 +120,74 @@ def atomic_write_text(path, text: str) -> None:
     atomic_write_bytes(path, text.encode())
 
 
-class atomic_output_dir:
-    """Write outputs into a temporary folder beside ``out`` and move them in at the end.
-
-    ``with atomic_output_dir(out) as tmp:`` -- everything written under ``tmp`` lands in
-    ``out`` (replacing entries of the same name) only if the block succeeds; a run that
-    fails or is interrupted leaves ``out`` as it was.
-    """
-
-    def __init__(self, out):
-        self.out = Path(out)
-
-    def __enter__(self) -> Path:
-        if self.out.exists() and not self.out.is_dir():
-            raise UserError(f"--out {self.out} exists and is not a directory")
-        self.out.parent.mkdir(parents=True, exist_ok=True)
-        self.tmp = Path(tempfile.mkdtemp(prefix=f".{self.out.name}.partial-",
-                                         dir=self.out.parent))
-        return self.tmp
-
-    def __exit__(self, exc_type, exc, tb):
-        if exc_type is not None:
-            shutil.rmtree(self.tmp, ignore_errors=True)
-            return False
-        self.out.mkdir(parents=True, exist_ok=True)
-        for item in self.tmp.iterdir():
-            dest = self.out / item.name
-            if dest.is_dir() and not dest.is_symlink():
-                shutil.rmtree(dest)
-            os.replace(item, dest)
-        self.tmp.rmdir()
-        return False
+# --------------------------------------------------------------------------- ownership
 
 
-def check_output_dir(out) -> None:
-    """Fail (:class:`UserError`) before any work if ``out`` cannot become a directory."""
+def current_command() -> str:
+    """The command being run, as the markers record it (``"viewadapt"`` outside the CLI)."""
+    return _COMMAND.get() or "viewadapt"
+
+
+@contextlib.contextmanager
+def running_command(name: str):
+    """Record ``name`` (e.g. ``"bench crossval"``) as the command writing outputs."""
+    token = _COMMAND.set(name)
+    try:
+        yield
+    finally:
+        _COMMAND.reset(token)
+
+
+def read_marker(out) -> dict | None:
+    """The marker of an output directory, or None (absent or unreadable)."""
+    p = Path(out) / MARKER
+    try:
+        d = json.loads(p.read_text())
+    except (OSError, ValueError):
+        return None
+    return d if isinstance(d, dict) else None
+
+
+def _legacy_output(out: Path) -> bool:
+    """An output the project wrote before markers existed: a generated dataset's
+    ``dataset.json``, or the ``run.json`` / ``metadata.json`` of a command."""
+    for name, key in (("dataset.json", "format"), ("run.json", "viewadapt"),
+                      ("metadata.json", "viewadapt")):
+        try:
+            d = json.loads((out / name).read_text())
+        except (OSError, ValueError):
+            continue
+        if isinstance(d, dict) and (str(d.get(key, "")).startswith("viewadapt")
+                                    if key == "format" else key in d):
+            return True
+    return False
+
+
+def is_project_output(out) -> bool:
+    """True if ``out`` is a directory the project wrote (marker, or a legacy output)."""
+    out = Path(out)
+    return out.is_dir() and (read_marker(out) is not None or _legacy_output(out))
+
+
+def _is_empty(out: Path) -> bool:
+    return not any(True for p in out.iterdir() if p.name != MARKER)
+
+
+def write_marker(out, command: str | None = None, files=()) -> None:
+    """Add ``command`` and ``files`` (relative POSIX paths) to ``out``'s marker."""
+    out = Path(out)
+    old = read_marker(out) or {}
+    commands = sorted(set(old.get("commands", [])) | {command or current_command()})
+    listed = sorted(f for f in set(old.get("files", [])) | set(files) if (out / f).exists())
+    atomic_write_text(out / MARKER, json.dumps(
+        {"written_by": "viewadapt", "viewadapt": __version__, "commands": commands,
+         "files": listed}, indent=1) + "\n")
+
+
+def check_output_dir(out, *, overwrite: bool = False) -> None:
+    """Fail (:class:`UserError`) before any work if ``out`` cannot become this command's
+    output directory: it is a file, not writable, or a non-empty directory the project did
+    not write (unless ``overwrite``)."""
     out = Path(out)
     if out.exists() and not out.is_dir():
         raise UserError(f"--out {out} exists and is not a directory")
@@ -103,6 +196,147 @@ def check_output_dir(out) -> None:
         parent = parent.parent
     if not os.access(parent, os.W_OK):
         raise UserError(f"--out {out}: {parent} is not writable")
+    if (out.is_dir() and not overwrite and not _is_empty(out)
+            and not is_project_output(out)):
+        raise UserError(f"--out {out} is not empty and was not written by viewadapt (no "
+                        f"{MARKER}); choose a new or empty directory, or pass --overwrite "
+                        "(files of the same names are replaced, no other file is deleted)")
+
+
+def claim_output_dir(out, *, overwrite: bool = False, command: str | None = None) -> bool:
+    """:func:`check_output_dir`, then create ``out`` and mark it; True if it was created."""
+    out = Path(out)
+    check_output_dir(out, overwrite=overwrite)
+    created = not out.exists()
+    out.mkdir(parents=True, exist_ok=True)
+    write_marker(out, command)
+    return created
+
+
+def _pid_alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:               # someone else's live process
+        return True
+    return True
+
+
+#: a ``.partial-`` folder of the old naming (no pid) this long untouched is stale
+_LEGACY_PARTIAL_AGE_S = 24 * 3600
+
+
+def clean_stale_partials(out) -> list:
+    """Remove the ``.<name>.partial-<pid>-*`` folders beside ``out`` whose process is
+    gone (left by a killed run); return them. Folders of the old naming (no pid) are
+    removed once untouched for a day."""
+    out = Path(out)
+    gone = []
+    if not out.parent.is_dir():
+        return gone
+    for p in out.parent.glob(f".{out.name}.partial-*"):
+        if not p.is_dir():
+            continue
+        tag = p.name[len(f".{out.name}.partial-"):]
+        pid, sep, _ = tag.partition("-")
+        if sep and pid.isdigit():
+            stale = int(pid) != os.getpid() and not _pid_alive(int(pid))
+        else:
+            try:
+                stale = time.time() - p.stat().st_mtime > _LEGACY_PARTIAL_AGE_S
+            except OSError:
+                continue
+        if stale:
+            shutil.rmtree(p, ignore_errors=True)
+            gone.append(p)
+    return gone
+
+
+class atomic_output_dir:
+    """Write outputs into a temporary folder beside ``out`` and move them in at the end.
+
+    ``with atomic_output_dir(out) as tmp:`` -- everything written under ``tmp`` lands in
+    ``out`` (replacing files of the same name) only if the block succeeds; a run that fails
+    or is interrupted leaves ``out`` as it was. A folder of ``tmp`` is merged into the
+    folder of the same name in ``out``: files the project wrote there before (listed in
+    the marker) and not written again are removed, any other file is kept. The marker
+    records ``command`` (default: the running command) and the files moved in.
+    """
+
+    def __init__(self, out, *, command: str | None = None):
+        self.out = Path(out)
+        self.command = command
+
+    def __enter__(self) -> Path:
+        if self.out.exists() and not self.out.is_dir():
+            raise UserError(f"--out {self.out} exists and is not a directory")
+        self.out.parent.mkdir(parents=True, exist_ok=True)
+        clean_stale_partials(self.out)
+        self.tmp = Path(tempfile.mkdtemp(prefix=f".{self.out.name}.partial-{os.getpid()}-",
+                                         dir=self.out.parent))
+        os.chmod(self.tmp, _dir_mode())
+        return self.tmp
+
+    def __exit__(self, exc_type, exc, tb):
+        if exc_type is not None:
+            shutil.rmtree(self.tmp, ignore_errors=True)
+            return False
+        try:
+            self.out.mkdir(parents=True, exist_ok=True)
+            owned = set((read_marker(self.out) or {}).get("files", []))
+            written = []
+            for item in sorted(self.tmp.iterdir()):
+                if item.name == MARKER:
+                    continue
+                _merge(item, self.out / item.name, item.name, owned, written)
+            write_marker(self.out, self.command, written)
+        finally:
+            shutil.rmtree(self.tmp, ignore_errors=True)
+        return False
+
+
+def _merge(src: Path, dest: Path, rel: str, owned: set, written: list) -> None:
+    """Move ``src`` to ``dest``; folders merge (see :class:`atomic_output_dir`)."""
+    if src.is_dir() and not src.is_symlink():
+        if dest.exists() and not dest.is_dir():
+            if rel not in owned:
+                raise UserError(f"{dest} is a file the project did not write, where a "
+                                "folder of outputs belongs; move it away")
+            dest.unlink()
+        dest.mkdir(exist_ok=True)
+        os.chmod(dest, _dir_mode())
+        new = {p.name for p in src.iterdir()}
+        for old in list(dest.iterdir()):            # earlier outputs not written again
+            r = f"{rel}/{old.name}"
+            if old.name in new:
+                continue
+            if old.is_dir() and not old.is_symlink():
+                _remove_owned(old, r, owned)
+            elif r in owned:
+                old.unlink()
+        for p in sorted(src.iterdir()):
+            _merge(p, dest / p.name, f"{rel}/{p.name}", owned, written)
+        return
+    if dest.is_dir() and not dest.is_symlink():
+        _remove_owned(dest, rel, owned)
+        if dest.exists():
+            raise UserError(f"{dest} is a folder holding files the project did not write, "
+                            "where an output file belongs; move it away")
+    os.replace(src, dest)
+    written.append(rel)
+
+
+def _remove_owned(d: Path, rel: str, owned: set) -> None:
+    """Delete the files under ``d`` the project wrote, then folders left empty."""
+    for p in list(d.iterdir()):
+        r = f"{rel}/{p.name}"
+        if p.is_dir() and not p.is_symlink():
+            _remove_owned(p, r, owned)
+        elif r in owned:
+            p.unlink()
+    with contextlib.suppress(OSError):
+        d.rmdir()
 
 
 def run_metadata(seed=None, **extra) -> dict:

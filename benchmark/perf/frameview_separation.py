@@ -1,6 +1,6 @@
 """How well persons and backgrounds separate when a crop is read through a frame.
 
-    python -m benchmark.perf.frameview_separation --data DIR --model A.pkl [--model B.pkl ...]
+    python -m benchmark.perf.frameview_separation --data DIR --model A.npz [--model B.npz ...]
         [--scales 0.3,0.45,0.7,1.0] [--seed 0]
 
 A pure-scale test: no perspective, only the resolution and the frame's cell grid. Each
@@ -13,7 +13,7 @@ offset against the cell grid) and scored two ways with each model's HOG/SVM:
 * warped: the window warped back to 64x128 and featurised (image warping).
 
 Printed per scale: ``d' = (mean person score - mean background score) / background sd``.
-Models come from ``viewadapt bench frames`` (``OUT/models/source_detectors.pkl``), e.g. one
+Models come from ``viewadapt bench frames`` (``OUT/models/source_detectors.npz``), e.g. one
 trained with the default ``--frame-view hog`` and one with ``--frame-view none``. Use crops
 the models were not trained on. Not a test.
 """
@@ -62,7 +62,7 @@ def main(argv=None) -> int:
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--data", required=True, help="dataset directory (crops, backgrounds)")
     p.add_argument("--model", action="append", required=True,
-                   help="source_detectors.pkl from `viewadapt bench frames` (repeatable)")
+                   help="source_detectors.npz from `viewadapt bench frames` (repeatable)")
     p.add_argument("--scales", default="0.3,0.45,0.7,1.0",
                    help="frame px per canonical px, comma-separated (default 0.3,0.45,0.7,1.0)")
     p.add_argument("--seed", type=int, default=0)

@@ -115,7 +115,7 @@ def run_runtime(data, *, n_frames=3, warp_windows=1000, heights=(1.65, 1.85), jo
 
     tmpdir = Path(tempfile.mkdtemp(prefix="viewadapt-runtime-"))
     cache_dir = Path(cache_dir) if cache_dir else tmpdir / "cache"
-    model_path = tmpdir / "models.pkl"
+    model_path = tmpdir / "models.npz"
     models.save(model_path)
     rows, info = [], {"training": models.training}
     with _single_thread():

@@ -19,13 +19,14 @@ Modules (public names are re-exported here):
 * :mod:`~viewadapt.detect.detector` -- :class:`FrameDetector`, the detector a user calls;
   :mod:`~viewadapt.detect.models`, :mod:`~viewadapt.detect.cache`,
   :mod:`~viewadapt.detect.calibration`, :mod:`~viewadapt.detect.evaluation` -- its models,
-  operator cache, input files and evaluation.
+  operator cache, input files and evaluation; :mod:`~viewadapt.detect.arrayfile` -- the
+  on-disk format of models and cached operators (npz + JSON, never a pickle).
 
 Example
 -------
 >>> from viewadapt.detect import FrameDetector, SourceDetectors, read_calibration
 >>> detector = FrameDetector(read_calibration("camera.yaml"),
-...                          SourceDetectors.load("source_detectors.pkl"))  # doctest: +SKIP
+...                          SourceDetectors.load("source_detectors.npz"))  # doctest: +SKIP
 >>> boxes = detector.detect(frame, "hog")       # (D, 5): x, y, w, h, score  # doctest: +SKIP
 """
 

@@ -14,7 +14,7 @@ import numpy as np
 
 from ..geometry import Camera, camera_from_pose
 
-__all__ = ["read_calibration", "read_boxes", "read_frame"]
+__all__ = ["read_calibration", "check_calibration", "read_boxes", "read_frame"]
 
 
 def read_frame(path) -> np.ndarray:
@@ -46,6 +46,13 @@ def read_calibration(path) -> Camera:
         height: 4.5                   # camera height above the ground
         tilt: 35                      # degrees below horizontal
         roll: 0                       # optional, degrees
+
+    ``K, R, t`` are checked (:func:`check_calibration`): finite; ``K`` upper-triangular
+    with positive focal lengths and its principal point inside the image (a ``K[2, 2]``
+    other than 1 is divided out; a skew ``K[0, 1]`` is accepted: it enters the window
+    homographies like any other entry of ``K``); ``R`` a rotation (``R R^T = I`` within
+    1e-6, re-orthonormalised, ``det R = +1``); ``t`` three numbers; the camera centre
+    above the ground plane. Every mistake is a one-line ``ValueError`` naming the field.
     """
     path = Path(path)
     if not path.is_file():
@@ -71,10 +78,9 @@ def read_calibration(path) -> Camera:
         raise ValueError(f"{path}: expected a mapping with K, R, t or focal, height, tilt")
     if "image_size" not in d:
         raise ValueError(f"{path}: image_size [width, height] is missing")
-    size = tuple(int(v) for v in d["image_size"])
+    size = _image_size(d["image_size"], path)
     if all(k in d for k in ("K", "R", "t")):
-        return Camera(np.asarray(d["K"], float), np.asarray(d["R"], float),
-                      np.asarray(d["t"], float).reshape(-1), size)
+        return check_calibration(d["K"], d["R"], d["t"], size, name=f"calibration {path}")
     if all(k in d for k in ("focal", "height", "tilt")):
         pp = d.get("principal_point", ((size[0] - 1) / 2, (size[1] - 1) / 2))
         tilt = float(d["tilt"])
@@ -85,6 +91,105 @@ def read_calibration(path) -> Camera:
                                 tilt=np.radians(tilt),
                                 roll=np.radians(float(d.get("roll", 0.0))), image_size=size)
     raise ValueError(f"{path}: give either K, R, t or focal, height, tilt")
+
+
+def _image_size(value, path) -> tuple:
+    try:
+        w, h = (float(v) for v in value)
+    except (TypeError, ValueError):
+        raise ValueError(f"calibration {path}: image_size must be [width, height] in pixels, "
+                         f"got {value!r}") from None
+    if not (w == int(w) > 0 and h == int(h) > 0):
+        raise ValueError(f"calibration {path}: image_size must be two positive whole "
+                         f"numbers of pixels, got {value!r}")
+    return int(w), int(h)
+
+
+def _matrix(value, field, shape, name) -> np.ndarray:
+    try:
+        a = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name}: {field} must be {_shape_words(shape)}") from None
+    if a.shape != shape and not (len(shape) == 1 and a.size == shape[0] and a.ndim == 2
+                                 and 1 in a.shape):
+        raise ValueError(f"{name}: {field} must be {_shape_words(shape)}, got shape "
+                         f"{a.shape}")
+    if not np.all(np.isfinite(a)):
+        raise ValueError(f"{name}: {field} has non-finite values (NaN or infinity)")
+    return a.reshape(shape)
+
+
+def _shape_words(shape) -> str:
+    return "a 3x3 matrix of numbers" if len(shape) == 2 else "3 numbers"
+
+
+def check_calibration(K, R, t, image_size, *, name: str = "calibration") -> Camera:
+    """A :class:`~viewadapt.geometry.Camera` from ``K, R, t`` after checking them.
+
+    Parameters
+    ----------
+    K : (3, 3) array_like
+        Intrinsics: finite, upper-triangular (``K[1, 0] = K[2, 0] = K[2, 1] = 0``),
+        ``K[2, 2] > 0`` (divided out if not 1), focal lengths ``fx = K[0, 0]`` and
+        ``fy = K[1, 1]`` positive, principal point ``(K[0, 2], K[1, 2])`` inside the image
+        (``-0.5 .. width - 0.5``, ``-0.5 .. height - 0.5``). The skew ``K[0, 1]`` may be
+        non-zero.
+    R : (3, 3) array_like
+        World-to-camera rotation: ``R R^T = I`` within 1e-6 (then re-orthonormalised to
+        the nearest rotation) and ``det R = +1``.
+    t : (3,) array_like
+        Finite; the camera centre ``-R^T t`` must lie above the ground (``Z > 0``).
+    image_size : (width, height)
+    name : str
+        Starts every error message (e.g. ``"calibration cam.yaml"``).
+
+    Returns
+    -------
+    Camera
+
+    Raises
+    ------
+    ValueError
+        One line naming the field, e.g. ``"calibration cam.yaml: K has a negative focal
+        length (fx = -274)"``.
+    """
+    w, h = image_size
+    K = _matrix(K, "K", (3, 3), name)
+    R = _matrix(R, "R", (3, 3), name)
+    t = _matrix(t, "t", (3,), name)
+    low = {"K[1,0]": K[1, 0], "K[2,0]": K[2, 0], "K[2,1]": K[2, 1]}
+    bad = [f"{k} = {v:g}" for k, v in low.items() if v != 0]
+    if bad:
+        raise ValueError(f"{name}: K must be upper-triangular ({', '.join(bad)}; expected "
+                         "[[fx, s, cx], [0, fy, cy], [0, 0, 1]])")
+    if K[2, 2] <= 0:
+        raise ValueError(f"{name}: K[2,2] must be positive (normally 1), got {K[2, 2]:g}")
+    K = K / K[2, 2]
+    for f, v in (("fx", K[0, 0]), ("fy", K[1, 1])):
+        if v <= 0:
+            raise ValueError(f"{name}: K has a {'negative' if v < 0 else 'zero'} focal "
+                             f"length ({f} = {v:g})")
+    cx, cy = K[0, 2], K[1, 2]
+    if not (-0.5 <= cx <= w - 0.5 and -0.5 <= cy <= h - 0.5):
+        raise ValueError(f"{name}: K's principal point (cx, cy) = ({cx:g}, {cy:g}) lies "
+                         f"outside the {w}x{h} image")
+    dev = float(np.abs(R @ R.T - np.eye(3)).max())
+    if dev > 1e-6:
+        raise ValueError(f"{name}: R is not a rotation (R R^T differs from the identity by "
+                         f"{dev:.2g}, more than 1e-6)")
+    det = float(np.linalg.det(R))
+    if det < 0:
+        raise ValueError(f"{name}: R has determinant {det:.3g}, not +1 (a reflection, not a "
+                         "rotation)")
+    if dev > 1e-12:                             # the nearest rotation (Camera's own
+        U, _, Vt = np.linalg.svd(R)             # check allows 1e-8)
+        R = U @ Vt
+    centre = -R.T @ t
+    if centre[2] <= 0:
+        raise ValueError(f"{name}: the camera centre -R^T t is at height {centre[2]:g} m, "
+                         "at or below the ground plane Z = 0 (world Z is up; check the sign "
+                         "of t)")
+    return Camera(K, R, t, (int(w), int(h)))
 
 
 def read_boxes(path, frame_paths) -> dict:

@@ -60,7 +60,7 @@ def cmd_detect(args) -> int:
     """Detect persons in frames of one calibrated camera."""
     import cv2
 
-    check_output_dir(args.out)
+    check_output_dir(args.out, overwrite=args.overwrite)
     cam = read_calibration(args.calibration)
     models = SourceDetectors.load(args.model)
     paths = [Path(p) for p in args.frames]
@@ -140,7 +140,7 @@ def register(sub, common) -> None:
     p.add_argument("frames", nargs="+", type=Path, help="frame images (PNG, JPEG)")
     p.add_argument("--calibration", type=Path, required=True, help="calibration YAML/JSON")
     p.add_argument("--model", type=Path, required=True,
-                   help="source detectors (models/source_detectors.pkl written by "
+                   help="source detectors (models/source_detectors.npz written by "
                         "`viewadapt bench frames`)")
     p.add_argument("--detector", choices=list(DETECTOR_KINDS), default="hog",
                    help="the adapted detector (default hog: HOG/SVM; acf: boosted trees on ACF)")

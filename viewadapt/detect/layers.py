@@ -17,6 +17,7 @@ import numpy as np
 
 from ..geometry import WINDOW_CORNERS, map_points
 from ..nms import detections_from_scores
+from .arrayfile import stored_array, under_prefix, with_prefix
 from .channels import check_frame
 from .templates import SnappedBoxes, check_windows
 from .windows import CandidateWindows
@@ -91,8 +92,11 @@ class MultiResolutionOperator(SnappedBoxes):
     """
 
     def __init__(self, windows, layers):
-        self.image_size = tuple(windows.image_size)
-        self.n_windows = len(windows)
+        self._set_layers(tuple(windows.image_size), len(windows), layers)
+
+    def _set_layers(self, image_size, n_windows, layers):
+        self.image_size = tuple(image_size)
+        self.n_windows = int(n_windows)
         self.layers = [_Layer(*layer) for layer in layers]
         H = np.empty((self.n_windows, 3, 3))
         for f, op, idx, (r0, _) in self.layers:
@@ -100,6 +104,58 @@ class MultiResolutionOperator(SnappedBoxes):
         self.snapped_homographies = H
         first = self.layers[0].operator
         self.nms_overlap, self.nms_threshold = first.nms_overlap, first.nms_threshold
+
+    def to_arrays(self, layer_to_arrays):
+        """The operator as ``(meta, arrays)`` (its stored form,
+        :class:`~viewadapt.detect.cache.OperatorCache`): frame size, window count, and per
+        layer its factor, rows and operator -- ``layer_to_arrays(op) -> (meta, arrays)``,
+        arrays under ``layer{i}/`` -- with ``layer{i}/index`` its windows."""
+        meta = dict(image_size=[int(v) for v in self.image_size], n_windows=self.n_windows,
+                    layers=[])
+        arrays = {}
+        for i, layer in enumerate(self.layers):
+            m, a = layer_to_arrays(layer.operator)
+            meta["layers"].append(dict(factor=int(layer.factor),
+                                       rows=[int(r) for r in layer.rows], operator=m))
+            arrays.update(with_prefix(f"layer{i}/", a))
+            arrays[f"layer{i}/index"] = np.asarray(layer.index, np.int64)
+        return meta, arrays
+
+    @classmethod
+    def from_arrays(cls, meta: dict, arrays: dict, layer_from_arrays):
+        """The operator :meth:`to_arrays` gave, each layer's operator rebuilt by
+        ``layer_from_arrays(meta, arrays)``; ``ValueError`` unless the layers' windows
+        are every window exactly once, each layer's operator is of its windows and frame
+        band, and its factor and rows are those of a band of the frame."""
+        size, n, layers = meta.get("image_size"), meta.get("n_windows"), meta.get("layers")
+        if not (isinstance(size, list) and len(size) == 2
+                and all(isinstance(v, int) and v > 0 for v in size)
+                and isinstance(n, int) and n > 0 and isinstance(layers, list) and layers):
+            raise ValueError("its frame size, window count or layers are not valid")
+        w, h = size
+        out, seen = [], np.zeros(n, np.int64)
+        for i, layer in enumerate(layers):
+            if not isinstance(layer, dict):
+                raise ValueError(f"its layer {i} is not valid")
+            f, rows = layer.get("factor"), layer.get("rows")
+            if not (isinstance(f, int) and 1 <= f <= 8 and isinstance(rows, list)
+                    and len(rows) == 2 and all(isinstance(r, int) for r in rows)
+                    and 0 <= rows[0] < rows[1] <= h):
+                raise ValueError(f"its layer {i} has factor {f!r} and rows {rows!r}")
+            index = stored_array(arrays, f"layer{i}/index", "iu", ndim=1)
+            if len(index) == 0 or index.min() < 0 or index.max() >= n:
+                raise ValueError(f"its layer {i} has windows outside 0..{n - 1}")
+            seen += np.bincount(index, minlength=n)
+            op = layer_from_arrays(layer.get("operator"), under_prefix(f"layer{i}/", arrays))
+            band = (f * w, f * (rows[1] - rows[0])) if f > 1 else (w, h)
+            if op.n_windows != len(index) or tuple(op.image_size) != band:
+                raise ValueError(f"its layer {i}'s operator is not of its windows and band")
+            out.append((f, op, index.astype(np.int64), (rows[0], rows[1])))
+        if (seen != 1).any():
+            raise ValueError("its layers do not hold every window exactly once")
+        obj = cls.__new__(cls)
+        obj._set_layers((w, h), n, out)
+        return obj
 
     @property
     def n_templates(self) -> int:

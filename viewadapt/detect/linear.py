@@ -24,6 +24,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..nms import detections_from_scores
+from .arrayfile import stored_array
 from .channels import (
     HOG_CELL, HOG_CHANNELS, HOG_WEIGHT_SHAPE, FrameFeatures, check_frame, hog_frame_features,
 )
@@ -119,12 +120,13 @@ class AdaptedLinearOperator(TemplateOperator):
                                       nms_threshold=nms_threshold,
                                       max_candidates=max_candidates)
 
-    def layout(self):
+    def layout(self, channels=None):
         """Offsets and (rows, columns) of each cell size's padded map in
-        :meth:`FrameFeatures.vector`, the vector's length and the channels per cell."""
+        :meth:`FrameFeatures.vector`, the vector's length and the channels per cell
+        (``channels``, default the templates')."""
         w, h = self.image_size
         p = self.pad
-        C = self.groups[0].template.shape[2]
+        C = self.groups[0].template.shape[2] if channels is None else int(channels)
         offsets, dims = {}, {}
         off = 0
         for c in self.cell_sizes:
@@ -187,6 +189,60 @@ class AdaptedLinearOperator(TemplateOperator):
         self.__dict__.update(state)
         self._link_templates()
 
+    def to_arrays(self):
+        """The operator as ``(meta, arrays)``: JSON-ready metadata and plain arrays (its
+        stored form, :class:`~viewadapt.detect.cache.OperatorCache`); the groups' geometry
+        and the run tables (``runs_*``: the templates, once, and the distinct positions)."""
+        meta, arrays = self._geometry_to_arrays()
+        r = self._runs
+        meta.update(bias=float(self.bias), n_features=int(r.n_features))
+        arrays.update({f"runs_{k}": getattr(r, k) for k in _RUN_ARRAYS})
+        return meta, arrays
+
+    @classmethod
+    def from_arrays(cls, meta: dict, arrays: dict) -> "AdaptedLinearOperator":
+        """The operator :meth:`to_arrays` gave, after checking that every table is of its
+        shape and every index within its array (so the compiled loop never reads outside
+        them); ``ValueError`` otherwise."""
+        op = cls.__new__(cls)
+        op._geometry_from_arrays(meta, arrays)
+        if op.features.func is not hog_frame_features:
+            raise ValueError(f"its feature maker is {op.features.func.__name__}, not "
+                             "hog_frame_features")
+        bias, n_feat = meta.get("bias"), meta.get("n_features")
+        if isinstance(bias, bool) or not isinstance(bias, (int, float)) or not np.isfinite(bias):
+            raise ValueError(f"its bias is {bias!r}")
+        op.bias = float(bias)
+        G = len(op.groups)
+        t = {k: stored_array(arrays, f"runs_{k}", kinds, ndim=1)
+             for k, kinds in zip(_RUN_ARRAYS, ("f",) + ("iu",) * 7)}
+        _, dims, size, C = op.layout(HOG_CHANNELS)
+        n_pos = len(t["starts"])
+        g_shape = np.array([g.shape for g in op.groups], np.int64)
+        stride = np.array([dims[g.cell_size][1] * C for g in op.groups], np.int64)
+        if n_feat != size or any(len(t[k]) != G for k in ("t_offset", "t_rows", "t_run",
+                                                          "x_stride")) \
+                or len(t["group"]) != n_pos or len(t["row_of"]) != op.n_windows:
+            raise ValueError("its run tables do not match its groups and frame layout")
+        if not (np.array_equal(t["t_rows"], g_shape[:, 0])
+                and np.array_equal(t["t_run"], g_shape[:, 1] * C)
+                and np.array_equal(t["x_stride"], stride)
+                and np.array_equal(t["t_offset"], np.r_[0, np.cumsum(g_shape.prod(1) * C)[:-1]])
+                and len(t["templates"]) == g_shape.prod(1).sum() * C
+                and n_pos and t["group"].min() >= 0 and t["group"].max() < G
+                and t["row_of"].min() >= 0 and t["row_of"].max() < n_pos):
+            raise ValueError("its run tables do not match its groups")
+        g = t["group"]
+        end = t["starts"] + (t["t_rows"][g] - 1) * t["x_stride"][g] + t["t_run"][g]
+        if t["starts"].min() < 0 or end.max() > size:
+            raise ValueError("its run tables read outside the frame's feature vector")
+        op._runs = _RunTables(
+            templates=np.ascontiguousarray(t["templates"], np.float32),
+            **{k: np.ascontiguousarray(t[k], np.int64) for k in _RUN_ARRAYS[1:-1]},
+            row_of=np.ascontiguousarray(t["row_of"], np.intp), n_features=int(size))
+        op._link_templates()
+        return op
+
     def to_sparse(self, *, unique: bool = False):
         """The operator as one CSR matrix ``W`` with ``scores = W x + b``.
 
@@ -246,6 +302,11 @@ class _RunTables:
     group: np.ndarray              # (P,) its group
     row_of: np.ndarray             # (N,) position of each window
     n_features: int                # size of the x vector
+
+
+#: the arrays of :class:`_RunTables`, in their order (:meth:`AdaptedLinearOperator.to_arrays`)
+_RUN_ARRAYS = ("templates", "t_offset", "t_rows", "t_run", "x_stride", "starts", "group",
+               "row_of")
 
 
 def build_adapted_linear_operator(windows: CandidateWindows, weights, bias: float = 0.0, *,

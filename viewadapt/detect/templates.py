@@ -34,6 +34,7 @@ References
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import partial
 from typing import Callable
 
 import numpy as np
@@ -47,6 +48,7 @@ from ..geometry import (
 from ..mapping import homography_mapping
 from ..objectmodel import PlaneModel, object_model, view_mapping
 from ..remap import CellGrid
+from .arrayfile import stored_array
 from .channels import (
     ACF_GRADIENT_LAMBDA, ACF_SHRINK, ACF_WEIGHT_SHAPE, HOG_CELL, HOG_CHANNELS, HOG_WEIGHT_SHAPE,
     N_ACF_CHANNELS, N_ACF_ORIENTS, N_HOG_BINS, FrameFeatures, acf_frame_features,
@@ -61,6 +63,7 @@ __all__ = [
     "resolve_object_model", "window_mapping",
     "hog_frame_remap", "acf_frame_remap", "acf_gradient_rows",
     "SnappedBoxes", "TemplateOperator", "FeatureKind", "HOG_FEATURES", "ACF_FEATURES",
+    "FEATURE_MAKERS", "feature_maker_to_dict", "feature_maker_from_dict",
 ]
 
 #: Frame cell sizes the adapted operators may choose from (:func:`choose_cell_sizes`).
@@ -242,6 +245,75 @@ class TemplateOperator(SnappedBoxes):
         oy = g.origin[1] + g.shifts[:, 1] + p
         return oy, ox
 
+    def _geometry_to_arrays(self):
+        """The geometry every operator shares as ``(meta, arrays)`` (for the stored form
+        of :meth:`to_arrays`): frame size, windows, padding, feature maker, and the groups
+        flattened -- members and shifts concatenated, ``group_members_ptr`` (G + 1,) their
+        offsets."""
+        gs = self.groups
+        sizes = [len(g.members) for g in gs]
+        meta = dict(image_size=[int(v) for v in self.image_size], n_windows=int(self.n_windows),
+                    pad=int(self.pad), features=feature_maker_to_dict(self.features))
+        if hasattr(self, "tolerance"):
+            meta["tolerance"] = float(self.tolerance)
+        arrays = dict(
+            cell_size=self.cell_size, snapped_homographies=self.snapped_homographies,
+            group_cell_size=np.array([g.cell_size for g in gs], np.int64),
+            group_prototype=np.array([g.prototype for g in gs], np.int64),
+            group_origin=np.array([g.origin for g in gs], np.int64).reshape(-1, 2),
+            group_shape=np.array([g.shape for g in gs], np.int64).reshape(-1, 2),
+            group_members_ptr=np.r_[0, np.cumsum(sizes)].astype(np.int64),
+            group_members=np.concatenate([g.members for g in gs]).astype(np.int64),
+            group_shifts=np.concatenate([g.shifts for g in gs]).astype(np.int64).reshape(-1, 2))
+        return meta, arrays
+
+    def _geometry_from_arrays(self, meta: dict, arrays: dict):
+        """Set the shared geometry from :meth:`_geometry_to_arrays`' ``(meta, arrays)``
+        (group templates left empty), checking every entry; ``ValueError`` otherwise."""
+        size, n, pad = meta.get("image_size"), meta.get("n_windows"), meta.get("pad")
+        if not (isinstance(size, list) and len(size) == 2 and all(_is_int(v) and v > 0
+                                                                  for v in size)):
+            raise ValueError(f"its image_size is {size!r}")
+        if not (_is_int(n) and n > 0 and _is_int(pad) and pad >= 0):
+            raise ValueError(f"its window count {n!r} or padding {pad!r} is not valid")
+        cell = stored_array(arrays, "cell_size", "iu", shape=(n,))
+        H = stored_array(arrays, "snapped_homographies", "f", shape=(n, 3, 3))
+        g_cell = stored_array(arrays, "group_cell_size", "iu", ndim=1)
+        n_groups = len(g_cell)
+        proto = stored_array(arrays, "group_prototype", "iu", shape=(n_groups,))
+        origin = stored_array(arrays, "group_origin", "iu", shape=(n_groups, 2))
+        shape = stored_array(arrays, "group_shape", "iu", shape=(n_groups, 2))
+        ptr = stored_array(arrays, "group_members_ptr", "iu", shape=(n_groups + 1,))
+        members = stored_array(arrays, "group_members", "iu", shape=(n,))
+        shifts = stored_array(arrays, "group_shifts", "iu", shape=(n, 2))
+        if n_groups == 0 or (g_cell <= 0).any() or (cell <= 0).any() or (shape <= 0).any():
+            raise ValueError("its groups, cell sizes or patch shapes are empty or not positive")
+        if ptr[0] != 0 or ptr[-1] != n or (np.diff(ptr) <= 0).any():
+            raise ValueError("its group_members_ptr does not split the windows into groups")
+        if members.min() < 0 or members.max() >= n or proto.min() < 0 or proto.max() >= n \
+                or (np.bincount(members, minlength=n) != 1).any():
+            raise ValueError("its groups do not hold every window exactly once")
+        self.image_size = (int(size[0]), int(size[1]))
+        self.n_windows = int(n)
+        self.pad = int(pad)
+        self.cell_size = np.ascontiguousarray(cell, dtype=np.int64)
+        self.snapped_homographies = np.ascontiguousarray(H, dtype=np.float64)
+        self.groups = [TemplateGroup(int(g_cell[i]), int(proto[i]),
+                                     (int(origin[i, 0]), int(origin[i, 1])),
+                                     (int(shape[i, 0]), int(shape[i, 1])),
+                                     members[ptr[i]:ptr[i + 1]].astype(np.int64),
+                                     shifts[ptr[i]:ptr[i + 1]].astype(np.int64))
+                       for i in range(n_groups)]
+        self.cell_sizes = sorted(set(int(c) for c in g_cell))
+        if "tolerance" in meta:
+            self.tolerance = float(meta["tolerance"])
+        self.features = feature_maker_from_dict(meta.get("features"))
+        kw = self.features.keywords
+        if kw.get("pad") != self.pad or kw.get("image_size") != self.image_size \
+                or sorted(kw.get("cell_sizes") or ()) != self.cell_sizes:
+            raise ValueError("its feature maker's padding, frame size or cell sizes are not "
+                             "those of its groups")
+
     def check_features(self, features: FrameFeatures):
         """ValueError unless ``features`` are of this operator's frame size, padding and
         cell sizes."""
@@ -418,3 +490,52 @@ HOG_FEATURES = FeatureKind("hog", HOG_CELL, HOG_WEIGHT_SHAPE, hog_window_feature
 ACF_FEATURES = FeatureKind("acf", ACF_SHRINK, ACF_WEIGHT_SHAPE, acf_window_features,
                            acf_frame_features, acf_frame_remap, ACF_GRADIENT_LAMBDA,
                            acf_gradient_rows())
+
+
+#: The functions an operator's stored feature maker may name
+#: (:func:`feature_maker_from_dict`): nothing else is ever called from a stored operator.
+FEATURE_MAKERS = {f.__name__: f for f in (hog_frame_features, acf_frame_features)}
+
+
+def _is_int(v) -> bool:
+    return isinstance(v, (int, np.integer)) and not isinstance(v, bool)
+
+
+def _json_scalar(v) -> bool:
+    return v is None or isinstance(v, (str, int, float, bool))
+
+
+def feature_maker_to_dict(maker) -> dict:
+    """An operator's feature maker -- a ``functools.partial`` of a function in
+    :data:`FEATURE_MAKERS` with keyword arguments only -- as ``{"function": name,
+    "keywords": {...}}`` (JSON-ready); ``ValueError`` for any other callable."""
+    func = getattr(maker, "func", None)
+    name = getattr(func, "__name__", None)
+    if not isinstance(maker, partial) or maker.args or FEATURE_MAKERS.get(name) is not func:
+        raise ValueError(f"only a feature maker partial(f, **keywords) with f one of "
+                         f"{sorted(FEATURE_MAKERS)} can be stored, got {maker!r}")
+    kw = {}
+    for k, v in maker.keywords.items():
+        v = [int(c) if _is_int(c) else c for c in v] if isinstance(v, (list, tuple)) else v
+        v = int(v) if _is_int(v) else v
+        if not (_json_scalar(v) or isinstance(v, list) and all(_json_scalar(c) for c in v)):
+            raise ValueError(f"the feature maker's keyword {k}={v!r} cannot be stored")
+        kw[k] = v
+    return {"function": name, "keywords": kw}
+
+
+def feature_maker_from_dict(d) -> partial:
+    """The feature maker :func:`feature_maker_to_dict` described: a function of
+    :data:`FEATURE_MAKERS` by name with its (JSON scalar or list) keywords; ``ValueError``
+    for any other name or keyword value."""
+    if not isinstance(d, dict) or d.get("function") not in FEATURE_MAKERS \
+            or not isinstance(d.get("keywords"), dict):
+        name = d.get("function") if isinstance(d, dict) else d
+        raise ValueError(f"its feature maker {name!r} is not one of {sorted(FEATURE_MAKERS)}")
+    kw = dict(d["keywords"])
+    for k, v in kw.items():
+        if not (_json_scalar(v) or isinstance(v, list) and all(_json_scalar(c) for c in v)):
+            raise ValueError(f"its feature maker's keyword {k}={v!r} is not a plain value")
+    if "image_size" in kw and kw["image_size"] is not None:
+        kw["image_size"] = tuple(kw["image_size"])
+    return partial(FEATURE_MAKERS[d["function"]], **kw)

@@ -22,7 +22,9 @@ from functools import partial
 import numpy as np
 import scipy.sparse as sp
 
+from ..boosting import AdaBoostTrees
 from ..nms import detections_from_scores
+from .arrayfile import stored_array, under_prefix, with_prefix
 from .channels import (
     ACF_GRADIENT_LAMBDA, ACF_SHRINK, ACF_WEIGHT_SHAPE, N_ACF_CHANNELS, FrameFeatures,
     acf_frame_features, check_frame,
@@ -55,8 +57,11 @@ class AdaptedTreesOperator(TemplateOperator):
 
     def __init__(self, windows, cell_size, groups, pad, model, features):
         self._setup(windows, cell_size, groups, pad)
-        self.model = model
         self.features = features
+        self._set_model(model)
+
+    def _set_model(self, model):
+        self.model = model
         used = model.used_features_
         self.used = used
         feat = model.feature_
@@ -148,6 +153,99 @@ class AdaptedTreesOperator(TemplateOperator):
         if getattr(self, "_tables", None) is None:
             self._tables = self.gather_tables()
         return self._tables
+
+    def to_arrays(self):
+        """The operator as ``(meta, arrays)``: JSON-ready metadata and plain arrays (its
+        stored form, :class:`~viewadapt.detect.cache.OperatorCache`): the groups'
+        geometry, the model (``model/*``, :meth:`AdaBoostTrees.to_arrays`), each group's
+        ``G[used]`` as CSR parts concatenated (``G_indptr``: ``n_used + 1`` entries per
+        group, ``G_nnz_ptr`` (G + 1,) offsets into ``G_indices`` / ``G_data``), the window
+        scaling and the run tables (``table_*``, :meth:`gather_tables`), so that a loaded
+        operator needs no rebuilding."""
+        meta, arrays = self._geometry_to_arrays()
+        params, model_arrays = self.model.to_arrays()
+        meta["model"] = params
+        arrays.update(with_prefix("model/", model_arrays))
+        Gs = [sp.csr_matrix(g.template) for g in self.groups]
+        arrays.update(G_indptr=np.concatenate([G.indptr for G in Gs]).astype(np.int64),
+                      G_nnz_ptr=np.r_[0, np.cumsum([G.nnz for G in Gs])].astype(np.int64),
+                      G_indices=np.concatenate([G.indices for G in Gs]).astype(np.int32),
+                      G_data=np.concatenate([G.data for G in Gs]))
+        if hasattr(self, "gradient_factor"):
+            arrays["gradient_factor"] = self.gradient_factor
+        pos_of, pos_group, pos_origin, (n_groups, indptr, offsets, weights) = self.run_tables()
+        arrays.update(table_pos_of=pos_of, table_pos_group=pos_group,
+                      table_pos_origin=pos_origin, table_indptr=indptr,
+                      table_offsets=offsets, table_weights=weights)
+        return meta, arrays
+
+    @classmethod
+    def from_arrays(cls, meta: dict, arrays: dict) -> "AdaptedTreesOperator":
+        """The operator :meth:`to_arrays` gave, after checking every table's shape and
+        that every index lies within its array (so the compiled loop never reads outside
+        them); ``ValueError`` otherwise."""
+        op = cls.__new__(cls)
+        op._geometry_from_arrays(meta, arrays)
+        if op.features.func is not acf_frame_features:
+            raise ValueError(f"its feature maker is {op.features.func.__name__}, not "
+                             "acf_frame_features")
+        if not isinstance(meta.get("model"), dict):
+            raise ValueError("it lacks its model's parameters")
+        op._set_model(AdaBoostTrees.from_arrays(meta["model"], under_prefix("model/", arrays)))
+        n, G, n_used, C = op.n_windows, len(op.groups), len(op.used), N_ACF_CHANNELS
+        shape = np.array([g.shape for g in op.groups], np.int64)
+        n_cols = shape.prod(1) * C
+        # the groups' G[used]
+        ip = stored_array(arrays, "G_indptr", "iu", shape=(G * (n_used + 1),))
+        ip = ip.reshape(G, n_used + 1).astype(np.int64)
+        nnz = stored_array(arrays, "G_nnz_ptr", "iu", shape=(G + 1,)).astype(np.int64)
+        ind = stored_array(arrays, "G_indices", "iu", ndim=1)
+        data = stored_array(arrays, "G_data", "f", shape=ind.shape)
+        if nnz[0] != 0 or nnz[-1] != len(ind) or (np.diff(nnz) < 0).any() \
+                or (ip[:, 0] != 0).any() or (np.diff(ip, axis=1) < 0).any() \
+                or (ip[:, -1] != np.diff(nnz)).any():
+            raise ValueError("its G_indptr or G_nnz_ptr do not split G_indices into groups")
+        col_end = np.repeat(n_cols, np.diff(nnz))
+        if len(ind) and (ind.min() < 0 or (ind >= col_end).any()):
+            raise ValueError("its G_indices lie outside the groups' patches")
+        for i, g in enumerate(op.groups):
+            s = slice(nnz[i], nnz[i + 1])
+            g.template = sp.csr_matrix((data[s], ind[s], ip[i]), shape=(n_used, n_cols[i]))
+        if "gradient_factor" in arrays:
+            op.gradient_factor = stored_array(arrays, "gradient_factor", "f", shape=(n,))
+        # the run tables
+        pos_of = stored_array(arrays, "table_pos_of", "iu", shape=(n,))
+        pos_group = stored_array(arrays, "table_pos_group", "iu", ndim=1)
+        n_pos = len(pos_group)
+        origin = stored_array(arrays, "table_pos_origin", "iu", shape=(n_pos,))
+        indptr = stored_array(arrays, "table_indptr", "iu", shape=(n_used * G + 1,))
+        offsets = stored_array(arrays, "table_offsets", "iu", ndim=1)
+        weights = stored_array(arrays, "table_weights", "f", shape=offsets.shape)
+        if not n_pos or pos_of.min() < 0 or pos_of.max() >= n_pos or pos_group.min() < 0 \
+                or pos_group.max() >= G or indptr[0] != 0 or indptr[-1] != len(offsets) \
+                or (np.diff(indptr) < 0).any():
+            raise ValueError("its run tables do not match its groups")
+        # an entry of group g's rows lies inside g's patch; a patch at each position inside
+        # the frame's feature vector
+        start, nx_map, size = {}, {}, 0
+        w, h = op.image_size
+        for c in op.cell_sizes:
+            start[c], nx_map[c] = size, w // c + 2 * op.pad
+            size += (h // c + 2 * op.pad) * nx_map[c] * C
+        span = np.array([((g.shape[0] - 1) * nx_map[g.cell_size] + g.shape[1]) * C
+                         for g in op.groups], np.int64)
+        entry_group = np.repeat(np.arange(n_used * G) % G, np.diff(indptr))
+        if len(offsets) and (offsets.min() < 0 or (offsets >= span[entry_group]).any()):
+            raise ValueError("its run tables read outside the groups' patches")
+        if origin.min() < 0 or (origin + span[pos_group] > size).any():
+            raise ValueError("its run tables read outside the frame's feature vector")
+        op._tables = (np.ascontiguousarray(pos_of, np.intp),
+                      np.ascontiguousarray(pos_group, np.int32),
+                      np.ascontiguousarray(origin, np.int64),
+                      (G, np.ascontiguousarray(indptr, np.int64),
+                       np.ascontiguousarray(offsets, np.int32),
+                       np.ascontiguousarray(weights, np.float32)))
+        return op
 
     def detect(self, image, *, threshold: float = 0.0, nms_threshold: float = 0.65,
                max_candidates: int = 2000) -> np.ndarray:

@@ -1,0 +1,265 @@
+"""Fault injection: kill ``generate`` and ``bench crossval`` at random points, rerun, compare.
+
+``python -m benchmark.faults --preset tiny`` (not part of the test suite; ~30-60 min on two
+cores with Cycles):
+
+1. renders the preset once, uninterrupted (the reference), and runs ``bench crossval
+   --quick`` on it once;
+2. ``--generate-kills`` times (default 10): starts ``generate`` into a fresh directory,
+   kills it and all its workers with SIGKILL at a random moment of the reference's
+   duration, reruns it to completion, and compares every file's sha256 with the
+   reference's (hidden files included: ``.parts/``, the marker; nothing is excluded);
+3. ``--crossval-kills`` times (default 5): the same for ``bench crossval --quick``, into a
+   fresh results directory (``run.json`` is left out of the comparison: it records the
+   time and the seconds taken; ``SOURCE_DATE_EPOCH`` fixes the PDFs' creation dates);
+4. measures the peak memory of a ``--large`` image render against a ``--small`` one
+   (the largest resident set of the ``generate`` process and its workers, ru_maxrss of
+   the children, and the peak of their summed RSS sampled every 0.2 s), with
+   ``--memory-renderer`` (pyrender by default: 2,000 Cycles images take ~25 min here).
+
+It prints how many reruns ended byte-identical to the reference (target: all), how many
+left stray files -- files the reference does not have, or anything but the output
+folder beside it, such as a ``.partial-*`` folder (target: none) -- and the two peaks
+(target: within 10 %).
+"""
+
+from __future__ import annotations
+
+import argparse
+import hashlib
+import json
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["main", "tree_hashes", "render_size", "compare"]
+
+REPO = Path(__file__).resolve().parent.parent
+#: results files whose bytes record the time they were made (left out of the comparison)
+TIMED_RESULTS = ("run.json",)
+#: the cross-validation the faults run (small enough to be killed and rerun five times)
+CROSSVAL_ARGS = ["--quick", "--detectors", "hog", "acf", "--sources", "0",
+                 "--object-models", "plane", "--no-upper-bound"]
+
+
+def tree_hashes(root: Path, exclude=()) -> dict:
+    """sha256 of every file under ``root`` (hidden ones included) by relative path."""
+    out = {}
+    for p in sorted(Path(root).rglob("*")):
+        rel = p.relative_to(root).as_posix()
+        if p.is_file() and rel not in exclude:
+            out[rel] = hashlib.sha256(p.read_bytes()).hexdigest()
+    return out
+
+
+def compare(ref: dict, got: dict, parent: Path, name: str) -> tuple[bool, list]:
+    """(identical, stray): stray = files the reference lacks and entries beside the
+    output folder in its (otherwise empty) parent."""
+    stray = sorted(set(got) - set(ref))
+    stray += [f"../{p.name}" for p in parent.iterdir() if p.name != name]
+    same = set(ref) == set(got) and all(ref[k] == got[k] for k in ref)
+    return same, stray
+
+
+def _env() -> dict:
+    return dict(os.environ, SOURCE_DATE_EPOCH="0", PYTHONHASHSEED="0")
+
+
+def _cli(args) -> list:
+    return [sys.executable, "-m", "viewadapt.cli", *args]
+
+
+def _run(args, log: Path) -> float:
+    t0 = time.perf_counter()
+    with open(log, "ab") as fh:
+        rc = subprocess.run(_cli(args), cwd=REPO, env=_env(), stdout=fh, stderr=fh).returncode
+    if rc != 0:
+        raise SystemExit(f"faults: `viewadapt {' '.join(args)}` failed (rc {rc}); see {log}")
+    return time.perf_counter() - t0
+
+
+def _run_killed(args, delay: float, log: Path) -> str:
+    """Start the command, SIGKILL its whole process group after ``delay`` seconds."""
+    with open(log, "ab") as fh:
+        p = subprocess.Popen(_cli(args), cwd=REPO, env=_env(), stdout=fh, stderr=fh,
+                             start_new_session=True)
+        try:
+            p.wait(timeout=delay)
+            return f"finished before the kill (rc {p.returncode})"
+        except subprocess.TimeoutExpired:
+            os.killpg(p.pid, signal.SIGKILL)
+            p.wait()
+            return f"killed at {delay:.1f} s"
+
+
+def render_size(persons: int, scenes: int, instances: int = 1, elevations: int = 3,
+                backgrounds: int = 1, frames: int = 1) -> int:
+    """Images a ``generate --persons --scenes --instances`` run of the tiny preset plans."""
+    return scenes * (persons * instances * elevations + backgrounds * elevations) + frames
+
+
+def _tree_rss_kb(pid: int) -> int:
+    """Summed RSS (kB) of ``pid`` and its descendants (Linux /proc)."""
+    total, todo = 0, [pid]
+    while todo:
+        q = todo.pop()
+        try:
+            for line in Path(f"/proc/{q}/status").read_text().splitlines():
+                if line.startswith("VmRSS:"):
+                    total += int(line.split()[1])
+            for t in Path(f"/proc/{q}/task").iterdir():
+                todo += [int(c) for c in (t / "children").read_text().split()]
+        except (OSError, ValueError):
+            continue
+    return total
+
+
+_MAXRSS = ("import resource, subprocess, sys; "
+           "rc = subprocess.run(sys.argv[1:], stdout=sys.stderr).returncode; "
+           "print(resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss, rc)")
+
+
+def measure_memory(args, log: Path) -> dict:
+    """Peak memory of one ``generate`` run: the largest process (ru_maxrss of the
+    children, via a fresh intermediate process) and the sampled peak of the tree's sum."""
+    t0 = time.perf_counter()
+    with open(log, "ab") as fh:
+        p = subprocess.Popen([sys.executable, "-c", _MAXRSS, *_cli(args)], cwd=REPO,
+                             env=_env(), stdout=subprocess.PIPE, stderr=fh, text=True)
+        peak = 0
+        while p.poll() is None:
+            peak = max(peak, _tree_rss_kb(p.pid))
+            time.sleep(0.2)
+        out = p.stdout.read().split()[-2:]
+    maxrss, rc = int(out[0]), int(out[1])
+    if rc != 0:
+        raise SystemExit(f"faults: `viewadapt {' '.join(args)}` failed (rc {rc}); see {log}")
+    return {"max_process_mb": maxrss / 1024, "tree_peak_mb": peak / 1024,
+            "seconds": time.perf_counter() - t0}
+
+
+def _sizes(n: int, scenes: int) -> int:
+    """Persons giving about ``n`` images over ``scenes`` scenes (tiny preset layout)."""
+    return max(1, round((n - 1) / scenes / 3 - 1))
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(prog="python -m benchmark.faults", description=__doc__,
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--preset", default="tiny", choices=("tiny", "demo", "small"))
+    ap.add_argument("--renderer", default="cycles", choices=("cycles", "pyrender"))
+    ap.add_argument("--work", type=Path, default=Path("faults-work"),
+                    help="scratch directory (removed first; default ./faults-work)")
+    ap.add_argument("--seed", type=int, default=0, help="seed of the kill moments")
+    ap.add_argument("--generate-kills", type=int, default=10)
+    ap.add_argument("--crossval-kills", type=int, default=5)
+    ap.add_argument("--small", type=int, default=200, help="images of the small render")
+    ap.add_argument("--large", type=int, default=2000, help="images of the large render")
+    ap.add_argument("--memory-scenes", type=int, default=10)
+    ap.add_argument("--memory-renderer", default="pyrender", choices=("cycles", "pyrender"))
+    ap.add_argument("--skip-memory", action="store_true")
+    ap.add_argument("--only-memory", action="store_true",
+                    help="skip the kills: only the memory measurement")
+    a = ap.parse_args(argv)
+    rng = np.random.default_rng(a.seed)
+    work = a.work.resolve()
+    shutil.rmtree(work, ignore_errors=True)
+    work.mkdir(parents=True)
+    log = work / "faults.log"
+    gen = ["generate", "--preset", a.preset, "--renderer", a.renderer, "--quiet"]
+    report = {"preset": a.preset, "renderer": a.renderer}
+
+    g = c = None
+    if not a.only_memory:
+        ref = work / "ref" / "ds"
+        ref.parent.mkdir()
+        t_gen = _run(gen + ["--out", str(ref)], log)
+        ref_hashes = tree_hashes(ref)
+        print(f"reference render: {len(ref_hashes)} files in {t_gen:.0f} s", flush=True)
+
+        def trials(kind, n, duration, make_args, ref_tree, exclude=()):
+            same_n, stray_n, results_n, rows = 0, 0, 0, []
+            for k in range(n):
+                parent = work / f"{kind}{k}"
+                parent.mkdir()
+                out = parent / "res"
+                delay = float(rng.uniform(0.05, 0.9) * duration)
+                what = _run_killed(make_args(out), delay, log)
+                _run(make_args(out), log)
+                got = tree_hashes(out, exclude)
+                same, stray = compare(ref_tree, got, parent, out.name)
+                diff = sorted(f for f in set(ref_tree) | set(got) if ref_tree.get(f) != got.get(f))
+                # results alone: every file outside the feature cache
+                same_results = not [f for f in diff if not f.startswith("cache/")]
+                same_n += same
+                results_n += same_results
+                stray_n += bool(stray)
+                rows.append({"trial": k, "kill": what, "identical": same,
+                             "results_identical": same_results, "stray": stray, "differ": diff})
+                print(f"  {kind} {k}: {what}; rerun {'byte-identical' if same else 'DIFFERS'}"
+                      + ("" if same or not same_results else " (in cache/ only)")
+                      + (f"; stray: {stray[:5]}" if stray else ""), flush=True)
+                if not same:
+                    print(f"    differing files ({len(diff)}): {diff[:8]}", flush=True)
+            return same_n, stray_n, rows, results_n
+
+        print(f"generate: {a.generate_kills} runs killed (SIGKILL) at random moments, rerun",
+              flush=True)
+        g = trials("generate", a.generate_kills, t_gen,
+                   lambda out: gen + ["--out", str(out)], ref_hashes)
+        report["generate"] = dict(zip(("identical", "with_stray_files", "trials"), g))
+        print(f"== generate: {g[0]}/{a.generate_kills} reruns byte-identical to the "
+              f"uninterrupted render; {g[1]} left stray files", flush=True)
+
+        res_ref = work / "ref" / "res"
+        cv = lambda out, data=ref: ["bench", "crossval", "--data", str(data),  # noqa: E731
+                                    "--out", str(out)] + CROSSVAL_ARGS
+        t_cv = _run(cv(res_ref), log)
+        cv_hashes = tree_hashes(res_ref, TIMED_RESULTS)
+        print(f"reference crossval: {len(cv_hashes)} files in {t_cv:.0f} s", flush=True)
+        print(f"bench crossval: {a.crossval_kills} runs killed at random moments, rerun "
+              f"(excluded from the comparison: {', '.join(TIMED_RESULTS)})", flush=True)
+        c = trials("crossval", a.crossval_kills, t_cv, cv, cv_hashes, TIMED_RESULTS)
+        report["crossval"] = dict(zip(("identical", "with_stray_files", "trials",
+                                       "results_identical"), c))
+        print(f"\n== generate: {g[0]}/{a.generate_kills} reruns byte-identical to the "
+              f"uninterrupted render; {g[1]} left stray files", flush=True)
+        print(f"== bench crossval: {c[0]}/{a.crossval_kills} reruns byte-identical (all files but "
+              f"{', '.join(TIMED_RESULTS)}), {c[3]}/{a.crossval_kills} with identical results "
+              f"(the feature cache aside); {c[1]} left stray files", flush=True)
+        (work / "faults.json").write_text(json.dumps(report, indent=1, default=str))
+    if not a.skip_memory:
+        s = a.memory_scenes
+        mem = {}
+        for label, n in (("small", a.small), ("large", a.large)):
+            p = _sizes(n, s)
+            images = render_size(p, s)
+            out = work / f"memory_{label}"
+            m = measure_memory(["generate", "--preset", "tiny", "--renderer",
+                                a.memory_renderer, "--persons", str(p), "--scenes", str(s),
+                                "--quiet", "--out", str(out)], log)
+            mem[label] = dict(m, images=images, persons=p, scenes=s)
+            print(f"== memory, {images} images ({p} persons x {s} scenes, "
+                  f"{a.memory_renderer}): largest process {m['max_process_mb']:.0f} MB, "
+                  f"peak of the process tree {m['tree_peak_mb']:.0f} MB "
+                  f"({m['seconds']:.0f} s)", flush=True)
+            shutil.rmtree(out, ignore_errors=True)
+        for key in ("max_process_mb", "tree_peak_mb"):
+            r = mem["large"][key] / mem["small"][key]
+            within = "within" if abs(r - 1) <= 0.10 else "NOT within"
+            print(f"   {key}: large / small = {r:.3f} ({within} 10 %)", flush=True)
+        report["memory"] = mem
+    (work / "faults.json").write_text(json.dumps(report, indent=1, default=str))
+    ok = g is None or (g[0] == a.generate_kills and c[0] == a.crossval_kills
+                       and not g[1] and not c[1])
+    return 0 if ok else 1
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

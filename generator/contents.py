@@ -1,0 +1,99 @@
+"""What a dataset holds: its ``dataset.json`` and the path of every planned file.
+
+Numpy only (the plan is re-made from ``dataset.json`` without rendering), shared by the
+pipeline that writes a dataset, the resume checks and ``dataset verify``.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from .manifest import spec_hashes, versions
+from .sampling import GeneratorConfig, Plan, WorkUnit, image_relpath, plan_dataset
+from .specs import default_roster_path, default_scene_dir, load_roster, load_scenes
+
+__all__ = ["dataset_metadata", "planned_paths", "unit_paths", "unit_depth_paths",
+           "depth_relpath"]
+
+
+def dataset_metadata(config: GeneratorConfig, seed: int, plan: Plan, scene_dir, roster) -> dict:
+    scene_dir = Path(scene_dir)
+    return {
+        "format": "viewadapt-multiview-v1",
+        "preset": config.preset,
+        "seed": int(seed),
+        "framing": config.framing,
+        "elevations": [float(e) for e in config.elevations],
+        "distance": config.distance,
+        "person_height": config.person_height,
+        "counts": {"persons": len(plan.persons), "scenes": len(plan.scenes),
+                   "instances": config.instances,
+                   "backgrounds_per_scene": config.backgrounds_per_scene,
+                   "frames": config.frames, "images": plan.n_images},
+        "renderer": {"name": config.renderer, "samples": config.samples,
+                     "background_samples": config.background_samples,
+                     "frame_samples": config.frame_samples, "denoise": config.denoise,
+                     "supersample": config.supersample, "light_tree": config.light_tree,
+                     "fast_gi": config.fast_gi, "max_bounces": config.max_bounces},
+        "config": config.to_dict(),
+        "persons": list(plan.persons),
+        "scenes": list(plan.scenes),
+        "specs": {"scene_dir": str(scene_dir), "roster": str(roster),
+                  "hashes": spec_hashes(sorted(scene_dir.glob("*.json")) + [Path(roster)])},
+        "versions": versions(),
+        "conventions": {
+            "world": "metres, Z up, ground Z=0; person yaw 0 faces -Y",
+            "camera": "OpenCV: x_cam = R X + t, x right, y down, z forward",
+            "azimuth": "crops/backgrounds: direction from the person (aim point) to the "
+                       "camera, radians counter-clockwise from -Y (viewadapt crop_camera); "
+                       "NaN for frames",
+            "rotation": "person yaw, radians counter-clockwise about +Z; 0 faces -Y",
+            "pixels": "pixel centres at integer coordinates; boxes [x, y, w, h] in that frame",
+            "H_window_to_image": "canonical 64x128 window (person plane, 96 px tall "
+                                 "person_height) -> image; identity at elevation 0 for "
+                                 "plane framing; centre window for backgrounds",
+            "H_plane_to_image": "person-plane metres (u right, z up, origin at the feet) "
+                                "-> image",
+        },
+    }
+
+
+def planned_paths(meta: dict) -> list[str]:
+    """Every image path a dataset's ``dataset.json`` plans (re-planned in numpy)."""
+    config = GeneratorConfig.from_dict(meta["config"])
+    specs = meta.get("specs", {})
+    scene_dir = specs.get("scene_dir") or default_scene_dir()
+    roster = specs.get("roster") or default_roster_path()
+    plan = plan_dataset(config, meta["seed"], scenes=load_scenes(scene_dir),
+                        persons=load_roster(roster))
+    return [p for u in plan.units for p in unit_paths(u)]
+
+
+def unit_depth_paths(unit: WorkUnit) -> list[str]:
+    """Depth maps of a person unit's crops (one per image; none for other units)."""
+    if unit.kind != "person":
+        return []
+    return [depth_relpath(p) for p in unit_paths(unit)]
+
+
+def depth_relpath(image_path: str) -> str:
+    """``person/<scene>/<name>.png`` -> ``depth/<scene>/<name>.npz``."""
+    head, rest = image_path.split("/", 1)
+    if head != "person" or not rest.endswith(".png"):
+        raise ValueError(f"only person crops have depth maps, got {image_path!r}")
+    return f"depth/{rest[:-4]}.npz"
+
+
+def unit_paths(unit: WorkUnit) -> list[str]:
+    out = []
+    for s in unit.samples:
+        if unit.kind == "person":
+            out += [image_relpath("person", s.scene_id, person_id=s.person_id,
+                                  instance=s.instance, elevation_index=e)
+                    for e in range(len(s.cameras))]
+        elif unit.kind == "background":
+            out += [image_relpath("background", s.scene_id, index=s.index, elevation_index=e)
+                    for e in range(len(s.cameras))]
+        else:
+            out.append(image_relpath("frame", s.scene_id, index=s.index))
+    return out

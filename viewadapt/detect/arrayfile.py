@@ -1,0 +1,158 @@
+"""Files of named arrays and JSON metadata: how models and operators are kept on disk.
+
+A file is an uncompressed ``.npz`` archive (:func:`numpy.savez`) of plain numeric, boolean
+or text arrays plus one ``metadata`` entry, a uint8 array of UTF-8 JSON::
+
+    {"format": "viewadapt.operator", "format_version": 7, "viewadapt": "0.1.0", ...}
+
+It is read with ``numpy.load(..., allow_pickle=False)``, and only after its first bytes
+show a zip archive, so nothing in it is ever executed (a pickle is refused before it is
+opened). Objects are rebuilt from the arrays and metadata by the reader of each format,
+from an explicit list of the project's own classes and functions. A file that is not such
+an archive, is truncated or corrupt, is of another format or format version, or lacks an
+entry, is a one-line ``ValueError`` (:class:`ArrayFileError`) naming the file and what to do.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+
+import numpy as np
+
+from ..files import atomic_path
+from ..version import __version__
+
+__all__ = ["ArrayFileError", "write_array_file", "read_array_file", "stored_array",
+           "with_prefix", "under_prefix"]
+
+#: the entry that holds the JSON metadata
+METADATA_KEY = "metadata"
+_ZIP_MAGIC = b"PK\x03\x04"
+#: dtype kinds an array file may hold: bool, integers, floats, text (never objects)
+_PLAIN_KINDS = "biufU"
+
+
+class ArrayFileError(ValueError):
+    """A file that is not a readable array file of the expected format (one line)."""
+
+
+def _json_default(o):
+    if isinstance(o, np.generic):
+        return o.item()
+    if isinstance(o, np.ndarray):
+        return o.tolist()
+    if isinstance(o, (tuple, set, frozenset)):
+        return list(o)
+    return str(o)                  # provenance only (paths and the like): kept as text
+
+
+def write_array_file(path, fmt: str, version: int, meta: dict, arrays: dict) -> Path:
+    """Write ``arrays`` and ``meta`` as an array file of format ``fmt`` (atomically).
+
+    Parameters
+    ----------
+    path : path
+    fmt : str
+        Format name, e.g. ``"viewadapt.operator"``.
+    version : int
+        Format version: readers refuse any other.
+    meta : dict
+        JSON-ready metadata (NumPy scalars and arrays become numbers and lists, anything
+        else unknown to JSON its text).
+    arrays : dict str -> array_like
+        Plain arrays (no object dtype).
+
+    Returns
+    -------
+    Path of the file written.
+    """
+    path = Path(path)
+    head = {"format": fmt, "format_version": int(version), "viewadapt": __version__}
+    blob = json.dumps({**head, **meta}, default=_json_default).encode()
+    out = {}
+    for k, a in arrays.items():
+        a = np.asarray(a)
+        if a.dtype.kind not in _PLAIN_KINDS or k == METADATA_KEY:
+            raise ValueError(f"array {k!r} of dtype {a.dtype} cannot be stored in an array file")
+        out[k] = a
+    out[METADATA_KEY] = np.frombuffer(blob, np.uint8)
+    with atomic_path(path) as tmp:               # an interrupted write leaves no half a file
+        with open(tmp, "wb") as fh:
+            np.savez(fh, **out)
+            fh.flush()
+            os.fsync(fh.fileno())
+    return path
+
+
+def read_array_file(path, fmt: str, version: int, *, remedy: str):
+    """Read an array file of format ``fmt`` and version ``version``: ``(meta, arrays)``.
+
+    ``remedy`` (what the user should do, e.g. "write it again with ...") ends every error
+    message. Raises :class:`ArrayFileError` for a file that is not a zip archive (a pickle
+    included: it is never opened), is truncated or corrupt, lacks its metadata, or is of
+    another format or version; ``FileNotFoundError`` for a missing file.
+    """
+    p = Path(path)
+    with open(p, "rb") as fh:               # closed here whatever np.load does
+        magic = fh.read(4)
+        if magic != _ZIP_MAGIC:
+            what = ("a pickle, which this version never loads" if magic[:1] == b"\x80"
+                    else "not an .npz archive")
+            raise ArrayFileError(f"{p} is not a {fmt} file ({what}): {remedy}")
+        fh.seek(0)
+        try:
+            with np.load(fh, allow_pickle=False) as z:
+                arrays = {k: z[k] for k in z.files}
+        except Exception:  # noqa: BLE001 - zip, npy-header and I/O errors of a damaged file
+            raise ArrayFileError(f"{p} cannot be read (truncated, corrupt, or holding "
+                                 f"pickled objects): {remedy}") from None
+    raw = arrays.pop(METADATA_KEY, None)
+    try:
+        if raw is None or raw.dtype != np.uint8 or raw.ndim != 1:
+            raise ValueError
+        meta = json.loads(raw.tobytes().decode())
+        if not isinstance(meta, dict):
+            raise ValueError
+    except ValueError:
+        raise ArrayFileError(f"{p} has no readable metadata: {remedy}") from None
+    if meta.get("format") != fmt:
+        raise ArrayFileError(f"{p} holds {meta.get('format')!r}, not {fmt!r}: {remedy}")
+    if meta.get("format_version") != version:
+        raise ArrayFileError(f"{p} is {fmt} format version {meta.get('format_version')!r} "
+                             f"(written by viewadapt {meta.get('viewadapt')}); this version "
+                             f"reads version {version}: {remedy}")
+    return meta, arrays
+
+
+def stored_array(arrays: dict, key: str, kinds: str, *, ndim=None, shape=None,
+                 finite: bool = True) -> np.ndarray:
+    """``arrays[key]`` after checking it: present, of a dtype kind in ``kinds`` (``"b"``
+    bool, ``"i"``/``"u"`` integers, ``"f"`` floats, ``"U"`` text), of ``ndim`` dimensions
+    and of ``shape`` (``None`` entries match any length), and (with ``finite``) without
+    NaN or infinite values; ``ValueError`` otherwise."""
+    if key not in arrays:
+        raise ValueError(f"it lacks the array {key!r}")
+    a = arrays[key]
+    if a.dtype.kind not in kinds:
+        raise ValueError(f"its array {key!r} is of dtype {a.dtype}")
+    if ndim is not None and a.ndim != ndim:
+        raise ValueError(f"its array {key!r} has {a.ndim} dimensions, not {ndim}")
+    if shape is not None and (a.ndim != len(shape) or any(
+            s is not None and s != n for s, n in zip(shape, a.shape))):
+        raise ValueError(f"its array {key!r} has shape {a.shape}, not {tuple(shape)}")
+    if finite and a.dtype.kind == "f" and not np.all(np.isfinite(a)):
+        raise ValueError(f"its array {key!r} holds NaN or infinite values")
+    return a
+
+
+def with_prefix(prefix: str, arrays: dict) -> dict:
+    """``arrays`` with ``prefix`` before every name (an object's arrays inside another's)."""
+    return {prefix + k: v for k, v in arrays.items()}
+
+
+def under_prefix(prefix: str, arrays: dict) -> dict:
+    """The arrays named ``prefix...``, without the prefix (inverse of :func:`with_prefix`)."""
+    n = len(prefix)
+    return {k[n:]: v for k, v in arrays.items() if k.startswith(prefix)}
