@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["register", "check_results_dir", "write_report_with_warnings"]
+__all__ = ["register", "check_results_dir"]
 
 #: how long ``--scheduler`` waits for the Dask scheduler before giving up
 SCHEDULER_TIMEOUT_S = 10
@@ -62,31 +62,6 @@ def _incomplete(ds, args):
               f"results do not describe the planned dataset; run.json and report.md say "
               f"so.\n{bar}", file=sys.stderr, flush=True)
     return msg
-
-
-#: the warning line ``report.md`` opens with for results of an incomplete dataset
-INCOMPLETE_NOTE = "> **Warning: computed on an incomplete dataset (--allow-incomplete):** "
-
-
-def write_report_with_warnings(out) -> Path:
-    """:func:`benchmark.report.write_report`, then the warnings ``run.json`` records (an
-    incomplete dataset) inserted under the title."""
-    from viewadapt.files import atomic_write_text
-
-    from .report import write_report
-
-    path = write_report(out)
-    try:
-        run = json.loads((Path(out) / "run.json").read_text())
-    except (OSError, ValueError):
-        return path
-    notes = [n for n in (run.get("incomplete_dataset"),
-                         (run.get("sweep") or {}).get("incomplete_dataset")) if n]
-    if notes:
-        lines = path.read_text().split("\n")
-        add = [INCOMPLETE_NOTE + n for n in dict.fromkeys(notes)] + [""]
-        atomic_write_text(path, "\n".join(lines[:2] + add + lines[2:]))
-    return path
 
 
 def _run_json(ds, args, extra=None) -> dict:
@@ -160,7 +135,7 @@ def cmd_crossval(args) -> int:
     from .detectors import detector_spec
     from .features import FeatureCache
     from .figures import save_figure
-    from .report import plot_det, plot_score_shift
+    from .report import plot_det, plot_score_shift, write_report
     from .summarize import paired_differences, summarize
 
     check_output_dir(args.out, overwrite=args.overwrite)
@@ -198,7 +173,7 @@ def cmd_crossval(args) -> int:
             "crossval": config_dict(cfg), "crossval_seconds": round(time.perf_counter() - t0, 1),
             "incomplete_dataset": incomplete}),
             indent=2, default=str))
-    write_report_with_warnings(args.out)
+    write_report(args.out)
     print(_markdown(summary))
     print(f"\nwrote {args.out}/ (summary.csv, scores.parquet, det_*.png, report.md)")
     return 0
@@ -247,7 +222,7 @@ def cmd_sweep(args) -> int:
     from .data import load_dataset
     from .features import FeatureCache
     from .figures import save_figure
-    from .report import plot_sweep
+    from .report import plot_sweep, write_report
     from .sweep import run_sweep, sweep_summary
 
     check_output_dir(args.out, overwrite=args.overwrite)
@@ -279,17 +254,19 @@ def cmd_sweep(args) -> int:
                         "sigma": args.sigma, "seconds": round(time.perf_counter() - t0, 1),
                         "incomplete_dataset": incomplete}
         (tmp / "run.json").write_text(json.dumps(run, indent=2, default=str))
-    write_report_with_warnings(args.out)
+    write_report(args.out)
     print(summ.to_string(index=False))
     return 0
 
 
 def cmd_report(args) -> int:
+    from .report import write_report
+
     out = Path(args.results)
     if not out.is_dir() or not (out / "run.json").is_file():
         raise ValueError(f"{out} is not a results directory (no run.json); run "
                          "`viewadapt bench crossval` first")
-    print(write_report_with_warnings(out))
+    print(write_report(out))
     return 0
 
 

@@ -171,11 +171,19 @@ def _fmt(v, nd=3):
     return "–" if v is None or (isinstance(v, float) and not np.isfinite(v)) else f"{v:.{nd}f}"
 
 
+#: the warning line ``report.md`` opens with for results of an incomplete dataset
+INCOMPLETE_NOTE = "> **Warning: computed on an incomplete dataset (--allow-incomplete):** "
+
+
 def write_report(out: Path) -> Path:
     """Write ``report.md`` for a results directory (crossval and/or sweep outputs)."""
     out = Path(out)
     run = json.loads((out / "run.json").read_text()) if (out / "run.json").is_file() else {}
     lines = ["# viewadapt benchmark report", ""]
+    notes = [n for n in (run.get("incomplete_dataset"),
+                         (run.get("sweep") or {}).get("incomplete_dataset")) if n]
+    if notes:                 # results of a dataset run with --allow-incomplete
+        lines += [INCOMPLETE_NOTE + n for n in dict.fromkeys(notes)] + [""]
     if run:
         lines += [f"Dataset: `{run.get('data')}` (fingerprint `{run.get('fingerprint')}`, "
                   f"renderer `{run.get('renderer')}`, framing `{run.get('framing')}`), "

@@ -32,6 +32,13 @@ def _main(argv):
         return 2
 
 
+def _calibration_file(cam, path):
+    """``cam`` written as a K, R, t calibration file for `viewadapt detect`."""
+    path.write_text(json.dumps({"image_size": list(cam.image_size), "K": cam.K.tolist(),
+                                "R": cam.R.tolist(), "t": cam.t.tolist()}))
+    return path
+
+
 @pytest.fixture(scope="module")
 def toy(tmp_path_factory):
     return make_toy_frame_dataset(tmp_path_factory.mktemp("tf") / "data", n_persons=9,
@@ -122,9 +129,7 @@ def test_rerun_some_methods_keeping_the_others(toy, bench, tmp_path):
 def test_detect_cli(toy, bench, tmp_path):
     frames = load_frames(toy)
     cam = frames[0].camera
-    calib = tmp_path / "calib.json"
-    calib.write_text(json.dumps({"image_size": list(cam.image_size), "K": cam.K.tolist(),
-                                 "R": cam.R.tolist(), "t": cam.t.tolist()}))
+    calib = _calibration_file(cam, tmp_path / "calib.json")
     out = tmp_path / "det"
     rc = _main(["detect", "--calibration", str(calib), "--model",
                 str(bench / "models" / "source_detectors.npz"), "--out", str(out),
@@ -426,9 +431,7 @@ def test_detect_takes_the_rule_and_the_object_model(toy, bench, tmp_path):
 
     frames = load_frames(toy)
     cam = frames[0].camera
-    calib = tmp_path / "calib.json"
-    calib.write_text(json.dumps({"image_size": list(cam.image_size), "K": cam.K.tolist(),
-                                 "R": cam.R.tolist(), "t": cam.t.tolist()}))
+    calib = _calibration_file(cam, tmp_path / "calib.json")
     rows = {}
     for model in ("plane", "body"):
         out = tmp_path / model

@@ -56,6 +56,7 @@ class AdaptedLinearOperator(TemplateOperator):
     """
 
     nms_overlap, nms_threshold = "union", 0.5
+    frame_feature_maker = staticmethod(hog_frame_features)
 
     def __init__(self, windows, cell_size, groups, pad, bias, features):
         self._setup(windows, cell_size, groups, pad)
@@ -206,9 +207,6 @@ class AdaptedLinearOperator(TemplateOperator):
         them); ``ValueError`` otherwise."""
         op = cls.__new__(cls)
         op._geometry_from_arrays(meta, arrays)
-        if op.features.func is not hog_frame_features:
-            raise ValueError(f"its feature maker is {op.features.func.__name__}, not "
-                             "hog_frame_features")
         bias, n_feat = meta.get("bias"), meta.get("n_features")
         if isinstance(bias, bool) or not isinstance(bias, (int, float)) or not np.isfinite(bias):
             raise ValueError(f"its bias is {bias!r}")

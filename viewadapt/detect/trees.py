@@ -52,6 +52,7 @@ class AdaptedTreesOperator(TemplateOperator):
     """
 
     source_cell = ACF_SHRINK
+    frame_feature_maker = staticmethod(acf_frame_features)
 
     nms_overlap, nms_threshold = "min", 0.65
 
@@ -186,9 +187,6 @@ class AdaptedTreesOperator(TemplateOperator):
         them); ``ValueError`` otherwise."""
         op = cls.__new__(cls)
         op._geometry_from_arrays(meta, arrays)
-        if op.features.func is not acf_frame_features:
-            raise ValueError(f"its feature maker is {op.features.func.__name__}, not "
-                             "acf_frame_features")
         if not isinstance(meta.get("model"), dict):
             raise ValueError("it lacks its model's parameters")
         op._set_model(AdaBoostTrees.from_arrays(meta["model"], under_prefix("model/", arrays)))
