@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from viewadapt.files import atomic_path
 from viewadapt.geometry import WINDOW_HEIGHT, WINDOW_WIDTH
 from viewadapt.warp import translation, warp_to_source_view
 
@@ -195,7 +196,7 @@ def background_windows(ds: Dataset, elevation_index: int, *, stride: int = 16) -
 
 
 #: bump when a representation's definition changes: old cache files then stop matching
-FEATURE_VERSION = 3
+FEATURE_VERSION = 4
 
 
 class FeatureCache:
@@ -249,9 +250,8 @@ class FeatureCache:
             self.dir.mkdir(parents=True, exist_ok=True)
             for r, X in computed.items():
                 f = self._file(ws, r)
-                tmp = f.with_suffix(".tmp.npy")
-                np.save(tmp, X)
-                tmp.replace(f)
+                with atomic_path(f, suffix=".npy") as tmp:   # unique per writer
+                    np.save(tmp, X)
                 self._mem[f] = X
                 out[r] = X
         return out

@@ -456,14 +456,20 @@ def _bench_subparsers(sub, common):
     return bench.add_subparsers(dest="bench_command", metavar="BENCH", required=True)
 
 
-def register(sub, common) -> None:
-    """Add ``bench frames`` and ``bench runtime`` to the ``viewadapt`` parser."""
-    bsub = _bench_subparsers(sub, common)
+#: person heights the frame benchmarks assume: two heights on the CAVIAR-like timing camera
+#: give ~30,000 windows (the paper's 31,603)
+BENCH_HEIGHTS = (1.65, 1.85)
+
+
+def _frame_options() -> argparse.ArgumentParser:
+    """The options ``bench frames`` and ``bench runtime`` share, as new argument objects per
+    call: ``set_defaults`` on a subcommand would otherwise change its siblings' defaults."""
     opts = argparse.ArgumentParser(add_help=False)
     opts.add_argument("--data", type=Path, required=True,
                       help="dataset directory with crops and frames_coco.json")
-    opts.add_argument("--heights", type=person_heights, default=(PERSON_HEIGHT_M,),
-                      help=f"assumed person heights, metres (default {PERSON_HEIGHT_M:g})")
+    opts.add_argument("--heights", type=person_heights, default=BENCH_HEIGHTS,
+                      help="assumed person heights, metres, comma-separated (default "
+                           + ",".join(f"{h:g}" for h in BENCH_HEIGHTS) + ")")
     add_cache_options(opts)
     opts.add_argument("--quick", action="store_true", help="smaller detectors (tests)")
     opts.add_argument("--frame-view", choices=list(FRAME_VIEW_CHOICES),
@@ -472,6 +478,23 @@ def register(sub, common) -> None:
                            "(the crop as the adapted detector reads it from a frame; "
                            f"viewadapt.detect.frameview): default {DEFAULT_FRAME_VIEW}; none = crops "
                            "alone. Ignored with --model")
+    return opts
+
+
+def _all_cores_common(common) -> argparse.ArgumentParser:
+    """A copy of the shared options whose ``--jobs`` defaults to every core (help included)."""
+    own = copy.deepcopy(common)
+    for action in own._actions:
+        if action.dest == "jobs":
+            action.default = -1
+            action.help = "parallel worker processes (default all cores; -1 = all cores)"
+    return own
+
+
+def register(sub, common) -> None:
+    """Add ``bench frames`` and ``bench runtime`` to the ``viewadapt`` parser."""
+    bsub = _bench_subparsers(sub, common)
+    opts = _frame_options()
     p = bsub.add_parser("frames", parents=[common, opts],
                         help="miss rate vs FPPI on calibrated frames (Fig. 3)",
                         description="Train HOG/SVM and ACF on the dataset's elevation-0 crops, "
@@ -516,11 +539,7 @@ def register(sub, common) -> None:
                         "and figure show all. Pass that run's --model so the detectors "
                         "are the same")
     p.set_defaults(func=cmd_bench_frames)
-    # its own copy of the shared options: a --jobs default set on it must not reach the
-    # other subcommands (argparse shares a parent's argument objects)
-    own = copy.deepcopy(common)
-    own.set_defaults(jobs=-1)
-    p = bsub.add_parser("runtime", parents=[own, opts],
+    p = bsub.add_parser("runtime", parents=[_all_cores_common(common), _frame_options()],
                         help="frames per second per method (Table 1)",
                         description="The paper's Table 1 for this implementation: frames "
                                     "per second per method on one core, and on all cores "
@@ -530,5 +549,4 @@ def register(sub, common) -> None:
     p.add_argument("--warp-windows", type=int, default=1000,
                    help="windows timed for the image-warping methods, extrapolated to all "
                         "(default 1000)")
-    # two heights on the CAVIAR-like timing camera give ~30,000 windows (the paper's 31,603)
-    p.set_defaults(func=cmd_bench_runtime, heights=(1.65, 1.85))
+    p.set_defaults(func=cmd_bench_runtime)

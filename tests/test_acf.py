@@ -252,3 +252,20 @@ def test_aggregate_channels_rejects_bad_input():
         aggregate_channels(np.zeros((1, 2, 8)), shrink=4)
     with pytest.raises(ValueError, match="radius"):
         convolve_triangle(np.zeros((4, 4)), 1.5)
+
+
+def test_fast_acf_features_are_the_same_bits_every_call():
+    # flat patches (like rendered crops) once made the OpenCV magnitude kernel round by
+    # one ulp differently depending on where its output buffer lay: cached features then
+    # differed from run to run
+    from viewadapt.detect import acf_window_features
+
+    rng = np.random.default_rng(0)
+    img = np.full((128, 64, 3), 120, np.uint8)
+    for _ in range(12):
+        y, x = rng.integers(0, 120), rng.integers(0, 60)
+        h, w = rng.integers(4, 60), rng.integers(4, 40)
+        img[y:y + h, x:x + w] = rng.integers(0, 256, 3)
+    first = acf_window_features(img)
+    for _ in range(16):
+        assert np.array_equal(acf_window_features(img), first)

@@ -377,3 +377,19 @@ def test_good_calibrations_keep_their_camera(camera, tmp_path):
     K[0, 1] = 0.5
     calib.write_text(json.dumps(_calibration(camera, K=K.tolist())))
     assert read_calibration(calib).K[0, 1] == 0.5
+
+
+@pytest.mark.parametrize("field, value, match", [
+    ("tilt", "steep", r"tilt must be a number \(degrees below the horizontal\), got 'steep'"),
+    ("height", None, r"height must be a number \(metres above the ground\)"),
+    ("roll", "nan", r"roll must be finite \(degrees\)"),
+    ("focal", ["wide", 300], r"focal must be a number \(pixels\), got 'wide'"),
+])
+def test_pose_form_fields_are_named_in_errors(field, value, match, tmp_path):
+    d = {"image_size": [384, 288], "focal": 300, "height": 4.5, "tilt": 35}
+    d[field] = value
+    calib = tmp_path / "cam.json"
+    calib.write_text(json.dumps(d))
+    with pytest.raises(ValueError, match=match) as err:
+        read_calibration(calib)
+    assert _one_line(err.value) and str(err.value).startswith(f"calibration {calib}:")

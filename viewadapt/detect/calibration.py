@@ -83,14 +83,30 @@ def read_calibration(path) -> Camera:
         return check_calibration(d["K"], d["R"], d["t"], size, name=f"calibration {path}")
     if all(k in d for k in ("focal", "height", "tilt")):
         pp = d.get("principal_point", ((size[0] - 1) / 2, (size[1] - 1) / 2))
-        tilt = float(d["tilt"])
+        tilt = _number(d["tilt"], "tilt", path, "degrees below the horizontal")
         if not 0 <= tilt < 90:              # reported in the degrees the file is written in
             raise ValueError(f"{path}: tilt must lie in [0, 90) degrees below the horizontal, "
                              f"got {tilt:g}")
-        return camera_from_pose(focal=d["focal"], principal_point=pp, height=float(d["height"]),
-                                tilt=np.radians(tilt),
-                                roll=np.radians(float(d.get("roll", 0.0))), image_size=size)
+        height = _number(d["height"], "height", path, "metres above the ground")
+        roll = _number(d.get("roll", 0.0), "roll", path, "degrees")
+        focal = d["focal"]
+        focal = ([_number(f, "focal", path, "pixels") for f in focal]
+                 if isinstance(focal, (list, tuple)) else _number(focal, "focal", path, "pixels"))
+        return camera_from_pose(focal=focal, principal_point=pp, height=height,
+                                tilt=np.radians(tilt), roll=np.radians(roll), image_size=size)
     raise ValueError(f"{path}: give either K, R, t or focal, height, tilt")
+
+
+def _number(value, field, path, unit) -> float:
+    """``value`` as a finite float, or a one-line ``ValueError`` naming ``field``."""
+    try:
+        x = float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"calibration {path}: {field} must be a number ({unit}), "
+                         f"got {value!r}") from None
+    if not np.isfinite(x):
+        raise ValueError(f"calibration {path}: {field} must be finite ({unit}), got {value!r}")
+    return x
 
 
 def _image_size(value, path) -> tuple:

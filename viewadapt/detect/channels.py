@@ -180,7 +180,8 @@ def fast_acf_pixel_channels(image) -> np.ndarray:
     else:
         gy[:] = 0
     dx, dy = _strongest_gradient(gx, gy)
-    mag = cv2.magnitude(dx, dy)
+    # not cv2.magnitude: its result depends on the output buffer's alignment (1 ulp)
+    mag = np.sqrt(dx * dx + dy * dy)
     tri5 = triangle_kernel(5).astype(np.float32)
     mag = mag / (cv2.sepFilter2D(mag, -1, tri5, tri5, borderType=cv2.BORDER_REFLECT)
                  + np.float32(0.005))
