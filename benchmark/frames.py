@@ -36,7 +36,7 @@ from viewadapt.detect import (
 from viewadapt.geometry import WINDOW_HEIGHT, WINDOW_WIDTH, Camera
 from viewadapt.nms import detections_from_scores
 
-__all__ = ["FrameRecord", "load_frames", "train_source_detectors", "FRAME_VIEW_CHOICES",
+__all__ = ["FrameRecord", "load_frames", "train_source_detectors", "NEGATIVE_CHOICES", "FRAME_VIEW_CHOICES",
            "DEFAULT_FRAME_VIEW", "METHODS", "ADAPTED_VARIANTS", "adapted_method", "split_method",
            "check_method", "FrameMethods", "evaluate_method", "PAPER_FPS"]
 
@@ -123,9 +123,14 @@ FRAME_VIEW_CHOICES = ("hog", "acf", "both", "none")
 DEFAULT_FRAME_VIEW = "both"
 
 
+#: ``negatives`` choices of :func:`train_source_detectors`
+NEGATIVE_CHOICES = ("elevation0", "rotated")
+
+
 def train_source_detectors(ds, *, seed: int = 0, quick: bool = False, source_index: int = 0,
                            progress: bool = False,
-                           frame_view: str = DEFAULT_FRAME_VIEW) -> SourceDetectors:
+                           frame_view: str = DEFAULT_FRAME_VIEW,
+                           negatives: str = "elevation0") -> SourceDetectors:
     """Linear SVM on :func:`viewadapt.detect.hog_window_features` and ACF boosted trees,
     trained on the dataset's crops of one elevation (default the first, 0).
 
@@ -135,6 +140,11 @@ def train_source_detectors(ds, *, seed: int = 0, quick: bool = False, source_ind
     height of 24-144 px and a random offset against the frame's cell grid. Same crops, no
     target data (their measured effect: docs/findings.md). The default is ``"both"``
     (:data:`DEFAULT_FRAME_VIEW`).
+
+    ``negatives``: ``"elevation0"`` (default) the background windows of the source
+    elevation; ``"rotated"`` adds the same windows turned by +-30 and +-60 degrees about
+    their centres (:func:`benchmark.negatives.rotated_windows`), orientation-enriched
+    negatives with no target-view data.
     """
     from viewadapt.boosting import AdaBoostTrees
     from viewadapt.classifiers import LinearSVMDetector
@@ -144,8 +154,16 @@ def train_source_detectors(ds, *, seed: int = 0, quick: bool = False, source_ind
 
     if frame_view not in FRAME_VIEW_CHOICES:
         raise ValueError(f"frame_view must be one of {FRAME_VIEW_CHOICES}, got {frame_view!r}")
+    if negatives not in NEGATIVE_CHOICES:
+        raise ValueError(f"negatives must be one of {NEGATIVE_CHOICES}, got {negatives!r}")
     pos = list(person_windows(ds, source_index).images(ds.root))
-    neg = list(background_windows(ds, source_index, stride=16).images(ds.root))
+    bg = background_windows(ds, source_index, stride=16)
+    neg = list(bg.images(ds.root))
+    if negatives == "rotated":
+        from .negatives import ROTATIONS_DEG, rotated_windows
+
+        for a in ROTATIONS_DEG:
+            neg += list(rotated_windows(bg, a).images(ds.root))
     # left-right mirrored crops double the positives (Dalal & Triggs)
     pos = pos + [np.ascontiguousarray(w[:, ::-1]) for w in pos]
 
@@ -172,7 +190,7 @@ def train_source_detectors(ds, *, seed: int = 0, quick: bool = False, source_ind
     return SourceDetectors(svm.coef_[0].reshape(HOG_WEIGHT_SHAPE).astype(np.float64),
                            float(svm.intercept_[0]), trees,
                            training=dict(seed=seed, frame_view=frame_view, quick=quick,
-                                         source_index=source_index,
+                                         source_index=source_index, negatives=negatives,
                                          crops=len(pos) // 2, background_windows=len(neg)))
 
 

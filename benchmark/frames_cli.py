@@ -20,7 +20,8 @@ from viewadapt.objectmodel import OBJECT_MODELS
 from viewadapt.remap import ANGLE_RULES
 
 from .frames import (
-    DEFAULT_FRAME_VIEW, FRAME_VIEW_CHOICES, METHODS, adapted_method, check_method, split_method,
+    DEFAULT_FRAME_VIEW, FRAME_VIEW_CHOICES, METHODS, NEGATIVE_CHOICES, adapted_method,
+    check_method, split_method,
 )
 
 __all__ = ["register", "cmd_bench_frames", "cmd_bench_runtime", "plot_det_figure"]
@@ -69,7 +70,7 @@ def run_frames_benchmark(data, *, methods, seed=0, quick=False, max_frames=None,
                          cache_limit_gb=DEFAULT_CACHE_LIMIT_GB, models=None, progress=True,
                          tolerance=HOG_TOLERANCE, cells_per_source_cell=CELLS_PER_SOURCE_CELL,
                          upsample_below=None,
-                         jobs=1, frame_view=DEFAULT_FRAME_VIEW):
+                         jobs=1, frame_view=DEFAULT_FRAME_VIEW, negatives="elevation0"):
     """Detect with every method on every frame; return (results dict, models, detections).
 
     Cameras are processed in parallel with ``jobs`` worker processes (joblib); the
@@ -94,7 +95,7 @@ def run_frames_benchmark(data, *, methods, seed=0, quick=False, max_frames=None,
             print("training HOG/SVM and ACF on the dataset's elevation-0 crops ...",
                   flush=True)
         models = train_source_detectors(load_dataset(data), seed=seed, quick=quick,
-                                        frame_view=frame_view)
+                                        frame_view=frame_view, negatives=negatives)
         if progress:
             print(f"  trained in {time.perf_counter() - t0:.0f} s", flush=True)
     groups = _group_by_camera(frames)
@@ -338,7 +339,8 @@ def cmd_bench_frames(args) -> int:
               cache_dir=args.cache or (args.out / "cache"), cache_limit_gb=args.cache_limit,
               tolerance=args.tolerance,
               cells_per_source_cell=args.cells_per_source_cell,
-              upsample_below=args.upsample_below, jobs=args.jobs, frame_view=args.frame_view)
+              upsample_below=args.upsample_below, jobs=args.jobs, frame_view=args.frame_view,
+              negatives=args.negatives)
     if len(seeds) > 1:
         print(f"seed {seeds[0]} (1 of {len(seeds)})", flush=True)
     results, models, dets, frames, info = run_frames_benchmark(
@@ -525,6 +527,11 @@ def register(sub, common) -> None:
     p.add_argument("--model", type=Path, default=None,
                    help="reuse trained source detectors (models/source_detectors.npz of "
                         "an earlier run) instead of training")
+    p.add_argument("--negatives", choices=list(NEGATIVE_CHOICES), default="elevation0",
+                   help="training negatives: elevation0 (default) the source elevation's "
+                        "background windows; rotated adds them turned by +-30 and +-60 "
+                        "degrees (orientation-enriched, no target-view data; "
+                        "docs/angle_rules_and_body_model.md). Ignored with --model")
     p.add_argument("--seeds", type=int, default=1,
                    help="train and detect with this many training seeds (--seed, --seed + "
                         "1, ...) and write each method's LAMR per seed, its mean and spread "

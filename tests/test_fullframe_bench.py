@@ -447,3 +447,17 @@ def test_detect_takes_the_rule_and_the_object_model(toy, bench, tmp_path):
         _main(["detect", "--calibration", str(calib), "--model",
                str(bench / "models" / "source_detectors.npz"), "--out",
                str(tmp_path / "bad"), "--object-model", "cube", str(frames[0].path)])
+
+
+def test_rotated_negatives_change_the_training_and_are_recorded(toy):
+    from benchmark.data import load_dataset
+    from benchmark.frames import train_source_detectors
+
+    ds = load_dataset(toy)
+    plain = train_source_detectors(ds, quick=True, frame_view="none")
+    rotated = train_source_detectors(ds, quick=True, frame_view="none", negatives="rotated")
+    assert rotated.training["negatives"] == "rotated"
+    assert rotated.training["background_windows"] == 5 * plain.training["background_windows"]
+    assert not np.allclose(plain.hog_weights, rotated.hog_weights)
+    with pytest.raises(ValueError, match="negatives must be one of"):
+        train_source_detectors(ds, quick=True, negatives="mirrored")
