@@ -284,8 +284,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=_cmd_fidelity)
 
     from .detect.command import register as register_detect
+    from .detect.calibrate_command import register as register_calibrate
 
     register_detect(sub, common)
+    register_calibrate(sub, common)
     try:
         from benchmark.cli import register as register_bench
     except ImportError:  # pragma: no cover - benchmark ships with the distribution

@@ -21,6 +21,8 @@ Modules (public names are re-exported here):
   :mod:`~viewadapt.detect.calibration`, :mod:`~viewadapt.detect.evaluation` -- its models,
   operator cache, input files and evaluation; :mod:`~viewadapt.detect.arrayfile` -- the
   on-disk format of models and cached operators (npz + JSON, never a pickle).
+* :mod:`~viewadapt.detect.calibrate` -- a camera from image <-> ground-plane points (Zhang
+  2000); :mod:`~viewadapt.detect.distortion` -- lens undistortion of its frames.
 
 Example
 -------
@@ -32,12 +34,16 @@ Example
 
 from .cache import *  # noqa: F401,F403
 from .cache import __all__ as _cache_all
+from .calibrate import *  # noqa: F401,F403
+from .calibrate import __all__ as _calibrate_all
 from .calibration import *  # noqa: F401,F403
 from .calibration import __all__ as _calibration_all
 from .channels import *  # noqa: F401,F403
 from .channels import __all__ as _channels_all
 from .detector import *  # noqa: F401,F403
 from .detector import __all__ as _detector_all
+from .distortion import *  # noqa: F401,F403
+from .distortion import __all__ as _distortion_all
 from .evaluation import *  # noqa: F401,F403
 from .evaluation import __all__ as _evaluation_all
 from .frameview import *  # noqa: F401,F403
@@ -59,4 +65,4 @@ from .windows import __all__ as _windows_all
 
 __all__ = (_windows_all + _channels_all + _templates_all + _linear_all + _trees_all
            + _layers_all + _frameview_all + _kinds_all + _detector_all + _models_all + _cache_all
-           + _calibration_all + _evaluation_all)
+           + _calibration_all + _calibrate_all + _distortion_all + _evaluation_all)

@@ -1,7 +1,8 @@
 """Inputs of the detector on a user's footage: camera calibration files and ground truth.
 
 A calibrated camera is what turns the image search into a search over the ground plane
-(Wang et al. 2017, Sec. 5.1); :func:`read_calibration` reads one from YAML or JSON.
+(Wang et al. 2017, Sec. 5.1); :func:`read_calibration` reads one from YAML or JSON,
+:func:`read_distortion` its optional lens distortion coefficients.
 :func:`read_boxes` reads optional ground-truth person boxes for evaluation.
 """
 
@@ -14,7 +15,8 @@ import numpy as np
 
 from ..geometry import Camera, camera_from_pose
 
-__all__ = ["read_calibration", "check_calibration", "read_boxes", "read_frame"]
+__all__ = ["read_calibration", "read_distortion", "check_calibration", "read_boxes",
+           "read_frame"]
 
 
 def read_frame(path) -> np.ndarray:
@@ -53,7 +55,90 @@ def read_calibration(path) -> Camera:
     homographies like any other entry of ``K``); ``R`` a rotation (``R R^T = I`` within
     1e-6, re-orthonormalised, ``det R = +1``); ``t`` three numbers; the camera centre
     above the ground plane. Every mistake is a one-line ``ValueError`` naming the field.
+
+    Other keys are ignored here: OpenCV lens distortion coefficients ``dist: [k1, k2, p1,
+    p2, k3]`` are read by :func:`read_distortion` (``K, R, t`` then describe the
+    undistorted frame), and ``viewadapt calibrate`` adds the informational
+    ``reprojection_error_px``, ``camera_height_m`` and ``tilt_deg``.
     """
+    path = Path(path)
+    d = _read_mapping(path)
+    if "image_size" not in d:
+        raise ValueError(f"{path}: image_size [width, height] is missing")
+    size = _image_size(d["image_size"], path)
+    if all(k in d for k in ("K", "R", "t")):
+        return check_calibration(d["K"], d["R"], d["t"], size, name=f"calibration {path}")
+    if all(k in d for k in ("focal", "height", "tilt")):
+        pp = d.get("principal_point", ((size[0] - 1) / 2, (size[1] - 1) / 2))
+        tilt = _number(d["tilt"], "tilt", path, "degrees below the horizontal")
+        if not 0 <= tilt < 90:              # reported in the degrees the file is written in
+            raise ValueError(f"{path}: tilt must lie in [0, 90) degrees below the horizontal, "
+                             f"got {tilt:g}")
+        height = _number(d["height"], "height", path, "metres above the ground")
+        roll = _number(d.get("roll", 0.0), "roll", path, "degrees")
+        focal = d["focal"]
+        focal = ([_number(f, "focal", path, "pixels") for f in focal]
+                 if isinstance(focal, (list, tuple)) else _number(focal, "focal", path, "pixels"))
+        return camera_from_pose(focal=focal, principal_point=pp, height=height,
+                                tilt=np.radians(tilt), roll=np.radians(roll), image_size=size)
+    raise ValueError(f"{path}: give either K, R, t or focal, height, tilt")
+
+
+#: How many distortion coefficients OpenCV accepts: (k1, k2, p1, p2[, k3[, k4, k5, k6[, s1,
+#: s2, s3, s4[, tau_x, tau_y]]]]).
+DISTORTION_SIZES = (4, 5, 8, 12, 14)
+
+
+def read_distortion(path) -> np.ndarray | None:
+    """The OpenCV lens distortion coefficients of a calibration file, or ``None``.
+
+    The optional key ``dist`` holds 4, 5, 8, 12 or 14 numbers in OpenCV's order ``[k1,
+    k2, p1, p2[, k3[, k4, k5, k6[, s1, s2, s3, s4[, tau_x, tau_y]]]]]`` (radial, tangential,
+    thin-prism and tilt terms of ``cv2.projectPoints``; a ``1xN`` or ``Nx1`` nested list is
+    flattened). The file's ``K`` is the camera matrix the coefficients refer to, and ``K,
+    R, t`` describe the undistorted frame (:class:`~viewadapt.detect.distortion.Undistortion`).
+
+    Returns
+    -------
+    (D,) float64 ndarray, or ``None`` when ``dist`` is absent, null or all zero.
+
+    Raises
+    ------
+    ValueError
+        One line naming ``dist``: not a list of numbers, a count OpenCV does not accept, or
+        non-finite values (and the parse errors of :func:`read_calibration`).
+    """
+    path = Path(path)
+    d = _read_mapping(path)
+    value = d.get("dist")
+    if value is None:
+        return None
+    want = ("a list of 4, 5, 8, 12 or 14 numbers (OpenCV's k1, k2, p1, p2[, k3[, k4, k5, "
+            "k6[, s1..s4[, tau_x, tau_y]]]])")
+    flat = value
+    if (isinstance(value, (list, tuple)) and len(value) == 1
+            and isinstance(value[0], (list, tuple))):
+        flat = value[0]                                     # [[k1, k2, ...]]
+    elif (isinstance(value, (list, tuple)) and value
+          and all(isinstance(v, (list, tuple)) and len(v) == 1 for v in value)):
+        flat = [v[0] for v in value]                        # [[k1], [k2], ...]
+    shown = repr(value) if len(repr(value)) <= 80 else repr(value)[:77] + "..."
+    try:                                # YAML 1.1 reads "1e-3" (no dot) as a string
+        if not isinstance(flat, (list, tuple)) or any(isinstance(v, bool) for v in flat):
+            raise TypeError
+        a = np.array([float(v) for v in flat], dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(f"calibration {path}: dist must be {want}, got {shown}") from None
+    if len(a) not in DISTORTION_SIZES:
+        raise ValueError(f"calibration {path}: dist has {len(a)} coefficients; it must be "
+                         f"{want}")
+    if not np.all(np.isfinite(a)):
+        raise ValueError(f"calibration {path}: dist has non-finite values (NaN or infinity)")
+    return a if a.any() else None
+
+
+def _read_mapping(path) -> dict:
+    """The parsed YAML or JSON mapping of a calibration file (one-line errors)."""
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"calibration file {path} does not exist")
@@ -76,25 +161,7 @@ def read_calibration(path) -> Camera:
         raise ValueError(f"{path} cannot be parsed: {exc}") from None
     if not isinstance(d, dict):
         raise ValueError(f"{path}: expected a mapping with K, R, t or focal, height, tilt")
-    if "image_size" not in d:
-        raise ValueError(f"{path}: image_size [width, height] is missing")
-    size = _image_size(d["image_size"], path)
-    if all(k in d for k in ("K", "R", "t")):
-        return check_calibration(d["K"], d["R"], d["t"], size, name=f"calibration {path}")
-    if all(k in d for k in ("focal", "height", "tilt")):
-        pp = d.get("principal_point", ((size[0] - 1) / 2, (size[1] - 1) / 2))
-        tilt = _number(d["tilt"], "tilt", path, "degrees below the horizontal")
-        if not 0 <= tilt < 90:              # reported in the degrees the file is written in
-            raise ValueError(f"{path}: tilt must lie in [0, 90) degrees below the horizontal, "
-                             f"got {tilt:g}")
-        height = _number(d["height"], "height", path, "metres above the ground")
-        roll = _number(d.get("roll", 0.0), "roll", path, "degrees")
-        focal = d["focal"]
-        focal = ([_number(f, "focal", path, "pixels") for f in focal]
-                 if isinstance(focal, (list, tuple)) else _number(focal, "focal", path, "pixels"))
-        return camera_from_pose(focal=focal, principal_point=pp, height=height,
-                                tilt=np.radians(tilt), roll=np.radians(roll), image_size=size)
-    raise ValueError(f"{path}: give either K, R, t or focal, height, tilt")
+    return d
 
 
 def _number(value, field, path, unit) -> float:
