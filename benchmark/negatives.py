@@ -85,10 +85,8 @@ def rotation_about_centre(degrees: float, size=(WINDOW_WIDTH, WINDOW_HEIGHT)) ->
     a = np.radians(float(degrees))
     c, s = np.cos(a), np.sin(a)
     cx, cy = (size[0] - 1) / 2, (size[1] - 1) / 2
-    T = np.array([[1, 0, cx], [0, 1, cy], [0, 0, 1.0]])
     R = np.array([[c, -s, 0], [s, c, 0], [0, 0, 1.0]])
-    Ti = np.array([[1, 0, -cx], [0, 1, -cy], [0, 0, 1.0]])
-    return T @ R @ Ti
+    return translation(cx, cy) @ R @ translation(-cx, -cy)
 
 
 def rotated_windows(ws: WindowSet, degrees: float) -> WindowSet:
@@ -176,10 +174,8 @@ def run_negatives(ds, cfg: CrossvalConfig, cache: FeatureCache, *, n_folds: int 
     pos_s, bg_s = person_windows(ds, es), background_windows(ds, es, stride=cfg.bg_stride)
     pos_t, bg_t = person_windows(ds, et), background_windows(ds, et, stride=cfg.bg_stride)
     X = {"pos_s": cache.get(pos_s, src), "bg_s": cache.get(bg_s, src),
-         "bg_t8": cache.get(bg_t, src)}
-    X.update({k: v for k, v in zip(("pos_t", "bg_t"), (cache.get(pos_t, fine),
-                                                      cache.get(bg_t, fine)))})
-    X["pos_t8"] = cache.get(pos_t, src)
+         "pos_t": cache.get(pos_t, fine), "bg_t": cache.get(bg_t, fine),
+         "pos_t8": cache.get(pos_t, src), "bg_t8": cache.get(bg_t, src)}
     rot = np.concatenate([cache.get(rotated_windows(bg_s, a), src) for a in ROTATIONS_DEG])
     rot_scene = np.tile(bg_s.meta["scene_id"].to_numpy(), len(ROTATIONS_DEG))
     shift = np.concatenate([cache.get(bg_s.warped(translation(dx, dy), f"shift{dx:+d}{dy:+d}",
