@@ -73,6 +73,14 @@ def _run_json(ds, args, extra=None) -> dict:
             "created": time.strftime("%Y-%m-%dT%H:%M:%S")} | (extra or {})
 
 
+def _elevation(text: str) -> float:
+    """Parse one elevation ('pi/4' or radians) into a float."""
+    vals = _elevations(text)
+    if len(vals) != 1:
+        raise argparse.ArgumentTypeError(f"give one target elevation, got {text!r}")
+    return vals[0]
+
+
 def _config(args, ds):
     from .crossval import CrossvalConfig
 
@@ -280,7 +288,7 @@ def register(sub, common) -> None:
     data_opts.add_argument("--data", type=Path, required=True, help="dataset directory")
     data_opts.add_argument("--cache", type=Path, default=None,
                            help="feature cache directory (default OUT/cache); reruns reuse it")
-    data_opts.add_argument("--target", type=_elevations, default=None,
+    data_opts.add_argument("--target", type=_elevation, default=None,
                            help="target elevation (default pi/4)")
     data_opts.add_argument("--scheduler", default=None,
                            help="address of a Dask scheduler to run the folds on")

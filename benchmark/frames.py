@@ -55,7 +55,9 @@ METHODS = ("hog_adapted", "hog_warp", "hog_pyramid", "opencv", "acf_adapted", "a
 class FrameRecord:
     """One calibrated frame and its ground truth.
 
-    ``gt`` is (G, 4) full boxes ``(x, y, w, h)``; ``occlusion`` (G,) hidden fractions.
+    ``gt`` is (G, 4) full boxes ``(x, y, w, h)``; ``occlusion`` (G,) hidden fractions;
+    ``ground`` (G, 3) the persons' ground positions in metres (None when the frames do not
+    record them).
     """
 
     path: Path
@@ -64,6 +66,7 @@ class FrameRecord:
     camera: Camera
     gt: np.ndarray
     occlusion: np.ndarray
+    ground: np.ndarray | None = None
 
     def image(self) -> np.ndarray:
         from .data import read_image
@@ -79,6 +82,18 @@ def _camera_from_entry(entry, where):
     except KeyError as exc:
         raise ValueError(f"{where}: image entry lacks {exc.args[0]!r} (frames need their "
                          "calibration K, R, t and width, height)") from None
+
+
+def _ground_positions(anns):
+    """(G, 3) ground positions of a frame's annotations: the generator's
+    ``ground_position`` or the toy frames' ``ground_xy``; None if any lacks both."""
+    out = []
+    for a in anns:
+        g = a.get("ground_position", a.get("ground_xy"))
+        if g is None:
+            return None
+        out.append((list(g) + [0.0])[:3])
+    return np.array(out, float).reshape(-1, 3)
 
 
 def load_frames(root) -> list:
@@ -106,8 +121,9 @@ def load_frames(root) -> list:
         anns = by_image.get(entry["id"], [])
         gt = np.array([a["bbox"] for a in anns], float).reshape(-1, 4)
         occ = np.array([float(a.get("occlusion", 0.0)) for a in anns])
+        ground = _ground_positions(anns)
         frames.append(FrameRecord(p, int(entry["id"]), str(entry.get("scene_id", "")), cam,
-                                  gt, occ))
+                                  gt, occ, ground))
     if not frames:
         raise ValueError(f"{path} lists no images")
     return frames

@@ -308,8 +308,9 @@ def main(argv=None) -> int:
     summ = summarize(scores, n_boot=1000, rng=np.random.default_rng(args.seed))
     first = scores.groupby("method", sort=False)[["pool", "rule"]].first()
     summ = summ.join(first, on="method")
-    n_neg = scores.groupby("method")["n_train_negatives"].apply(
-        lambda v: float(np.mean(np.unique(v))))
+    # one count per (method, fold): the mean over folds of each fold's training negatives
+    n_neg = scores.groupby(["method", "fold"])["n_train_negatives"].first() \
+        .groupby(level="method").mean()
     summ["n_train_negatives"] = summ["method"].map(n_neg)
     summ = summ[["pool", "rule", "mr_at_fppw_0.01", "ci_low", "ci_high", "lamr", "n_pos",
                  "n_neg", "n_train_negatives"]]

@@ -247,6 +247,21 @@ def test_elevation_divided_by_zero_is_a_one_line_error(tmp_path, capsys):
     assert not (tmp_path / "o").exists()
 
 
+def test_crossval_target_is_one_elevation(tmp_path, capsys):
+    from benchmark.cli import _config
+    from viewadapt.cli import build_parser
+
+    args = build_parser().parse_args(["bench", "crossval", "--data", str(tmp_path), "--out",
+                                      str(tmp_path / "r"), "--target", "pi/8"])
+    assert args.target == pytest.approx(np.pi / 8)
+    ds = type("DS", (), {"config": {}})()
+    assert _config(args, ds).target == pytest.approx(np.pi / 8)
+    with pytest.raises(SystemExit) as e:
+        main(["bench", "crossval", "--data", str(tmp_path), "--out", str(tmp_path / "r"),
+              "--target", "0,pi/4"])
+    assert e.value.code == 2 and "one target elevation" in capsys.readouterr().err
+
+
 def test_an_unreachable_scheduler_is_a_one_line_error(tmp_path, capsys, monkeypatch):
     pytest.importorskip("distributed")
     from generator import pipeline
