@@ -36,7 +36,7 @@ from viewadapt.detect import (
 from viewadapt.geometry import WINDOW_HEIGHT, WINDOW_WIDTH, Camera
 from viewadapt.nms import detections_from_scores
 
-__all__ = ["FrameRecord", "load_frames", "train_source_detectors", "NEGATIVE_CHOICES", "FRAME_VIEW_CHOICES",
+__all__ = ["FrameRecord", "load_frames", "train_source_detectors", "dataset_provenance", "NEGATIVE_CHOICES", "FRAME_VIEW_CHOICES",
            "DEFAULT_FRAME_VIEW", "METHODS", "ADAPTED_VARIANTS", "adapted_method", "split_method",
            "check_method", "FrameMethods", "evaluate_method", "PAPER_FPS"]
 
@@ -207,7 +207,18 @@ def train_source_detectors(ds, *, seed: int = 0, quick: bool = False, source_ind
                            float(svm.intercept_[0]), trees,
                            training=dict(seed=seed, frame_view=frame_view, quick=quick,
                                          source_index=source_index, negatives=negatives,
-                                         crops=len(pos) // 2, background_windows=len(neg)))
+                                         crops=len(pos) // 2, background_windows=len(neg),
+                                         dataset=dataset_provenance(ds)))
+
+
+def dataset_provenance(ds) -> dict:
+    """What a model was trained on: the dataset's preset, seed, renderer, elevations and
+    content hash (from its ``dataset.json``), and its fingerprint."""
+    cfg = ds.config
+    return {"preset": cfg.get("preset"), "seed": cfg.get("seed"),
+            "renderer": cfg.get("renderer"), "elevations": cfg.get("elevations"),
+            "content_hash": (cfg.get("content_hash") or {}).get("sha256"),
+            "fingerprint": ds.fingerprint}
 
 
 # ------------------------------------------------------------------------------ methods

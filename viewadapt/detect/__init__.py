@@ -23,6 +23,11 @@ Modules (public names are re-exported here):
   on-disk format of models and cached operators (npz + JSON, never a pickle).
 * :mod:`~viewadapt.detect.calibrate` -- a camera from image <-> ground-plane points (Zhang
   2000); :mod:`~viewadapt.detect.distortion` -- lens undistortion of its frames.
+* :mod:`~viewadapt.detect.video` -- a camera's frames streamed from a video, a folder, a
+  glob pattern or image files; :mod:`~viewadapt.detect.footage` -- detections with their
+  ground positions over a stream, in one process or several;
+  :mod:`~viewadapt.detect.outputs` -- the files ``viewadapt detect`` writes (CSV, COCO
+  results, MOTChallenge ``det.txt``, annotated video or frames).
 
 Example
 -------
@@ -46,6 +51,8 @@ from .distortion import *  # noqa: F401,F403
 from .distortion import __all__ as _distortion_all
 from .evaluation import *  # noqa: F401,F403
 from .evaluation import __all__ as _evaluation_all
+from .footage import *  # noqa: F401,F403
+from .footage import __all__ as _footage_all
 from .frameview import *  # noqa: F401,F403
 from .frameview import __all__ as _frameview_all
 from .kinds import *  # noqa: F401,F403
@@ -56,13 +63,18 @@ from .linear import *  # noqa: F401,F403
 from .linear import __all__ as _linear_all
 from .models import *  # noqa: F401,F403
 from .models import __all__ as _models_all
+from .outputs import *  # noqa: F401,F403
+from .outputs import __all__ as _outputs_all
 from .templates import *  # noqa: F401,F403
 from .templates import __all__ as _templates_all
 from .trees import *  # noqa: F401,F403
 from .trees import __all__ as _trees_all
+from .video import *  # noqa: F401,F403
+from .video import __all__ as _video_all
 from .windows import *  # noqa: F401,F403
 from .windows import __all__ as _windows_all
 
 __all__ = (_windows_all + _channels_all + _templates_all + _linear_all + _trees_all
            + _layers_all + _frameview_all + _kinds_all + _detector_all + _models_all + _cache_all
-           + _calibration_all + _calibrate_all + _distortion_all + _evaluation_all)
+           + _calibration_all + _calibrate_all + _distortion_all + _evaluation_all
+           + _video_all + _footage_all + _outputs_all)

@@ -14,14 +14,19 @@ from ..geometry import PERSON_HEIGHT_M
 from ..objectmodel import OBJECT_MODELS
 from ..remap import ANGLE_RULES
 from .cache import DEFAULT_CACHE_LIMIT_GB, check_cache_limit
-from .calibration import read_boxes, read_calibration, read_frame
+from .calibration import read_boxes, read_calibration, read_distortion
 from .detector import FrameDetector
+from .distortion import Undistortion
 from .evaluation import evaluate_detections, plot_det_figure
+from .footage import DetectorSpec, detect_stream
 from .kinds import DETECTOR_KINDS
 from .layers import UPSAMPLE_BELOW
-from .models import SourceDetectors
+from .models import SourceDetectors, shipped_model_path
+from .outputs import ANNOTATE_CHOICES, DetectionWriter
+from .video import open_frames
 
-__all__ = ["register", "cmd_detect", "person_heights", "cache_limit", "add_cache_options"]
+__all__ = ["register", "cmd_detect", "check_frame_selection", "person_heights", "cache_limit",
+           "add_cache_options"]
 
 
 def person_heights(text):
@@ -56,72 +61,136 @@ def add_cache_options(p):
                         "0 = no limit)")
 
 
+def check_frame_selection(args) -> None:
+    """One-line ``ValueError`` for ``--every``/``--max-frames`` below 1, ``--start`` below 0
+    or ``--jobs`` 0 or below -1 (before anything is read or written)."""
+    if args.every < 1:
+        raise ValueError(f"--every must be at least 1, got {args.every}")
+    if args.start < 0:
+        raise ValueError(f"--start must be at least 0 (frames are numbered from 0), got "
+                         f"{args.start}")
+    if args.max_frames is not None and args.max_frames < 1:
+        raise ValueError(f"--max-frames must be at least 1, got {args.max_frames}")
+    if args.jobs == 0 or args.jobs < -1:
+        raise ValueError(f"--jobs must be at least 1, or -1 for all cores, got {args.jobs}")
+
+
+def _frame_size_error(frame, stream, cam) -> str:
+    h, w = frame.image.shape[:2]
+    where = (f"frame {frame.index} of {stream.name}" if stream.kind == "video"
+             else f"frame {frame.source}")
+    return (f"{where} is {w}x{h} px, the calibration is for {cam.image_size[0]}x"
+            f"{cam.image_size[1]}")
+
+
+def _metadata(args, det, stream, writer, dist, annotate, *, operator_seconds,
+              seconds) -> dict:
+    """metadata.json of a detect run: what ran on what, and how fast."""
+    return run_metadata(
+        args.seed, detector=f"{args.detector}_adapted", rule=args.rule,
+        object_model=args.object_model, threshold=args.threshold,
+        person_heights=list(det.params["person_heights"]), windows=len(det.windows),
+        input=stream.describe(), frames=writer.n_frames, detections=writer.n_detections,
+        annotate=annotate, jobs=args.jobs, model=str(args.model),
+        model_training=det.models.training,
+        undistortion=None if dist is None else {
+            "dist": dist.tolist(),
+            "method": "every frame remapped (cv2.remap, bilinear) with maps precomputed once "
+                      "by cv2.initUndistortRectifyMap, new camera matrix = K: boxes and "
+                      "annotations are in the undistorted frame's pixels"},
+        ground_position="the ground point (world X, Y, metres) of the detection's candidate "
+                        "window",
+        operator_seconds=round(operator_seconds, 2),
+        operator_from_cache=det.cache_hit.get(args.detector), seconds=round(seconds, 2),
+        frames_per_second=round(writer.n_frames / max(seconds, 1e-9), 2),
+        camera=det.camera.to_dict())
+
+
 def cmd_detect(args) -> int:
-    """Detect persons in frames of one calibrated camera."""
-    import cv2
+    """Detect persons in frames of one calibrated camera (a video, a folder, a glob
+    pattern or image files)."""
+    from itertools import chain
+
+    from tqdm.auto import tqdm
 
     check_output_dir(args.out, overwrite=args.overwrite)
+    check_frame_selection(args)
     cam = read_calibration(args.calibration)
+    dist = read_distortion(args.calibration)
+    undistort = Undistortion(cam.K, dist, cam.image_size) if dist is not None else None
+    stream = open_frames(args.inputs, start=args.start, every=args.every,
+                         max_frames=args.max_frames)
+    if args.model is None:
+        args.model = shipped_model_path()
     models = SourceDetectors.load(args.model)
-    paths = [Path(p) for p in args.frames]
-    for p in paths:
-        if not p.is_file():
-            raise FileNotFoundError(f"frame {p} does not exist")
-    boxes = read_boxes(args.boxes, paths) if args.boxes else None
-    dets = []
-    det = FrameDetector(cam, models, person_heights=args.heights,
-                        cache_dir=args.cache or (args.out / "cache"),
-                        cache_limit_gb=args.cache_limit,
-                        upsample_below=UPSAMPLE_BELOW if args.upsample_below is None
-                        else args.upsample_below,
-                        thresholds={args.detector: args.threshold}, rule=args.rule,
-                        object_model=args.object_model)
-    method = f"{args.detector}_adapted"
-    rows, coco_img, coco_ann = [], [], []
+    boxes = None
+    if args.boxes:
+        if stream.paths is None:
+            raise ValueError("--boxes needs image frames (ground truth is matched by file "
+                             "name); a video's frames have none")
+        boxes = read_boxes(args.boxes, stream.paths)
+    frames = iter(stream)
+    first = next(frames, None)
+    if first is None:
+        raise ValueError(f"video {stream.name} has no frames" + (
+            f" from --start {args.start} (it has {stream.n_total})"
+            if args.start and stream.n_total else ""))
+    if (first.image.shape[1], first.image.shape[0]) != tuple(cam.image_size):
+        raise ValueError(_frame_size_error(first, stream, cam))
+
+    def prepared(frames):
+        for f in frames:
+            if (f.image.shape[1], f.image.shape[0]) != tuple(cam.image_size):
+                raise ValueError(_frame_size_error(f, stream, cam))
+            yield f if undistort is None else f._replace(image=undistort(f.image))
+
+    annotate = args.annotate
+    if annotate == "auto":
+        annotate = "video" if stream.kind == "video" else "frames"
+    options = dict(person_heights=args.heights, cache_dir=args.cache or (args.out / "cache"),
+                   cache_limit_gb=args.cache_limit,
+                   upsample_below=UPSAMPLE_BELOW if args.upsample_below is None
+                   else args.upsample_below,
+                   thresholds={args.detector: args.threshold}, rule=args.rule,
+                   object_model=args.object_model)
+    spec = DetectorSpec.create(cam, args.model, args.detector, **options)
+    det = FrameDetector(cam, models, **options)
+    t0 = time.perf_counter()
+    det.operator(args.detector)         # built (or read from the cache) before any output
+    t_operator = time.perf_counter() - t0
+    dets, names = [], []
     t0 = time.perf_counter()
     with atomic_output_dir(args.out) as tmp:
-        (tmp / "annotated").mkdir()
-        for i, p in enumerate(paths):
-            img = read_frame(p)
-            if (img.shape[1], img.shape[0]) != tuple(cam.image_size):
-                raise ValueError(f"frame {p} is {img.shape[1]}x{img.shape[0]} px, the "
-                                 f"calibration is for {cam.image_size[0]}x{cam.image_size[1]}")
-            d = det.detect(img, args.detector)
-            dets.append(d)
-            coco_img.append({"id": i + 1, "file_name": str(p), "width": img.shape[1],
-                             "height": img.shape[0]})
-            vis = img[:, :, ::-1].copy()
-            for x, y, w, h, s in d:
-                rows.append({"frame": str(p), "x": x, "y": y, "w": w, "h": h, "score": s})
-                coco_ann.append({"id": len(coco_ann) + 1, "image_id": i + 1, "category_id": 1,
-                                 "bbox": [float(x), float(y), float(w), float(h)],
-                                 "score": float(s)})
-                cv2.rectangle(vis, (int(round(x)), int(round(y))),
-                              (int(round(x + w)), int(round(y + h))), (0, 255, 0), 1)
-            cv2.imwrite(str(tmp / "annotated" / f"{i:05d}_{p.stem}.png"), vis)
-        import pandas as pd
-
-        pd.DataFrame(rows, columns=["frame", "x", "y", "w", "h", "score"]).to_csv(
-            tmp / "detections.csv", index=False)
-        (tmp / "detections_coco.json").write_text(json.dumps(
-            {"images": coco_img, "annotations": coco_ann,
-             "categories": [{"id": 1, "name": "person"}]}))
+        with DetectionWriter(tmp, annotate=annotate, fps=stream.fps,
+                             image_size=cam.image_size) as writer, \
+                tqdm(total=stream.n_frames, desc="detect", unit="frame", dynamic_ncols=True,
+                     disable=args.quiet) as bar:
+            for frame, found in detect_stream(prepared(chain([first], frames)), spec,
+                                              jobs=args.jobs, detector=det):
+                writer.write(frame, found)
+                if boxes is not None:
+                    dets.append(found.boxes)
+                    names.append(frame.source)
+                bar.update(1)
+        seconds = time.perf_counter() - t0
         evaluation = None
         if boxes is not None:
-            truth = [(*boxes[p.name], cam.image_size) for p in paths]
+            truth = [(*boxes[n], cam.image_size) for n in names]
             ev = evaluate_detections(dets, truth)
             evaluation = {"lamr": ev["lamr"], "n_gt": int(sum(len(t[0]) for t in truth)),
                           "fppi": ev["fppi"].tolist(), "miss_rate": ev["miss_rate"].tolist()}
             (tmp / "evaluation.json").write_text(json.dumps(evaluation))
-            plot_det_figure({method: ev}, tmp / "det",
-                            title=f"{len(paths)} frames, {evaluation['n_gt']} persons")
-        (tmp / "metadata.json").write_text(json.dumps(run_metadata(
-            args.seed, detector=method, rule=args.rule, object_model=args.object_model,
-            windows=len(det.windows),
-            frames=len(paths),
-            seconds=round(time.perf_counter() - t0, 2), camera=cam.to_dict()), indent=2))
-    print(f"{len(rows)} detections in {len(paths)} frames ({len(det.windows)} candidate "
-          f"windows); wrote {args.out}/detections.csv, detections_coco.json, annotated/")
+            plot_det_figure({f"{args.detector}_adapted": ev}, tmp / "det",
+                            title=f"{len(names)} frames, {evaluation['n_gt']} persons")
+        (tmp / "metadata.json").write_text(json.dumps(_metadata(
+            args, det, stream, writer, dist, annotate, operator_seconds=t_operator,
+            seconds=seconds), indent=2))
+    wrote = ["detections.csv", "detections_coco.json", "det.txt"] + {
+        "video": ["annotated.mp4"], "frames": ["annotated/"], "none": []}[annotate]
+    print(f"{writer.n_detections} detections in {writer.n_frames} frames "
+          f"({len(det.windows)} candidate windows, {writer.n_frames / max(seconds, 1e-9):.1f} "
+          f"frames/s{', undistorted' if undistort is not None else ''}); wrote "
+          f"{args.out}/{', '.join(wrote)}")
     if evaluation is not None:
         print(f"against {evaluation['n_gt']} boxes of {args.boxes}: log-average miss rate "
               f"{evaluation['lamr']:.3f} over 1e-2..1e0 FPPI (evaluation.json, det.png)")
@@ -131,17 +200,39 @@ def cmd_detect(args) -> int:
 def register(sub, common) -> None:
     """Add ``detect`` to the ``viewadapt`` parser ``sub`` (``common``: the shared options)."""
     p = sub.add_parser(
-        "detect", parents=[common], help="detect persons in calibrated frames",
+        "detect", parents=[common], help="detect persons in a calibrated camera's video or "
+                                         "frames",
         description="Viewpoint-adapted detection over world-space windows of one calibrated "
                     "camera. The calibration file is YAML or JSON with image_size and either "
                     "K, R, t (OpenCV convention, world Z up, ground Z = 0) or focal, height "
-                    "(m), tilt (degrees below horizontal) [, principal_point, roll]. Writes "
-                    "detections.csv, detections_coco.json and annotated/*.png.")
-    p.add_argument("frames", nargs="+", type=Path, help="frame images (PNG, JPEG)")
+                    "(m), tilt (degrees below horizontal) [, principal_point, roll], and "
+                    "optionally dist (OpenCV lens distortion coefficients: every frame is "
+                    "undistorted first). Frames are streamed from a video, a folder, a glob "
+                    "pattern or image files. Writes detections.csv (frame, source, box, "
+                    "score, ground position in metres), detections_coco.json (COCO "
+                    "results), det.txt (MOTChallenge) and annotated.mp4 or annotated/*.png; "
+                    "--jobs splits the frames over processes with the same results.")
+    p.add_argument("inputs", nargs="+", metavar="INPUT",
+                   help="a video file (mp4, avi: anything OpenCV reads), a folder of images, "
+                        "a quoted glob pattern ('frames/*.png'), or image files (PNG, JPEG, "
+                        "...); a folder's or pattern's images are read in natural order "
+                        "(frame_2 before frame_10), files in the order given")
+    p.add_argument("--start", type=int, default=0, metavar="K",
+                   help="index of the first frame read, counting from 0 (default 0)")
+    p.add_argument("--every", type=int, default=1, metavar="N",
+                   help="read every N-th frame from --start on (default 1)")
+    p.add_argument("--max-frames", type=int, default=None, metavar="M",
+                   help="read at most M frames (default: all)")
+    p.add_argument("--annotate", choices=["auto", *ANNOTATE_CHOICES], default="auto",
+                   help="write the frames with their boxes: video (annotated.mp4), frames "
+                        "(annotated/*.png) or none (default auto: video for a video input, "
+                        "frames for images)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.add_argument("--calibration", type=Path, required=True, help="calibration YAML/JSON")
-    p.add_argument("--model", type=Path, required=True,
-                   help="source detectors (models/source_detectors.npz written by "
-                        "`viewadapt bench frames`)")
+    p.add_argument("--model", type=Path, default=None,
+                   help="source detectors: models/source_detectors.npz written by `viewadapt "
+                        "bench frames` (default: the models shipped with viewadapt, trained "
+                        "on the paper preset's elevation-0 crops)")
     p.add_argument("--detector", choices=list(DETECTOR_KINDS), default="hog",
                    help="the adapted detector (default hog: HOG/SVM; acf: boosted trees on ACF)")
     p.add_argument("--rule", choices=list(ANGLE_RULES), default="covariant",

@@ -15,12 +15,29 @@ from ..boosting import AdaBoostTrees
 from .arrayfile import read_array_file, stored_array, under_prefix, with_prefix, write_array_file
 from .channels import HOG_WEIGHT_SHAPE
 
-__all__ = ["SOURCE_DETECTORS_FORMAT", "SOURCE_DETECTORS_VERSION", "SourceDetectors"]
+__all__ = ["SOURCE_DETECTORS_FORMAT", "SOURCE_DETECTORS_VERSION", "SourceDetectors",
+           "shipped_model_path"]
 
 #: format name and version of a saved :class:`SourceDetectors` (``models/*.npz``)
 SOURCE_DETECTORS_FORMAT = "viewadapt.source_detectors"
 SOURCE_DETECTORS_VERSION = 1
 _REMEDY = "write it again with this version's `viewadapt bench frames`"
+#: file name of the source detectors shipped in ``viewadapt/data``
+_SHIPPED = "source_detectors.npz"
+
+
+def shipped_model_path() -> Path:
+    """Path of the source detectors shipped with the package.
+
+    They are ``bench frames``' models (HOG/SVM and ACF boosted trees, default training:
+    elevation-0 crops and their frame-view copies, seed 0) trained on the ``paper``
+    preset's elevation-0 crops; the file's training record names the dataset (preset,
+    seed, renderer, content hash) and the version that wrote it. ``viewadapt detect``
+    uses them when no ``--model`` is given.
+    """
+    from importlib.resources import files
+
+    return Path(str(files("viewadapt") / "data" / _SHIPPED))
 
 
 @dataclass

@@ -1,0 +1,372 @@
+"""`viewadapt detect` on a camera's footage: a video, a folder, a glob pattern or image
+files; frame selection; every output format; --jobs; lens distortion; bad input.
+
+One toy camera (benchmark.toyframes, no Blender) with six frames, a quickly trained source
+model and one operator cache shared by every run (built once)."""
+
+import json
+from types import SimpleNamespace
+
+import cv2
+import numpy as np
+import pandas as pd
+import pytest
+
+from benchmark.data import load_dataset
+from benchmark.frames import load_frames, train_source_detectors
+from benchmark.toyframes import make_toy_frame_dataset
+from viewadapt.cli import main
+from viewadapt.detect import (
+    DetectorSpec, SourceDetectors, detect_on_ground, detect_stream, distort_image,
+    natural_sort_key, open_frames, read_calibration, shipped_model_path,
+)
+
+N_FRAMES = 6
+SIZE = (192, 144)
+#: strong barrel distortion: a corner moves by about a quarter of its radius
+DIST = [-0.35, 0.0, 0.0, 0.0, 0.0]
+OUTPUTS = ("detections.csv", "detections_coco.json", "det.txt")
+
+
+def _write_calibration(path, cam, **extra):
+    path.write_text(json.dumps({"image_size": list(cam.image_size), "K": cam.K.tolist(),
+                                "R": cam.R.tolist(), "t": cam.t.tolist(), **extra}))
+    return path
+
+
+def _write_video(path, images, size=SIZE):
+    w = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"mp4v"), 10.0, size)
+    assert w.isOpened(), "this OpenCV cannot write mp4v"
+    for img in images:
+        w.write(img)
+    w.release()
+    return path
+
+
+def _iou(a, b):
+    """(A, B) IoU of (A, 4) and (B, 4) boxes x, y, w, h."""
+    a, b = np.asarray(a, float)[:, None], np.asarray(b, float)[None]
+    iw = np.minimum(a[..., 0] + a[..., 2], b[..., 0] + b[..., 2]) - np.maximum(a[..., 0],
+                                                                               b[..., 0])
+    ih = np.minimum(a[..., 1] + a[..., 3], b[..., 1] + b[..., 3]) - np.maximum(a[..., 1],
+                                                                               b[..., 1])
+    inter = np.clip(iw, 0, None) * np.clip(ih, 0, None)
+    return inter / (a[..., 2] * a[..., 3] + b[..., 2] * b[..., 3] - inter)
+
+
+def _best_iou(ref, other):
+    """For each detection of ``ref`` with a positive score, its best IoU in ``other`` (the
+    same frame)."""
+    out = []
+    for f, a in ref[ref.score > 0].groupby("frame"):
+        b = other[other.frame == f]
+        m = _iou(a[["x", "y", "w", "h"]], b[["x", "y", "w", "h"]]) if len(b) else \
+            np.zeros((len(a), 1))
+        out += list(m.max(axis=1))
+    return np.array(out)
+
+
+@pytest.fixture(scope="module")
+def toy(tmp_path_factory):
+    """Six frames of one toy camera as PNGs, an mp4, their calibration and a model."""
+    root = tmp_path_factory.mktemp("footage")
+    data = make_toy_frame_dataset(root / "data", n_persons=9, n_scenes=3, n_backgrounds=2,
+                                  n_frame_scenes=1, frames_per_scene=N_FRAMES,
+                                  frame_size=SIZE, seed=2)
+    frames = load_frames(data)
+    assert len(frames) == N_FRAMES and len({f.path.parent for f in frames}) == 1
+    train_source_detectors(load_dataset(data), quick=True, frame_view="none").save(
+        root / "model.npz")
+    cam = frames[0].camera
+    video = _write_video(root / "clip.mp4", [cv2.imread(str(f.path)) for f in frames])
+    return SimpleNamespace(root=root, data=data, frames=frames, cam=cam, video=video,
+                           folder=frames[0].path.parent, model=root / "model.npz",
+                           calibration=_write_calibration(root / "cam.json", cam),
+                           cache=root / "cache")
+
+
+@pytest.fixture(scope="module")
+def detect(toy):
+    """``detect(name, *argv)`` -> OUT of a ``viewadapt detect`` run (each run once)."""
+    done = {}
+
+    def run(name, *argv, calibration=None):
+        if name not in done:
+            out = toy.root / "runs" / name
+            rc = main(["detect", "--calibration", str(calibration or toy.calibration),
+                       "--model", str(toy.model), "--cache", str(toy.cache),
+                       "--threshold", "-0.5", "--quiet", "--out", str(out),
+                       *[str(a) for a in argv]])
+            assert rc == 0, name
+            done[name] = out
+        return done[name]
+
+    return run
+
+
+def _rows(out):
+    return pd.read_csv(out / "detections.csv")
+
+
+# ------------------------------------------------------------------ inputs and selection
+
+
+def test_inputs_are_opened_and_sorted(toy, tmp_path):
+    assert sorted(["f_10.png", "f_2.png", "F_1.png"], key=natural_sort_key) == \
+        ["F_1.png", "f_2.png", "f_10.png"]
+    s = open_frames(toy.folder, start=1, every=2)
+    assert (s.kind, s.n_frames, s.n_total) == ("folder", 3, N_FRAMES)
+    assert [f.index for f in s] == [1, 3, 5]
+    s = open_frames(toy.video, every=2, max_frames=2)
+    assert s.kind == "video" and s.fps == pytest.approx(5.0)
+    frames = list(s)
+    assert [(f.index, f.source) for f in frames] == [(0, "clip.mp4"), (2, "clip.mp4")]
+    assert frames[0].image.shape == (SIZE[1], SIZE[0], 3) and frames[0].image.dtype == np.uint8
+    assert open_frames(str(toy.folder / "*.png")).kind == "glob"
+    assert open_frames([toy.frames[1].path, toy.frames[0].path]).paths == \
+        [toy.frames[1].path, toy.frames[0].path]            # a list keeps its order
+
+
+def test_ground_positions_are_those_of_the_windows(toy):
+    """detect_on_ground gives FrameDetector.detect's boxes, each with the ground point of
+    its window -- which is where the feet of that window's person project, and close to
+    where the toy person whose box it found stands."""
+    spec = DetectorSpec.create(toy.cam, toy.model, "hog", cache_dir=toy.cache,
+                               thresholds={"hog": -0.5})
+    det = spec.make()
+    coco = json.loads((toy.data / "frames_coco.json").read_text())
+    errors = []
+    for f in toy.frames:
+        img = cv2.imread(str(f.path))[:, :, ::-1].copy()
+        found = detect_on_ground(det, img, "hog")
+        assert np.array_equal(found.boxes, det.detect(img, "hog")) and len(found.boxes) > 0
+        # each box is its window's (snapped) person box, each ground point its window's
+        assert np.array_equal(det.operator("hog").boxes()[found.window], found.boxes[:, :4])
+        assert np.array_equal(found.ground_xy, det.windows.ground_xy[found.window])
+        feet = np.array([toy.cam.project(np.r_[g, 0.0]) for g in found.ground_xy])
+        assert np.allclose(feet, det.windows.feet[found.window], atol=1e-6)
+        anns = [a for a in coco["annotations"] if a["image_id"] == f.image_id]
+        m = _iou(found.boxes[:, :4], [a["bbox"] for a in anns])
+        for i in np.flatnonzero((found.boxes[:, 4] > 0) & (m.max(axis=1) > 0.5)):
+            truth = anns[int(m[i].argmax())]["ground_xy"]
+            errors.append(np.hypot(*(found.ground_xy[i] - truth)))
+    assert len(errors) >= 5
+    assert max(errors) < 0.3 and np.median(errors) < 0.2     # metres; ground stride 0.146
+    # the stream in worker processes is the same stream
+    frames = list(open_frames(toy.folder, max_frames=2))
+    one = [r.boxes for _, r in detect_stream(iter(frames), spec, detector=det)]
+    two = [(f.index, r.boxes) for f, r in detect_stream(iter(frames), spec, jobs=2)]
+    assert [i for i, _ in two] == [0, 1]
+    assert all(np.array_equal(a, b) for a, (_, b) in zip(one, two))
+
+
+def test_video_folder_glob_and_list_give_the_same_detections(toy, detect):
+    paths = sorted((f.path for f in toy.frames), key=lambda p: natural_sort_key(p.name))
+    runs = {"list": detect("list", *paths), "folder": detect("folder", toy.folder),
+            "glob": detect("glob", toy.folder / "frame_*.png")}
+    for name, out in runs.items():
+        for f in OUTPUTS:
+            assert (out / f).read_bytes() == (runs["list"] / f).read_bytes(), (name, f)
+        assert len(list((out / "annotated").glob("*.png"))) == N_FRAMES   # auto: frames
+        assert json.loads((out / "metadata.json").read_text())["input"]["kind"] == name \
+            .replace("list", "files")
+    rows = _rows(runs["list"])
+    assert len(rows) > 0 and set(rows["frame"]) == set(range(N_FRAMES))
+    assert list(rows["source"].unique()) == [p.name for p in paths]
+    # the video: boxes found, every output, the annotated video by default
+    out = detect("video", toy.video)
+    video = _rows(out)
+    assert len(video) > 0 and set(video["frame"]) == set(range(N_FRAMES))
+    assert set(video["source"]) == {"clip.mp4"}
+    for f in (*OUTPUTS, "annotated.mp4", "metadata.json"):
+        assert (out / f).is_file(), f
+    assert not (out / "annotated").exists()
+    # the same persons, up to the video's compression
+    assert np.mean(_best_iou(rows, video) > 0.5) >= 0.8
+
+
+def test_every_start_and_max_frames_select_frames(toy, detect):
+    full = _rows(detect("folder", toy.folder))
+    out = detect("folder_sel", "--start", 1, "--every", 2, "--max-frames", 2, toy.folder)
+    assert sorted(p.name for p in (out / "annotated").glob("*.png")) == \
+        ["00001_frame_1.png", "00003_frame_3.png"]
+    sel = _rows(out)
+    want = full[full["frame"].isin([1, 3])].reset_index(drop=True)
+    pd.testing.assert_frame_equal(sel, want)
+    meta = json.loads((out / "metadata.json").read_text())
+    assert meta["frames"] == 2 and meta["input"]["start"] == 1 and meta["input"]["every"] == 2
+    # a video: frame numbers are the video's
+    vfull = _rows(detect("video", toy.video))
+    out = detect("video_sel", "--start", 2, "--every", 3, "--annotate", "frames", toy.video)
+    assert sorted(p.name for p in (out / "annotated").glob("*.png")) == \
+        ["00002_clip.png", "00005_clip.png"]
+    pd.testing.assert_frame_equal(
+        _rows(out), vfull[vfull["frame"].isin([2, 5])].reset_index(drop=True))
+    out = detect("video_one", "--max-frames", 1, "--annotate", "none", toy.video)
+    assert set(_rows(out)["frame"]) == {0} and not (out / "annotated").exists()
+    assert not (out / "annotated.mp4").exists()
+
+
+# ------------------------------------------------------------------ outputs
+
+
+def test_every_output_parses(toy, detect):
+    out = detect("folder", toy.folder)
+    rows = _rows(out)
+    assert list(rows.columns) == ["frame", "source", "x", "y", "w", "h", "score", "ground_x",
+                                  "ground_y"]
+    assert rows["frame"].dtype.kind == "i" and (rows[["w", "h"]] > 0).all().all()
+    assert np.isfinite(rows[["x", "y", "score", "ground_x", "ground_y"]].to_numpy()).all()
+    assert (rows["score"] > -0.5).all()
+    for _, g in rows.groupby("frame", sort=False):          # by decreasing score
+        assert g["score"].is_monotonic_decreasing
+    coco = json.loads((out / "detections_coco.json").read_text())
+    assert isinstance(coco, list) and len(coco) == len(rows)
+    assert {k for c in coco for k in c} == {"image_id", "category_id", "bbox", "score"}
+    assert [c["image_id"] for c in coco] == list(rows["frame"] + 1)
+    assert np.allclose([c["bbox"] for c in coco], rows[["x", "y", "w", "h"]], atol=0.006)
+    assert np.allclose([c["score"] for c in coco], rows["score"], atol=1e-6)
+    mot = np.loadtxt(out / "det.txt", delimiter=",", ndmin=2)
+    assert mot.shape == (len(rows), 10)
+    assert np.array_equal(mot[:, 0], rows["frame"] + 1) and (mot[:, 1] == -1).all()
+    assert np.allclose(mot[:, 2:6], rows[["x", "y", "w", "h"]]) and (mot[:, 7:] == -1).all()
+    assert np.allclose(mot[:, 6], rows["score"])
+    img = cv2.imread(str(out / "annotated" / "00000_frame_0.png"))
+    assert img.shape == (SIZE[1], SIZE[0], 3)
+    assert (img != cv2.imread(str(toy.frames[0].path))).any()          # boxes drawn
+    # the annotated video holds every frame
+    cap = cv2.VideoCapture(str(detect("video", toy.video) / "annotated.mp4"))
+    assert cap.isOpened()
+    n = 0
+    while cap.grab():
+        n += 1
+    cap.release()
+    assert n == N_FRAMES
+
+
+def test_jobs_2_writes_the_same_bytes_as_one_process(toy, detect):
+    one = detect("jobs1", "--annotate", "video", toy.folder)
+    two = detect("jobs2", "--jobs", 2, "--annotate", "video", toy.folder)
+    names = sorted(p.name for p in one.iterdir() if p.name != "metadata.json")
+    assert names == sorted(p.name for p in two.iterdir() if p.name != "metadata.json")
+    assert {*OUTPUTS, "annotated.mp4"} <= set(names)
+    for name in names:
+        assert (one / name).read_bytes() == (two / name).read_bytes(), name
+    assert json.loads((two / "metadata.json").read_text())["jobs"] == 2
+    assert (one / "detections.csv").read_bytes() == \
+        (detect("folder", toy.folder) / "detections.csv").read_bytes()
+    cap = cv2.VideoCapture(str(two / "annotated.mp4"))
+    assert int(cap.get(cv2.CAP_PROP_FRAME_COUNT)) == N_FRAMES
+    cap.release()
+
+
+# ------------------------------------------------------------------ lens distortion
+
+
+def test_distorted_frames_are_undistorted(toy, detect):
+    """Frames through a strong barrel lens, with its coefficients in the calibration, give
+    the detections of the undistorted frames; without them the boxes are off."""
+    folder = toy.root / "distorted"
+    folder.mkdir(exist_ok=True)
+    for f in toy.frames:
+        cv2.imwrite(str(folder / f.path.name),
+                    distort_image(cv2.imread(str(f.path)), toy.cam.K, DIST))
+    calib = _write_calibration(toy.root / "cam_dist.json", toy.cam, dist=DIST)
+    ref = _rows(detect("folder", toy.folder))
+    fixed = detect("distorted", "--annotate", "none", folder, calibration=calib)
+    raw = detect("distorted_raw", "--annotate", "none", folder)
+    fixed_iou, raw_iou = _best_iou(ref, _rows(fixed)), _best_iou(ref, _rows(raw))
+    assert len(fixed_iou) >= 10 and (fixed_iou > 0.5).all()
+    assert fixed_iou.mean() > 0.88 and fixed_iou.mean() > raw_iou.mean() + 0.03
+    meta = json.loads((fixed / "metadata.json").read_text())
+    assert meta["undistortion"]["dist"] == DIST
+    assert json.loads((raw / "metadata.json").read_text())["undistortion"] is None
+
+
+# ------------------------------------------------------------------ bad input
+
+
+def _bad_inputs(toy, d):
+    d.mkdir()
+    (d / "junk.mp4").write_bytes(b"not a video" * 40)
+    (d / "empty.avi").write_bytes(b"")
+    _write_video(d / "no_frames.mp4", [])
+    _write_video(d / "small.mp4", [np.zeros((120, 160, 3), np.uint8)] * 3, size=(160, 120))
+    cv2.imwrite(str(d / "small.png"), np.zeros((120, 160, 3), np.uint8))
+    (d / "no_images").mkdir()
+    (d / "no_images" / "notes.txt").write_text("no frames here")
+    return {
+        "unreadable video": ([d / "junk.mp4"], "cannot be read"),
+        "empty file": ([d / "empty.avi"], "cannot be read"),
+        "video without frames": ([d / "no_frames.mp4"], "cannot be read|no frames"),
+        "start past a video's end": (["--start", 50, toy.video], "no frames from --start 50"),
+        "start past the last image": (["--start", 6, toy.folder], "past the last frame"),
+        "folder without images": ([d / "no_images"], "holds no images"),
+        "pattern matching nothing": ([d / "nothing_*.png"], "holds no images"),
+        "missing file": ([d / "nope.mp4"], "does not exist"),
+        "video among images": ([toy.frames[0].path, toy.video], "one video on its own"),
+        "frame of another size": ([d / "small.png"], "small.png is 160x120 px, the "
+                                                     "calibration is for 192x144"),
+        "video of another size": ([d / "small.mp4"], "frame 0 of .*small.mp4 is 160x120"),
+        "--every 0": (["--every", 0, toy.folder], "--every must be at least 1"),
+        "--max-frames 0": (["--max-frames", 0, toy.folder], "--max-frames must be at least 1"),
+        "--start -1": (["--start", -1, toy.folder], "--start must be at least 0"),
+        "--jobs 0": (["--jobs", 0, toy.folder], "--jobs must be at least 1"),
+        "--boxes with a video": (["--boxes", d / "small.png", toy.video], "--boxes needs"),
+    }
+
+
+def test_bad_input_is_one_line_and_writes_nothing(toy, tmp_path, capfd):
+    import re
+
+    for case, (argv, match) in _bad_inputs(toy, tmp_path / "in").items():
+        out = tmp_path / "out"
+        capfd.readouterr()
+        rc = main(["detect", "--calibration", str(toy.calibration), "--model",
+                   str(toy.model), "--out", str(out), *[str(a) for a in argv]])
+        err = capfd.readouterr().err.strip()
+        assert rc == 2 and len(err.splitlines()) == 1, (case, err)
+        assert err.startswith("viewadapt detect: error: ") and re.search(match, err), \
+            (case, err)
+        assert not out.exists(), case
+    # --annotate takes a value, so it never swallows INPUT
+    with pytest.raises(SystemExit) as exc:
+        main(["detect", "--calibration", str(toy.calibration), "--model", str(toy.model),
+              "--out", str(tmp_path / "o"), "--annotate", str(toy.video)])
+    assert exc.value.code == 2 and not (tmp_path / "o").exists()
+
+
+def test_a_model_and_calibration_load_as_the_command_does(toy):
+    """The spec a worker receives makes the detector the command makes."""
+    spec = DetectorSpec.create(read_calibration(toy.calibration), toy.model, "hog",
+                               person_heights=(1.65, 1.85), cache_dir=None)
+    det = spec.make()
+    assert det.params["person_heights"] == (1.65, 1.85)
+    assert det.models.fingerprint() == SourceDetectors.load(toy.model).fingerprint()
+    assert det.camera.to_dict() == toy.cam.to_dict()
+    assert DetectorSpec.create(toy.cam, toy.model, "hog", person_heights=(1.65, 1.85),
+                               cache_dir=None) == spec      # hashable, equal: one per worker
+
+
+def test_the_shipped_model_runs_with_no_model_option(toy, tmp_path):
+    """`viewadapt detect --calibration cam INPUT` uses the models shipped in the package:
+    bench frames' training on the paper preset's elevation-0 crops, recorded in the file."""
+    path = shipped_model_path()
+    assert path.is_file() and path.stat().st_size < 200_000
+    shipped = SourceDetectors.load(path)
+    assert shipped.training["dataset"]["preset"] == "paper"
+    assert shipped.training["dataset"]["elevations"] == [0.0]
+    assert shipped.training["frame_view"] == "both" and not shipped.training["quick"]
+    assert shipped.acf is not None and np.abs(shipped.hog_weights).sum() > 0
+    out = tmp_path / "out"
+    rc = main(["detect", "--calibration", str(toy.calibration), "--threshold", "-1",
+               "--quiet", "--out", str(out), "--jobs", "2", str(toy.video)])
+    assert rc == 0
+    meta = json.loads((out / "metadata.json").read_text())
+    assert meta["model"] == str(path) and meta["model_training"] == shipped.training
+    rows = pd.read_csv(out / "detections.csv")
+    assert len(rows) > 0 and set(rows.frame) <= set(range(N_FRAMES))
+    assert (out / "det.txt").is_file() and (out / "detections_coco.json").is_file()
+    cap = cv2.VideoCapture(str(out / "annotated.mp4"))
+    assert int(cap.get(cv2.CAP_PROP_FRAME_COUNT)) == N_FRAMES
+    cap.release()

@@ -1,0 +1,156 @@
+"""Output files of ``viewadapt detect``, written frame by frame as detections come.
+
+:class:`DetectionWriter` writes into one folder (the command's temporary output folder,
+moved into place only when the run succeeds):
+
+* ``detections.csv`` -- one row per detection: ``frame`` (the frame's 0-based index in the
+  input, :class:`~viewadapt.detect.video.Frame`), ``source`` (image or video file name),
+  ``x, y, w, h`` (box, pixels), ``score`` and ``ground_x, ground_y`` (where the person
+  stands, world metres on the ground plane,
+  :func:`~viewadapt.detect.footage.detect_on_ground`).
+* ``detections_coco.json`` -- COCO results: a list of ``{"image_id", "category_id",
+  "bbox", "score"}`` with ``image_id = frame + 1`` and ``category_id = 1`` (person).
+* ``det.txt`` -- MOTChallenge detections, one line ``frame, id, bb_left, bb_top, bb_width,
+  bb_height, conf, x, y, z`` per box, with ``frame`` 1-based (``frame + 1``), ``id = -1``
+  and ``x, y, z = -1``, as the MOT16/MOT17 ``det.txt`` files (the ground position is in
+  ``detections.csv``).
+* with ``annotate="video"``: ``annotated.mp4`` (``cv2.VideoWriter``, ``mp4v``) of every
+  frame with its boxes; with ``"frames"``: ``annotated/<frame:05d>_<source stem>.png``.
+
+Pixels are written to 0.01 px, scores to 1e-6, ground positions to 1 mm; all files are
+written in frame order, so the same detections give the same bytes.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+from pathlib import Path
+
+import numpy as np
+
+from ..files import RunError
+
+__all__ = ["ANNOTATE_CHOICES", "CSV_COLUMNS", "DetectionWriter", "draw_detections"]
+
+#: ``annotate`` values of :class:`DetectionWriter`
+ANNOTATE_CHOICES = ("video", "frames", "none")
+#: columns of ``detections.csv``
+CSV_COLUMNS = ("frame", "source", "x", "y", "w", "h", "score", "ground_x", "ground_y")
+_BOX_COLOUR = (0, 255, 0)          # BGR
+
+
+def draw_detections(image, boxes) -> np.ndarray:
+    """A BGR copy of the RGB ``image`` (H, W, 3) with ``boxes`` (D, >=4) ``(x, y, w, h,
+    ...)`` drawn in green, 1 px."""
+    import cv2
+
+    vis = np.ascontiguousarray(np.asarray(image)[:, :, ::-1])
+    b = np.asarray(boxes, dtype=np.float64)
+    for x, y, w, h in (b.reshape(-1, b.shape[-1])[:, :4] if b.size else ()):
+        cv2.rectangle(vis, (int(round(x)), int(round(y))),
+                      (int(round(x + w)), int(round(y + h))), _BOX_COLOUR, 1)
+    return vis
+
+
+def _px(v) -> str:
+    return f"{float(v):.2f}"
+
+
+class DetectionWriter:
+    """Write the detections of frames, in order, into ``folder`` (see the module).
+
+    Parameters
+    ----------
+    folder : path
+        An existing folder.
+    annotate : {"video", "frames", "none"}
+    fps : float
+        Frame rate of ``annotated.mp4``.
+    image_size : (width, height)
+        Size of the annotated frames.
+
+    Use as a context manager, or call :meth:`close`; :meth:`write` once per frame.
+    """
+
+    def __init__(self, folder, *, annotate: str = "none", fps: float = 25.0,
+                 image_size=None):
+        if annotate not in ANNOTATE_CHOICES:
+            raise ValueError(f"annotate must be one of {ANNOTATE_CHOICES}, got {annotate!r}")
+        self.folder = Path(folder)
+        self.annotate = annotate
+        self.n_frames = self.n_detections = 0
+        self._video = None
+        if annotate == "video":
+            import cv2
+
+            if image_size is None or not np.isfinite(fps) or fps <= 0:
+                raise ValueError("an annotated video needs the image size and a positive fps")
+            path = self.folder / "annotated.mp4"
+            self._video = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"mp4v"),
+                                          float(fps), tuple(int(v) for v in image_size))
+            if not self._video.isOpened():
+                raise RunError(f"cannot write {path}: this OpenCV build has no mp4v encoder "
+                               "(use --annotate frames)")
+        elif annotate == "frames":
+            (self.folder / "annotated").mkdir()
+        self._csv_file = open(self.folder / "detections.csv", "w", newline="")
+        self._csv = csv.writer(self._csv_file, lineterminator="\n")
+        self._csv.writerow(CSV_COLUMNS)
+        self._mot = open(self.folder / "det.txt", "w")
+        self._coco = open(self.folder / "detections_coco.json", "w")
+        self._coco.write("[")
+
+    def write(self, frame, detections) -> None:
+        """Write one frame's detections (and its annotation).
+
+        Parameters
+        ----------
+        frame : Frame
+            ``index``, ``source`` and the RGB ``image`` the detections were found on.
+        detections : FrameDetections
+            ``boxes`` (D, 5) and ``ground_xy`` (D, 2).
+        """
+        boxes = np.asarray(detections.boxes, dtype=np.float64).reshape(-1, 5)
+        ground = np.asarray(detections.ground_xy, dtype=np.float64).reshape(-1, 2)
+        i = int(frame.index)
+        for (x, y, w, h, s), (gx, gy) in zip(boxes, ground):
+            self._csv.writerow([i, frame.source, _px(x), _px(y), _px(w), _px(h), f"{s:.6f}",
+                                f"{gx:.3f}", f"{gy:.3f}"])
+            self._mot.write(f"{i + 1},-1,{_px(x)},{_px(y)},{_px(w)},{_px(h)},{s:.6f},"
+                            "-1,-1,-1\n")
+            entry = {"image_id": i + 1, "category_id": 1,
+                     "bbox": [round(float(v), 2) for v in (x, y, w, h)],
+                     "score": round(float(s), 6)}
+            self._coco.write(("\n" if self.n_detections == 0 else ",\n") + json.dumps(entry))
+            self.n_detections += 1
+        if self.annotate != "none":
+            import cv2
+
+            vis = draw_detections(frame.image, boxes)
+            if self._video is not None:
+                self._video.write(vis)
+            else:
+                name = f"{i:05d}_{Path(frame.source).stem}.png"
+                if not cv2.imwrite(str(self.folder / "annotated" / name), vis):
+                    raise RunError(f"cannot write {self.folder / 'annotated' / name}")
+        self.n_frames += 1
+
+    def close(self) -> None:
+        """Finish the files (the COCO list, the video's index)."""
+        if self._coco is None:
+            return
+        self._coco.write("\n]\n")
+        for f in (self._csv_file, self._mot, self._coco):
+            f.close()
+        self._coco = None
+        if self._video is not None:
+            self._video.release()
+            self._video = None
+
+    def __enter__(self) -> "DetectionWriter":
+        return self
+
+    def __exit__(self, exc_type, exc, tb):
+        self.close()
+        return False
