@@ -186,3 +186,19 @@ def test_threshold_one_keeps_everything():
 def test_errors(boxes, scores, kwargs, match):
     with pytest.raises(ValueError, match=match):
         non_maximum_suppression(boxes, scores, **kwargs)
+
+
+def test_detections_from_scores_names_the_kept_boxes():
+    from viewadapt.nms import detections_from_scores
+
+    rng = np.random.default_rng(3)
+    boxes = np.c_[rng.uniform(0, 200, (300, 2)), np.full((300, 1), 20.0), np.full((300, 1), 48.0)]
+    boxes[150:] = boxes[:150]                       # every box twice: equal boxes, other scores
+    scores = rng.normal(size=300)
+    dets, idx = detections_from_scores(boxes, scores, threshold=0.0, return_index=True)
+    assert np.array_equal(dets, detections_from_scores(boxes, scores, threshold=0.0))
+    assert idx.dtype == np.int64 and len(idx) == len(dets) > 0
+    np.testing.assert_array_equal(dets[:, :4], boxes[idx])
+    np.testing.assert_array_equal(dets[:, 4], scores[idx])
+    none, idx = detections_from_scores(boxes, scores, threshold=10.0, return_index=True)
+    assert none.shape == (0, 5) and idx.shape == (0,)

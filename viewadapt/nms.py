@@ -117,7 +117,7 @@ def non_maximum_suppression(boxes, scores, iou_threshold=0.5, *, overlap="union"
 
 def detections_from_scores(boxes, scores, *, threshold: float = 0.0,
                            nms_threshold: float = 0.5, overlap: str = "union",
-                           max_candidates: int = 2000) -> np.ndarray:
+                           max_candidates: int = 2000, return_index: bool = False):
     """Threshold, keep the best ``max_candidates``, non-maximum suppression.
 
     Parameters
@@ -125,10 +125,13 @@ def detections_from_scores(boxes, scores, *, threshold: float = 0.0,
     boxes : (N, 4) array_like
         ``(x, y, w, h)``.
     scores : (N,) array_like
+    return_index : bool
+        Also return which of the ``N`` boxes each detection is.
 
     Returns
     -------
-    (D, 5) ndarray of ``(x, y, w, h, score)``, decreasing score.
+    (D, 5) ndarray of ``(x, y, w, h, score)``, decreasing score; with ``return_index``,
+    ``(detections, (D,) int64 indices into boxes)``.
     """
     b = np.asarray(boxes, dtype=np.float64)
     s = np.asarray(scores, dtype=np.float64)
@@ -136,7 +139,8 @@ def detections_from_scores(boxes, scores, *, threshold: float = 0.0,
     if keep.size > max_candidates:
         keep = keep[np.argpartition(-s[keep], max_candidates - 1)[:max_candidates]]
     if keep.size == 0:
-        return np.zeros((0, 5))
-    k = non_maximum_suppression(b[keep], s[keep], nms_threshold, overlap=overlap)
-    sel = keep[k]
-    return np.c_[b[sel], s[sel]]
+        sel = np.zeros(0, np.int64)
+    else:
+        sel = keep[non_maximum_suppression(b[keep], s[keep], nms_threshold, overlap=overlap)]
+    dets = np.c_[b[sel], s[sel]] if sel.size else np.zeros((0, 5))
+    return (dets, sel.astype(np.int64)) if return_index else dets

@@ -26,7 +26,7 @@ import numpy as np
 from benchmark.frames import DEFAULT_FRAME_VIEW
 from viewadapt.detect import DEFAULT_CACHE_LIMIT_GB, DETECTOR_KINDS
 
-__all__ = ["timing_camera", "run_runtime", "format_table"]
+__all__ = ["timing_camera", "single_thread", "run_runtime", "format_table"]
 
 
 def timing_camera(size=(384, 288)):
@@ -39,7 +39,8 @@ def timing_camera(size=(384, 288)):
                             tilt=np.radians(25), image_size=(w, h))
 
 
-def _single_thread():
+def single_thread():
+    """OpenCV and BLAS limited to one thread: a context manager (threadpoolctl's)."""
     import cv2
     from threadpoolctl import threadpool_limits
 
@@ -58,7 +59,7 @@ def _best(fn, repeat):
 
 def _worker(cache_dir, cache_limit_gb, model_path, heights, method, frames, seconds):
     """Detect frames in a loop for ``seconds``; return the number done and the time."""
-    _single_thread()
+    single_thread()
     from benchmark.frames import FrameMethods
     from viewadapt.detect import SourceDetectors
 
@@ -118,7 +119,7 @@ def run_runtime(data, *, n_frames=3, warp_windows=1000, heights=(1.65, 1.85), jo
     model_path = tmpdir / "models.npz"
     models.save(model_path)
     rows, info = [], {"training": models.training}
-    with _single_thread():
+    with single_thread():
         cam = timing_camera(size)
         t = time.perf_counter()
         # thresholds at the operating point (score 0): NMS sees what a deployment keeps

@@ -52,8 +52,8 @@ def detect_on_ground(detector: FrameDetector, image, kind: str = "hog") -> Frame
     The boxes are those of ``detector.detect(image, kind)``: the operator's window scores,
     thresholded and non-maximum suppressed by
     :func:`~viewadapt.nms.detections_from_scores` with the operator's settings. Each kept
-    box is a row of the operator's window boxes with that window's score, which names
-    its window.
+    box is a row of the operator's window boxes with that window's score; non-maximum
+    suppression names the window it kept.
 
     Parameters
     ----------
@@ -75,21 +75,16 @@ def detect_on_ground(detector: FrameDetector, image, kind: str = "hog") -> Frame
     ground). It is exact for that window, not an approximation through the box: the box
     reported is the window's snapped to its shared template (a whole-cell shift of at
     most the template tolerance), so the box's bottom centre can lie a few pixels from
-    the window's feet point. Windows that share both the box and the score are one
-    detection; the first of them (the one non-maximum suppression keeps) is reported.
+    the window's feet point.
     """
     kind = detector_kind(kind).name
     img = check_frame(image, detector.size)
     op = detector.operator(kind)
     boxes = op.boxes()
     scores = op.scores(op.frame_features(img))
-    dets = detections_from_scores(boxes, scores, threshold=detector.thresholds[kind],
-                                  overlap=op.nms_overlap, nms_threshold=op.nms_threshold)
-    window = np.empty(len(dets), dtype=np.int64)
-    for i, (x, y, w, h, s) in enumerate(dets):
-        cand = np.flatnonzero(scores == s)
-        cand = cand[np.all(boxes[cand] == (x, y, w, h), axis=1)]
-        window[i] = cand[0]
+    dets, window = detections_from_scores(
+        boxes, scores, threshold=detector.thresholds[kind], overlap=op.nms_overlap,
+        nms_threshold=op.nms_threshold, return_index=True)
     return FrameDetections(dets, window, detector.windows.ground_xy[window].reshape(-1, 2))
 
 

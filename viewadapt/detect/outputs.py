@@ -23,8 +23,6 @@ written in frame order, so the same detections give the same bytes.
 
 from __future__ import annotations
 
-import csv
-import json
 from pathlib import Path
 
 import numpy as np
@@ -53,8 +51,11 @@ def draw_detections(image, boxes) -> np.ndarray:
     return vis
 
 
-def _px(v) -> str:
-    return f"{float(v):.2f}"
+def _csv_field(text: str) -> str:
+    """``text`` as one CSV field, quoted as :mod:`csv` quotes it (``QUOTE_MINIMAL``)."""
+    if any(c in text for c in ',"\r\n'):
+        return '"' + text.replace('"', '""') + '"'
+    return text
 
 
 class DetectionWriter:
@@ -95,8 +96,7 @@ class DetectionWriter:
         elif annotate == "frames":
             (self.folder / "annotated").mkdir()
         self._csv_file = open(self.folder / "detections.csv", "w", newline="")
-        self._csv = csv.writer(self._csv_file, lineterminator="\n")
-        self._csv.writerow(CSV_COLUMNS)
+        self._csv_file.write(",".join(CSV_COLUMNS) + "\n")
         self._mot = open(self.folder / "det.txt", "w")
         self._coco = open(self.folder / "detections_coco.json", "w")
         self._coco.write("[")
@@ -114,16 +114,24 @@ class DetectionWriter:
         boxes = np.asarray(detections.boxes, dtype=np.float64).reshape(-1, 5)
         ground = np.asarray(detections.ground_xy, dtype=np.float64).reshape(-1, 2)
         i = int(frame.index)
-        for (x, y, w, h, s), (gx, gy) in zip(boxes, ground):
-            self._csv.writerow([i, frame.source, _px(x), _px(y), _px(w), _px(h), f"{s:.6f}",
-                                f"{gx:.3f}", f"{gy:.3f}"])
-            self._mot.write(f"{i + 1},-1,{_px(x)},{_px(y)},{_px(w)},{_px(h)},{s:.6f},"
-                            "-1,-1,-1\n")
-            entry = {"image_id": i + 1, "category_id": 1,
-                     "bbox": [round(float(v), 2) for v in (x, y, w, h)],
-                     "score": round(float(s), 6)}
-            self._coco.write(("\n" if self.n_detections == 0 else ",\n") + json.dumps(entry))
-            self.n_detections += 1
+        source = _csv_field(str(frame.source))
+        csv_rows, mot_rows, coco_rows = [], [], []
+        # the same text as csv.writer, f"{v:.2f}" and json.dumps give (json writes floats
+        # with repr), formatted once per value
+        for (x, y, w, h, s), (gx, gy) in zip(boxes.tolist(), ground.tolist()):
+            box = f"{x:.2f},{y:.2f},{w:.2f},{h:.2f}"
+            score = f"{s:.6f}"
+            csv_rows.append(f"{i},{source},{box},{score},{gx:.3f},{gy:.3f}\n")
+            mot_rows.append(f"{i + 1},-1,{box},{score},-1,-1,-1\n")
+            coco_rows.append('{"image_id": %d, "category_id": 1, "bbox": [%r, %r, %r, %r], '
+                             '"score": %r}' % (i + 1, round(x, 2), round(y, 2), round(w, 2),
+                                                round(h, 2), round(s, 6)))
+        if coco_rows:
+            self._coco.write(("\n" if self.n_detections == 0 else ",\n")
+                             + ",\n".join(coco_rows))
+        self._csv_file.write("".join(csv_rows))
+        self._mot.write("".join(mot_rows))
+        self.n_detections += len(coco_rows)
         if self.annotate != "none":
             import cv2
 

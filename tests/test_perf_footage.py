@@ -1,0 +1,38 @@
+"""benchmark.perf.footage: the detect command and the bare detector timed on one clip."""
+
+import json
+
+import pytest
+
+from benchmark.data import load_dataset
+from benchmark.frames import train_source_detectors
+from benchmark.perf.footage import format_table, main, run_footage_benchmark
+from benchmark.toyframes import make_toy_frame_dataset
+
+
+def test_footage_benchmark_times_every_path(tmp_path):
+    data = make_toy_frame_dataset(tmp_path / "data", n_persons=9, n_scenes=3,
+                                  n_backgrounds=2, n_frame_scenes=1, frames_per_scene=2,
+                                  frame_size=(192, 144), seed=2)
+    model = train_source_detectors(load_dataset(data), quick=True, frame_view="none").save(
+        tmp_path / "model.npz")
+    res = run_footage_benchmark(data, n_frames=4, model=model, workdir=tmp_path / "w")
+    assert [r["method"] for r in res["rows"]] == [
+        "detector on the decoded clip (video)", "detect (video)",
+        "detector on the decoded clip (video, dist)", "detect (video, dist)"]
+    for r in res["rows"]:
+        assert r["frames"] == 4 and r["fps"] > 0 and r["seconds"] > 0
+    assert res["rows"][0]["ratio_to_detector"] == 1.0
+    assert res["rows"][1]["ratio_to_detector"] == pytest.approx(
+        res["rows"][1]["fps"] / res["rows"][0]["fps"])
+    assert res["windows"] > 1000            # the CAVIAR-like timing camera
+    # the distorted clip was undistorted by the command
+    meta = json.loads((tmp_path / "w" / "out_clip_dist" / "metadata.json").read_text())
+    assert meta["undistortion"]["dist"] == res["distortion"]
+    assert "Bar (issue 17)" in format_table(res)
+
+
+def test_footage_benchmark_bad_input(tmp_path, capsys):
+    assert main(["--data", str(tmp_path), "--frames", "1"]) == 2
+    assert "--frames" in capsys.readouterr().out
+    assert main(["--data", str(tmp_path / "none")]) == 2
