@@ -92,6 +92,145 @@ def orientation_cell_sums(mag, ang, n_bins, c, out):  # pragma: no cover - compi
             out[ci, cj, b1] += f * m
 
 
+# OpenCV's fastAtan2 polynomial (cv::cartToPolar's angle, core/src/mathfuncs_core), in
+# degrees; reproduced so that the fused pass gives cartToPolar's angles to rounding
+_ATAN_P1 = np.float32(0.9997878412794807 * 180 / np.pi)
+_ATAN_P3 = np.float32(-0.3258083974640975 * 180 / np.pi)
+_ATAN_P5 = np.float32(0.1555786518463281 * 180 / np.pi)
+_ATAN_P7 = np.float32(-0.04432655554792128 * 180 / np.pi)
+_ATAN_EPS = np.float32(np.finfo(np.float64).eps)
+_DEG = np.float32(np.pi / 180)
+
+
+@njit(cache=True, nogil=True, boundscheck=False, inline="always")
+def _strongest_difference(img, i, iu, idn, jl, j, jr):
+    """Central differences at pixel ``(i, j)`` of the channel of largest ``dx**2 + dy**2``
+    (ties keep the earlier channel), from neighbours ``iu, idn, jl, jr``: the border
+    pixels of ``hog_gradient_cell_sums`` (its interior loop unrolls the same code)."""
+    gx = np.float32(img[i, jr, 0]) - np.float32(img[i, jl, 0])
+    gy = np.float32(img[idn, j, 0]) - np.float32(img[iu, j, 0])
+    best = gx * gx + gy * gy
+    if img.shape[2] == 3:
+        x = np.float32(img[i, jr, 1]) - np.float32(img[i, jl, 1])
+        y = np.float32(img[idn, j, 1]) - np.float32(img[iu, j, 1])
+        m = x * x + y * y
+        take = m > best
+        gx = x if take else gx
+        gy = y if take else gy
+        best = m if take else best
+        x = np.float32(img[i, jr, 2]) - np.float32(img[i, jl, 2])
+        y = np.float32(img[idn, j, 2]) - np.float32(img[iu, j, 2])
+        m = x * x + y * y
+        take = m > best
+        gx = x if take else gx
+        gy = y if take else gy
+    return gx, gy
+
+
+# error_model="numpy": no zero-division checks, which would keep the row loops scalar
+@njit(cache=True, fastmath=True, nogil=True, boundscheck=False, error_model="numpy")
+def hog_gradient_cell_sums(img, n_bins, sizes, offsets, n_x, n_y,
+                           out):  # pragma: no cover - compiled; tested through its callers
+    """Oriented-magnitude cell sums straight from an (M, N, K) image (``K`` = 1 or 3),
+    several cell sizes in one pass.
+
+    Per pixel: central differences with reflect-101 borders of each channel, the channel
+    of largest ``dx**2 + dy**2`` (ties keep the earlier), its magnitude and angle (OpenCV's
+    ``cartToPolar`` polynomial), the magnitude split linearly between the two nearest
+    unsigned bins (centres ``(b + 1/2) pi / n_bins``) -- the computation of
+    ``cv2.filter2D``, ``strongest_gradient``, ``cv2.cartToPolar`` and
+    ``orientation_cell_sums`` without their full-frame arrays: one image row at a time.
+    Size ``sizes[s]`` adds into the ``(n_y[s], n_x[s], n_bins)`` block of the flat ``out``
+    starting at ``offsets[s]`` (pixels past the last whole cell are dropped), in the pixel
+    order of ``orientation_cell_sums``.
+    """
+    M, N = img.shape[0], img.shape[1]
+    gxr = np.empty(N, np.float32)
+    gyr = np.empty(N, np.float32)
+    w0 = np.empty(N, np.float32)
+    w1 = np.empty(N, np.float32)
+    b0s = np.empty(N, np.int32)
+    b1s = np.empty(N, np.int32)
+    scale = np.float32(n_bins / np.pi)
+    nb = np.float32(n_bins)
+    zero = np.float32(0.0)
+    one = np.float32(1.0)
+    for i in range(M):
+        # reflect-101 borders (a single row or column reflects onto itself)
+        iu = i - 1 if i > 0 else min(1, M - 1)
+        idn = i + 1 if i < M - 1 else max(M - 2, 0)
+        gxr[0], gyr[0] = _strongest_difference(img, i, iu, idn, min(1, N - 1), 0,
+                                               min(1, N - 1))
+        ru = img[iu]
+        rc = img[i]
+        rd = img[idn]
+        if img.shape[2] == 3:
+            # the interior of the row, channels unrolled (vectorises; see
+            # _strongest_difference for the borders)
+            for j in range(1, N - 1):
+                gx = np.float32(rc[j + 1, 0]) - np.float32(rc[j - 1, 0])
+                gy = np.float32(rd[j, 0]) - np.float32(ru[j, 0])
+                x1 = np.float32(rc[j + 1, 1]) - np.float32(rc[j - 1, 1])
+                y1 = np.float32(rd[j, 1]) - np.float32(ru[j, 1])
+                x2 = np.float32(rc[j + 1, 2]) - np.float32(rc[j - 1, 2])
+                y2 = np.float32(rd[j, 2]) - np.float32(ru[j, 2])
+                m0 = gx * gx + gy * gy
+                m1 = x1 * x1 + y1 * y1
+                m2 = x2 * x2 + y2 * y2
+                t1 = m1 > m0
+                gx = x1 if t1 else gx
+                gy = y1 if t1 else gy
+                m0 = m1 if t1 else m0
+                t2 = m2 > m0
+                gxr[j] = x2 if t2 else gx
+                gyr[j] = y2 if t2 else gy
+        else:
+            for j in range(1, N - 1):
+                gxr[j] = np.float32(rc[j + 1, 0]) - np.float32(rc[j - 1, 0])
+                gyr[j] = np.float32(rd[j, 0]) - np.float32(ru[j, 0])
+        if N > 1:
+            gxr[N - 1], gyr[N - 1] = _strongest_difference(img, i, iu, idn, N - 2, N - 1,
+                                                           N - 2)
+        for j in range(N):
+            gx = gxr[j]
+            gy = gyr[j]
+            m = np.sqrt(gx * gx + gy * gy)
+            ax = abs(gx)
+            ay = abs(gy)
+            c = min(ax, ay) / (max(ax, ay) + _ATAN_EPS)
+            cc = c * c
+            a = (((_ATAN_P7 * cc + _ATAN_P5) * cc + _ATAN_P3) * cc + _ATAN_P1) * c
+            a = a if ax >= ay else np.float32(90.0) - a
+            a = np.float32(180.0) - a if gx < zero else a
+            a = np.float32(360.0) - a if gy < zero else a
+            t = (a * _DEG) * scale - np.float32(0.5)           # in [-1/2, 2 n_bins]
+            t = t + nb if t < zero else t
+            t = t - nb if t >= nb else t
+            t = t - nb if t >= nb else t
+            b0 = np.int32(t)
+            f = t - np.float32(b0)
+            b1 = b0 + 1
+            b0s[j] = b0
+            b1s[j] = 0 if b1 == n_bins else b1
+            w0[j] = (one - f) * m
+            w1[j] = f * m
+        for s in range(sizes.shape[0]):
+            cs = sizes[s]
+            ci = i // cs
+            if ci >= n_y[s]:
+                continue
+            nxs = n_x[s]
+            row = offsets[s] + ci * nxs * n_bins
+            j = 0
+            for cj in range(nxs):
+                base = row + cj * n_bins
+                for _ in range(cs):
+                    out[base + b0s[j]] += w0[j]
+                    out[base + b1s[j]] += w1[j]
+                    j += 1
+    return out
+
+
 @njit(cache=True, nogil=True, boundscheck=False)
 def _reflect(i, n, edge):
     if i < 0:

@@ -259,6 +259,8 @@ def cell_sums(channels, c: int) -> np.ndarray:
     ny, nx = M // c, N // c
     if c == 1:
         return channels
+    if ny == 0 or nx == 0:                       # a frame smaller than one cell
+        return np.zeros((ny, nx) + (channels.shape[2:] or (1,)), np.float32)
     src = np.ascontiguousarray(channels[:ny * c, :nx * c])
     # INTER_AREA with an integer factor is the exact block mean
     out = cv2.resize(src, (nx, ny), interpolation=cv2.INTER_AREA)
@@ -289,9 +291,11 @@ def orientation_cell_maps(image, cell_sizes, *, n_bins: int = N_HOG_BINS) -> dic
     """Oriented gradient magnitudes summed over ``c x c`` cells, for each ``c``.
 
     The cell sums of :func:`fast_orientation_channels` (gamma off) -- the same quantity up
-    to float32 rounding -- without the (M, N, n_bins) per-pixel array: the strongest colour
-    channel's gradient and its two nearest bins go straight into the cells (a compiled
-    loop, :mod:`viewadapt._kernels`). Remainder rows and columns are dropped.
+    to float32 rounding -- without any per-pixel frame array: gradient, strongest colour
+    channel, magnitude and angle, and the split into the two nearest bins are computed one
+    image row at a time and go straight into the cells of every size that is not a
+    multiple of a smaller one, in one compiled pass (:mod:`viewadapt._kernels`); the other
+    sizes are summed from those cells. Remainder rows and columns are dropped.
 
     Parameters
     ----------
@@ -303,17 +307,35 @@ def orientation_cell_maps(image, cell_sizes, *, n_bins: int = N_HOG_BINS) -> dic
     -------
     dict int -> (M // c, N // c, n_bins) float32 ndarray
     """
-    from .._kernels import orientation_cell_sums
+    from .._kernels import hog_gradient_cell_sums
 
-    mag, ang = _gradient_polar(check_image(image, dtype=np.float32))
-    M, N = mag.shape
+    img = _gradient_input(image)
+    M, N = img.shape[:2]
+    sizes = sorted(set(int(c) for c in cell_sizes))
+    if sizes and sizes[0] < 1:
+        raise ValueError(f"cell sizes must be positive integers, got {sizes[0]}")
+    # the sizes _multi_cell_sums computes from the pixels, all in one compiled pass
+    direct = [c for c in sizes if not any(b > 1 and c % b == 0 for b in sizes if b < c)]
+    n_y = np.array([M // c for c in direct], np.int64)
+    n_x = np.array([N // c for c in direct], np.int64)
+    counts = n_y * n_x * n_bins
+    offsets = np.concatenate([[0], np.cumsum(counts)[:-1]]).astype(np.int64)
+    flat = np.zeros(int(counts.sum()), np.float32)
+    hog_gradient_cell_sums(img, n_bins, np.array(direct, np.int64), offsets, n_x, n_y, flat)
+    pixel_sums = {c: flat[o:o + k].reshape(ny, nx, n_bins)
+                  for c, o, k, ny, nx in zip(direct, offsets, counts, n_y, n_x)}
+    return _multi_cell_sums((M, N), sizes, pixel_sums.__getitem__)
 
-    def from_pixels(c):
-        out = np.zeros((M // c, N // c, n_bins), np.float32)
-        orientation_cell_sums(mag, ang, n_bins, c, out)
-        return out
 
-    return _multi_cell_sums(mag.shape, cell_sizes, from_pixels)
+def _gradient_input(image) -> np.ndarray:
+    """``image`` as the (M, N, K) input of ``hog_gradient_cell_sums``: uint8 as it is (its
+    differences are exact in float32), anything else through :func:`check_image` as
+    float32 in 0..255."""
+    arr = np.asarray(image)
+    if not (arr.dtype == np.uint8 and arr.ndim in (2, 3) and arr.size
+            and (arr.ndim == 2 or arr.shape[2] in (1, 3))):
+        arr = check_image(arr, dtype=np.float32)
+    return arr.reshape(arr.shape[:2] + (-1,))
 
 
 def check_frame(image, image_size=None) -> np.ndarray:

@@ -1,0 +1,102 @@
+"""The fused HOG pass (:func:`viewadapt.detect.channels.orientation_cell_maps`) against the
+unfused OpenCV path it replaced: per-pixel channels of
+:func:`viewadapt.detect.channels.fast_orientation_channels` summed by
+:func:`viewadapt.detect.channels.cell_sums`, on deterministic random images."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose
+
+from viewadapt.detect.channels import (
+    HOG_CHANNELS, N_HOG_BINS, block_normalize_cells, cell_sums, fast_orientation_channels,
+    hog_frame_features, orientation_cell_maps,
+)
+
+#: float32 tolerances: a pixel's bin position ``t`` in [0, 2 n_bins) is rounded to about
+#: ``2 n_bins eps ~ 2e-6``, which moves up to that fraction of its magnitude between bins,
+#: so cell sums agree to ~1e-5 of the map's largest value; block-normalised features are
+#: of unit scale
+SUM_RTOL, SUM_ATOL_PER_MAX = 1e-5, 1e-5
+FEATURE_ATOL = 1e-5
+
+
+def reference_cell_maps(image, cell_sizes):
+    """Cell sums of the per-pixel oriented magnitudes (the path before the fused pass)."""
+    P = fast_orientation_channels(image)
+    return {c: cell_sums(P, c) for c in cell_sizes}
+
+
+def random_image(shape, seed, dtype=np.uint8):
+    rng = np.random.default_rng(seed)
+    img = rng.integers(0, 256, size=shape).astype(np.uint8)
+    if dtype == np.uint8:
+        return img
+    return (img / 255.0).astype(dtype)
+
+
+SHAPES = [(37, 53), (37, 53, 3), (64, 48, 3), (128, 64, 3), (97, 131), (5, 7, 3), (1, 9, 3),
+          (9, 1), (2, 2, 3)]
+
+
+@pytest.mark.parametrize("shape", SHAPES)
+@pytest.mark.parametrize("cell_sizes", [[1], [3], [4, 8], [3, 4, 6, 8], [5, 7, 10]])
+def test_fused_cell_maps_match_unfused_path(shape, cell_sizes):
+    img = random_image(shape, seed=hash((shape, tuple(cell_sizes))) % 2**32)
+    got = orientation_cell_maps(img, cell_sizes)
+    ref = reference_cell_maps(img, cell_sizes)
+    assert sorted(got) == sorted(set(cell_sizes))
+    for c in cell_sizes:
+        assert got[c].shape == (shape[0] // c, shape[1] // c, N_HOG_BINS)
+        assert got[c].dtype == np.float32
+        scale = float(np.abs(ref[c]).max(initial=1.0))
+        assert_allclose(got[c], ref[c], rtol=SUM_RTOL, atol=SUM_ATOL_PER_MAX * scale)
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+def test_float_images_match_uint8(dtype):
+    img = random_image((41, 67, 3), seed=3)
+    flt = random_image((41, 67, 3), seed=3, dtype=dtype)
+    a = orientation_cell_maps(img, [4])[4]
+    b = orientation_cell_maps(flt, [4])[4]
+    ref = reference_cell_maps(flt, [4])[4]
+    scale = float(np.abs(ref).max())
+    assert_allclose(b, ref, rtol=SUM_RTOL, atol=SUM_ATOL_PER_MAX * scale)
+    assert_allclose(a, b, rtol=SUM_RTOL, atol=SUM_ATOL_PER_MAX * scale)
+
+
+def test_strided_and_single_channel_views():
+    img = random_image((50, 70, 3), seed=5)
+    bgr = img[:, :, ::-1]                                   # negative strides
+    assert_allclose(orientation_cell_maps(bgr, [4])[4],
+                    orientation_cell_maps(np.ascontiguousarray(bgr), [4])[4], rtol=0, atol=0)
+    grey = img[:, :, :1]
+    assert_allclose(orientation_cell_maps(grey, [5])[5],
+                    orientation_cell_maps(np.ascontiguousarray(img[:, :, 0]), [5])[5],
+                    rtol=0, atol=0)
+
+
+@pytest.mark.parametrize("shape", [(120, 160, 3), (77, 90)])
+def test_frame_features_match_unfused_path(shape):
+    img = random_image(shape, seed=11)
+    sizes = [3, 4, 6, 8]
+    feats = hog_frame_features(img, sizes, pad=2)
+    ref = reference_cell_maps(img, sizes)
+    for c in sizes:
+        X = ref[c]
+        ny, nx = X.shape[:2]
+        want = block_normalize_cells(X, eps=float(c * c))
+        F = feats.maps[c]
+        assert F.shape == (ny + 4, nx + 4, HOG_CHANNELS)
+        assert_allclose(F[2:2 + ny, 2:2 + nx], want, rtol=1e-5, atol=FEATURE_ATOL)
+        assert not F[:2].any() and not F[:, :2].any()
+
+
+def test_errors():
+    with pytest.raises(ValueError, match="positive"):
+        orientation_cell_maps(random_image((10, 10), seed=0), [0, 4])
+    with pytest.raises(ValueError, match="channels"):
+        orientation_cell_maps(np.zeros((10, 10, 2), np.uint8), [4])
+    with pytest.raises(ValueError, match="empty"):
+        orientation_cell_maps(np.zeros((0, 10), np.uint8), [4])
