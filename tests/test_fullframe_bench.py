@@ -304,8 +304,15 @@ def test_runtime_table_end_to_end(toy, tmp_path):
         "runs: compiled loop over distinct positions (default)",
         "sparse, one row per distinct position"}
     assert len(info["acf_scoring_forms_ms"]) == 2
+    # the adapted rows' stages, each beside the copy of the bytes it moves (no time checked)
+    for r in rows:
+        if r["method"] in ("hog_adapted", "acf_adapted"):
+            assert [st["stage"] for st in r["stages"]] == ["features", "scoring", "nms"]
+            assert all(st["bytes"] > 0 and st["floor_ms"] > 0 and st["ms"] > 0
+                       for st in r["stages"])
     table = format_table(rows, info)
     assert "hog_adapted / hog_warp" in table and "## Targets" in table
+    assert "| hog_adapted | features |" in table and "| acf_adapted | nms |" in table
     # the table says how its detectors were trained and why the all-cores column is empty
     assert info["training"]["frame_view"] == "both" and "frame_view=both" in table
     assert "All cores not measured (--jobs 1)" in table

@@ -1,9 +1,11 @@
-"""Tests for viewadapt.nms: hand cases, a plain-loop port of bbNms 'maxg', error paths."""
+"""Tests for viewadapt.nms: hand cases, a plain-loop port of bbNms 'maxg', the previous
+numpy implementation as a reference for the compiled one, error paths."""
 
 import numpy as np
 import pytest
 
-from viewadapt.nms import non_maximum_suppression
+from viewadapt.boxes import safe_ratio
+from viewadapt.nms import detections_from_scores, non_maximum_suppression
 
 
 def _nms_maxg_loop(boxes, scores, overlap, ovr_dnm):
@@ -33,6 +35,50 @@ def _nms_maxg_loop(boxes, scores, overlap, ovr_dnm):
             if o / u > overlap:
                 kp[b] = False
     return [order[a] for a in range(len(order)) if kp[a]]
+
+
+def _nms_previous(boxes, scores, thr, overlap):
+    """The numpy implementation before the compiled loop (one vectorised step per kept box).
+
+    Kept as the reference the compiled one must match decision for decision.
+    """
+    boxes = np.asarray(boxes, dtype=np.float64).reshape(-1, 4)
+    scores = np.asarray(scores, dtype=np.float64)
+    order = np.argsort(-scores, kind="stable")
+    x1, y1 = boxes[order, 0], boxes[order, 1]
+    x2, y2 = x1 + boxes[order, 2], y1 + boxes[order, 3]
+    areas = boxes[order, 2] * boxes[order, 3]
+    alive = np.arange(order.size)
+    keep = []
+    while alive.size:
+        i = alive[0]
+        keep.append(order[i])
+        rest = alive[1:]
+        iw = np.minimum(x2[i], x2[rest]) - np.maximum(x1[i], x1[rest])
+        ih = np.minimum(y2[i], y2[rest]) - np.maximum(y1[i], y1[rest])
+        inter = np.clip(iw, 0.0, None) * np.clip(ih, 0.0, None)
+        if overlap == "union":
+            den = areas[i] + areas[rest] - inter
+        else:
+            den = np.minimum(areas[i], areas[rest])
+        alive = rest[safe_ratio(inter, den) <= thr]
+    return np.asarray(keep, dtype=np.intp)
+
+
+def _detections_previous(boxes, scores, *, threshold=0.0, nms_threshold=0.5, overlap="union",
+                         max_candidates=2000):
+    """``detections_from_scores`` before the compiled loop: ``(detections, indices)``."""
+    b = np.asarray(boxes, dtype=np.float64)
+    s = np.asarray(scores, dtype=np.float64)
+    keep = np.flatnonzero(s > threshold)
+    if keep.size > max_candidates:
+        keep = keep[np.argpartition(-s[keep], max_candidates - 1)[:max_candidates]]
+    if keep.size == 0:
+        sel = np.zeros(0, np.int64)
+    else:
+        sel = keep[_nms_previous(b[keep], s[keep], nms_threshold, overlap)]
+    dets = np.c_[b[sel], s[sel]] if sel.size else np.zeros((0, 5))
+    return dets, sel.astype(np.int64)
 
 
 # ----------------------------------------------------------------------------- hand cases
@@ -126,6 +172,62 @@ def test_matches_plain_loop_on_random_boxes(overlap, threshold):
         fast = non_maximum_suppression(boxes, scores, threshold, overlap=overlap)
         slow = _nms_maxg_loop(boxes, scores, threshold, overlap)
         assert fast.tolist() == slow
+        assert fast.dtype == np.intp
+        np.testing.assert_array_equal(fast, _nms_previous(boxes, scores, threshold, overlap))
+
+
+def _window_like_boxes(rng, n):
+    # Non-integer boxes on a frame, sizes from a few window heights, many near-duplicates and
+    # rounded scores: overlaps close to every threshold, ties in score.
+    h = rng.choice([40.0, 48.5, 57.25, 96.0], size=n)
+    w = np.round(h * rng.uniform(0.35, 0.45, size=n), 2)
+    xy = np.round(rng.uniform(0, 160, size=(n, 2)), 1)
+    boxes = np.c_[xy, w, h]
+    boxes[n // 2:] = boxes[: n - n // 2]               # exact duplicates with other scores
+    scores = np.round(rng.normal(size=n), 1)
+    return boxes, scores
+
+
+@pytest.mark.parametrize("overlap", ["union", "min"])
+@pytest.mark.parametrize("threshold", [0.0, 0.2, 0.5, 0.65, 0.9, 1.0])
+def test_matches_previous_implementation_on_many_window_boxes(overlap, threshold):
+    rng = np.random.default_rng(1805 + int(threshold * 100) + 7 * (overlap == "min"))
+    for n in (0, 1, 2, 257, 1500):
+        boxes, scores = _window_like_boxes(rng, n)
+        fast = non_maximum_suppression(boxes, scores, threshold, overlap=overlap)
+        np.testing.assert_array_equal(fast, _nms_previous(boxes, scores, threshold, overlap))
+
+
+@pytest.mark.parametrize("overlap, nms_threshold", [("union", 0.5), ("min", 0.65),
+                                                     ("union", 0.0), ("min", 1.0)])
+@pytest.mark.parametrize("max_candidates", [1, 50, 2000])
+def test_detections_from_scores_match_previous_implementation(overlap, nms_threshold,
+                                                              max_candidates):
+    """Same detections, order and indices, also when ``max_candidates`` cuts through ties."""
+    rng = np.random.default_rng(18 + max_candidates + 3 * (overlap == "min"))
+    boxes, scores = _window_like_boxes(rng, 3000)
+    for threshold in (-1.0, 0.0, 0.95, 10.0):
+        kw = dict(threshold=threshold, nms_threshold=nms_threshold, overlap=overlap,
+                  max_candidates=max_candidates)
+        dets, idx = detections_from_scores(boxes, scores, return_index=True, **kw)
+        dets_ref, idx_ref = _detections_previous(boxes, scores, **kw)
+        np.testing.assert_array_equal(dets, dets_ref)
+        np.testing.assert_array_equal(idx, idx_ref)
+        assert idx.dtype == np.int64 and dets.shape == (len(idx), 5)
+
+
+def test_zero_and_one_candidates():
+    for overlap in ("union", "min"):
+        one = non_maximum_suppression([[3.0, 4.0, 10.0, 20.0]], [-2.0], 0.0, overlap=overlap)
+        assert one.tolist() == [0] and one.dtype == np.intp
+        assert non_maximum_suppression(np.zeros((0, 4)), [], overlap=overlap).tolist() == []
+    boxes = np.array([[0.0, 0.0, 10.0, 20.0], [1.0, 0.0, 10.0, 20.0]])
+    dets, idx = detections_from_scores(boxes, [0.2, 0.7], threshold=0.5, return_index=True)
+    assert idx.tolist() == [1] and dets.tolist() == [[1.0, 0.0, 10.0, 20.0, 0.7]]
+    dets, idx = detections_from_scores(boxes, [0.2, 0.7], threshold=0.9, return_index=True)
+    assert dets.shape == (0, 5) and idx.shape == (0,) and idx.dtype == np.int64
+    dets, idx = detections_from_scores(np.zeros((0, 4)), np.zeros(0), return_index=True)
+    assert dets.shape == (0, 5) and idx.shape == (0,)
 
 
 def test_kept_boxes_do_not_overlap_above_threshold_and_cover_the_rest():
@@ -189,8 +291,6 @@ def test_errors(boxes, scores, kwargs, match):
 
 
 def test_detections_from_scores_names_the_kept_boxes():
-    from viewadapt.nms import detections_from_scores
-
     rng = np.random.default_rng(3)
     boxes = np.c_[rng.uniform(0, 200, (300, 2)), np.full((300, 1), 20.0), np.full((300, 1), 48.0)]
     boxes[150:] = boxes[:150]                       # every box twice: equal boxes, other scores

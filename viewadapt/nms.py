@@ -6,9 +6,11 @@ box covers ``[x, x + w) x [y, y + h)`` and its area is ``w * h`` (no "+1" pixel 
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
-from .boxes import check_boxes, check_scores, safe_ratio
+from .boxes import check_boxes, check_scores
 
 __all__ = ["non_maximum_suppression", "detections_from_scores"]
 
@@ -64,8 +66,10 @@ def non_maximum_suppression(boxes, scores, iou_threshold=0.5, *, overlap="union"
     both survive. Boxes of zero area overlap nothing and are never suppressed (the toolbox
     skips pairs with a non-positive intersection width or height).
 
-    The loop runs over kept boxes only; each step computes the overlaps with all remaining
-    boxes at once, which gives the same result as the toolbox's double loop.
+    The loop is compiled (numba) and runs over kept boxes only; each step compares the kept
+    box with the boxes still alive and drops the ones it suppresses, which gives the same
+    result as the toolbox's double loop in (kept) x (alive) steps rather than :math:`N^2`.
+    numba is imported on the first call, not with :mod:`viewadapt`.
 
     References
     ----------
@@ -91,28 +95,74 @@ def non_maximum_suppression(boxes, scores, iou_threshold=0.5, *, overlap="union"
         raise ValueError(f"iou_threshold must lie in [0, 1], got {iou_threshold!r}")
 
     order = np.argsort(-scores, kind="stable")
-    # coordinates in visiting order, gathered once; each step compares the kept box with
-    # the boxes still alive (the same arithmetic as box_intersections / safe_ratio)
-    x1, y1 = boxes[order, 0], boxes[order, 1]
-    x2, y2 = x1 + boxes[order, 2], y1 + boxes[order, 3]
-    areas = boxes[order, 2] * boxes[order, 3]
-    alive = np.arange(order.size)
-    keep = []
-    while alive.size:
-        i = alive[0]
-        keep.append(order[i])
-        rest = alive[1:]
-        iw = np.minimum(x2[i], x2[rest]) - np.maximum(x1[i], x1[rest])
-        ih = np.minimum(y2[i], y2[rest]) - np.maximum(y1[i], y1[rest])
-        inter = np.clip(iw, 0.0, None) * np.clip(ih, 0.0, None)
-        if overlap == "union":
-            den = areas[i] + areas[rest] - inter
-        else:
-            den = np.minimum(areas[i], areas[rest])
-        ovr = safe_ratio(inter, den)
-        # bbNms: "if(o>overlap), kp(j)=0; end" -- strict comparison.
-        alive = rest[ovr <= thr]
-    return np.asarray(keep, dtype=np.intp)
+    keep = _maxg_kernel()(np.ascontiguousarray(boxes[order]), thr, overlap == "min")
+    return order[keep].astype(np.intp, copy=False)
+
+
+def _greedy_maxg(boxes, threshold, over_min):  # pragma: no cover - compiled by _maxg_kernel
+    """Positions of the rows of ``boxes`` (already in visiting order) that greedy NMS keeps.
+
+    The boxes still alive are kept compacted at the front of coordinate arrays: each kept box
+    is compared with them in one contiguous pass that also drops the ones it suppresses, so
+    the work is (kept boxes) x (boxes alive), as in the toolbox's double loop. The arithmetic
+    is that of :func:`viewadapt.boxes.box_intersections` and :func:`viewadapt.boxes.safe_ratio`
+    operation for operation (no fastmath), so the decisions are the same bit for bit.
+    """
+    n = boxes.shape[0]
+    x1 = np.empty(n)
+    y1 = np.empty(n)
+    x2 = np.empty(n)
+    y2 = np.empty(n)
+    area = np.empty(n)
+    pos = np.empty(n, np.intp)
+    for k in range(n):
+        x1[k] = boxes[k, 0]
+        y1[k] = boxes[k, 1]
+        x2[k] = boxes[k, 0] + boxes[k, 2]
+        y2[k] = boxes[k, 1] + boxes[k, 3]
+        area[k] = boxes[k, 2] * boxes[k, 3]
+        pos[k] = k
+    keep = np.empty(n, np.intp)
+    n_keep = 0
+    head = 0
+    alive = n
+    while head < alive:
+        i = head
+        keep[n_keep] = pos[i]
+        n_keep += 1
+        ax1, ay1, ax2, ay2, aa = x1[i], y1[i], x2[i], y2[i], area[i]
+        w = i + 1
+        for j in range(i + 1, alive):
+            iw = min(ax2, x2[j]) - max(ax1, x1[j])
+            ih = min(ay2, y2[j]) - max(ay1, y1[j])
+            inter = max(iw, 0.0) * max(ih, 0.0)
+            if over_min:
+                den = min(aa, area[j])
+            else:
+                den = aa + area[j] - inter
+            ovr = inter / den if den > 0 else 0.0
+            # bbNms: "if(o>overlap), kp(j)=0; end" -- strict comparison; the box stays
+            # alive when o <= overlap (written so, a NaN overlap drops it as numpy did)
+            if ovr <= threshold:
+                x1[w] = x1[j]
+                y1[w] = y1[j]
+                x2[w] = x2[j]
+                y2[w] = y2[j]
+                area[w] = area[j]
+                pos[w] = pos[j]
+                w += 1
+        head = i + 1
+        alive = w
+    return keep[:n_keep]
+
+
+@functools.cache
+def _maxg_kernel():
+    """:func:`_greedy_maxg` compiled (numba loads on the first suppression, not on import;
+    the machine code is cached on disk like :mod:`viewadapt._kernels`)."""
+    from numba import njit
+
+    return njit(cache=True, nogil=True, boundscheck=False)(_greedy_maxg)
 
 
 def detections_from_scores(boxes, scores, *, threshold: float = 0.0,

@@ -12,7 +12,10 @@ frames per second of all of them together (only for methods faster than ~1 s per
 The image-warping methods are timed on ``--warp-windows`` windows and extrapolated to all
 candidate windows (they cost the same per window). Ratios against the baselines, measured
 in the same run on the same machine, are the result; absolute fps depend on the machine.
-Not a test: nothing here asserts a time.
+The adapted detectors' stages (features, scoring, NMS) are also set against a
+memory-bandwidth floor measured in the same run: a plain copy (``np.copyto`` into a
+preallocated array) of as many bytes as the stage reads and writes at least once
+(:func:`stage_bytes`). Not a test: nothing here asserts a time.
 """
 
 from __future__ import annotations
@@ -26,7 +29,8 @@ import numpy as np
 from benchmark.frames import DEFAULT_FRAME_VIEW
 from viewadapt.detect import DEFAULT_CACHE_LIMIT_GB, DETECTOR_KINDS
 
-__all__ = ["timing_camera", "single_thread", "run_runtime", "format_table"]
+__all__ = ["timing_camera", "single_thread", "stage_bytes", "copy_floor_ms", "run_runtime",
+           "format_table"]
 
 
 def timing_camera(size=(384, 288)):
@@ -55,6 +59,55 @@ def _best(fn, repeat):
         fn()
         ts.append(time.perf_counter() - t)
     return float(np.median(ts)), float(np.min(ts))
+
+
+def stage_bytes(op, image, features, scores, n_candidates, n_detections):
+    """Bytes each stage of an adapted detector reads and writes at least once on one frame.
+
+    Parameters
+    ----------
+    op : MultiResolutionOperator
+        An adapted operator (HOG: linear templates; ACF: boosted trees).
+    image : (M, N, 3) uint8 ndarray
+        The frame.
+    features : list of FrameFeatures
+        ``op.frame_features(image)``.
+    scores : (W,) float64 ndarray
+        ``op.scores(features)``.
+    n_candidates, n_detections : int
+        Windows that reach non-maximum suppression, and the detections it keeps.
+
+    Returns
+    -------
+    dict stage -> int
+        ``features``: the frame read and the cell maps written (float32, every cell size,
+        padding included); ``scoring``: those cell maps read, the adapted weights read once
+        (HOG: the shared templates, float32; ACF: the trees' remapped feature rows, float32
+        weights and int32 offsets) and the scores written; ``nms``: the scores read, the
+        candidates' boxes and scores and the detections written (``(x, y, w, h, score)``
+        float64 rows).
+    """
+    maps = sum(m.nbytes for f in features for m in f.maps.values())
+    weights = 0
+    for layer in op.layers:
+        lop = layer.operator
+        if hasattr(lop, "run_tables"):             # boosted trees: the rows of G they reach
+            _, _, _, (_, _, offsets, w) = lop.run_tables()
+            weights += offsets.nbytes + w.nbytes
+        else:                                      # linear: the shared adapted templates
+            weights += sum(g.template.nbytes for g in lop.groups)
+    return {"features": int(image.nbytes + maps),
+            "scoring": int(maps + weights + scores.nbytes),
+            "nms": int(scores.nbytes + 40 * (n_candidates + n_detections))}
+
+
+def copy_floor_ms(nbytes, repeat=25):
+    """Median milliseconds of ``np.copyto`` of ``nbytes`` bytes into a preallocated array
+    (both arrays touched first): the memory-bandwidth floor of a stage moving those bytes."""
+    src = np.ones(max(1, int(nbytes)), np.uint8)
+    dst = np.zeros_like(src)
+    np.copyto(dst, src)
+    return 1e3 * _best(lambda: np.copyto(dst, src), repeat)[0]
 
 
 def _worker(cache_dir, cache_limit_gb, model_path, heights, method, frames, seconds):
@@ -157,11 +210,18 @@ def run_runtime(data, *, n_frames=3, warp_windows=1000, heights=(1.65, 1.85), jo
             boxes = op.boxes()
             tn = _best(lambda: detections_from_scores(
                 boxes, s, threshold=thr, overlap=op.nms_overlap,
-                nms_threshold=op.nms_threshold), R)[0]
+                nms_threshold=op.nms_threshold), max(R, 25))[0]
             tt = _best(lambda: [det.detect(f"{kind}_adapted", f) for f in frames], 2)[0] \
                 / len(frames)
+            n_dets = len(detections_from_scores(boxes, s, threshold=thr, overlap=op.nms_overlap,
+                                                nms_threshold=op.nms_threshold))
+            nbytes = stage_bytes(op, frames[0], feats[0], s,  # NMS sees <= 2000 candidates
+                                 min(int((s > thr).sum()), 2000), n_dets)
+            stages = [dict(stage=name, ms=1e3 * t, bytes=nbytes[name],
+                           floor_ms=copy_floor_ms(nbytes[name], max(R, 25)))
+                      for name, t in (("features", tf), ("scoring", ts), ("nms", tn))]
             return dict(features_ms=1e3 * tf, scoring_ms=1e3 * ts, nms_ms=1e3 * tn,
-                        total_s=tt)
+                        total_s=tt, stages=stages)
 
         # the operators' scoring loops against other forms of the same operator
         # (benchmark.perf.scoring_forms)
@@ -185,8 +245,9 @@ def run_runtime(data, *, n_frames=3, warp_windows=1000, heights=(1.65, 1.85), jo
             r = adapted(op, kind)
             rows.append(dict(method=f"{kind}_adapted", seconds_per_frame=r["total_s"],
                              windows=n_win, feature_pixels=op.feature_pixels(),
-                             how="measured", detail=f"features {r['features_ms']:.1f} ms, "
-                             f"scoring {r['scoring_ms']:.1f} ms, NMS {r['nms_ms']:.1f} ms"))
+                             how="measured", stages=r["stages"],
+                             detail=f"features {r['features_ms']:.1f} ms, "
+                             f"scoring {r['scoring_ms']:.1f} ms, NMS {r['nms_ms']:.2f} ms"))
         k = min(warp_windows, n_win)
         idx = np.linspace(0, n_win - 1, k).astype(int)
         for kind in DETECTOR_KINDS:
@@ -282,6 +343,19 @@ def format_table(rows, info) -> str:
         win = f"{row['windows']}" if row["windows"] else "-"
         out.append(f"| {row['method']} | {row['fps_1core']:.3g} | {allc} | {paper} | {win} | "
                    f"{row['feature_pixels']:.3g} | {row['how']}; {row['detail']} |")
+    out += ["", "## Stages against a memory-bandwidth floor (one core, one frame)", "",
+            "Floor: a plain copy (np.copyto, preallocated) of as many bytes as the stage "
+            "reads and writes at least once, timed in this run -- features: the frame in, the "
+            "cell maps out; scoring: the cell maps and the adapted weights in, the scores out; "
+            "NMS: the scores in, candidates and detections. Fraction = floor / stage (1 = at "
+            "the floor).", "",
+            "| method | stage | ms | MB read + written | floor ms | fraction of floor |",
+            "|---|---|---|---|---|---|"]
+    for row in rows:
+        for st in row.get("stages", ()):
+            out.append(f"| {row['method']} | {st['stage']} | {st['ms']:.2f} | "
+                       f"{st['bytes'] / 1e6:.3g} | {st['floor_ms']:.3f} | "
+                       f"{st['floor_ms'] / st['ms']:.3f} |")
     out += ["", "## Scoring, forms of the same operator (one core, same scores)", "",
             "| detector | form | ms per frame |", "|---|---|---|"]
     for kind in DETECTOR_KINDS:
