@@ -17,15 +17,13 @@ from benchmark.pyramids import (
     ACF_PYRAMID_LAMBDAS, acf_fast_pyramid_levels, acf_pyramid_fast_detect, acf_pyramid_levels,
     dense_cascade_scores, dense_cascade_scores_reference,
 )
-from benchmark.toyframes import make_toy_frame_dataset
 from viewadapt.detect import ACF_GRADIENT_LAMBDA, ACF_SHRINK, acf_frame_features
+from tests.toy_frames import small_toy_frames
 
 
 @pytest.fixture(scope="module")
 def toy(tmp_path_factory):
-    return make_toy_frame_dataset(tmp_path_factory.mktemp("tf") / "data", n_persons=9,
-                                  n_scenes=3, n_backgrounds=2, n_frame_scenes=1,
-                                  frames_per_scene=2, frame_size=(192, 144), seed=2)
+    return small_toy_frames(tmp_path_factory.mktemp("tf") / "data")
 
 
 @pytest.fixture(scope="module")

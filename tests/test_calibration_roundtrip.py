@@ -22,11 +22,11 @@ from benchmark.calibration_roundtrip import (
 )
 from benchmark.data import load_dataset
 from benchmark.frames import evaluate_method, load_frames, train_source_detectors
-from benchmark.toyframes import make_toy_frame_dataset
 from viewadapt.cli import main as viewadapt_main
 from viewadapt.detect import read_calibration
 from viewadapt.detect.calibrate_command import read_correspondences
 from viewadapt.geometry import Camera, camera_from_pose
+from tests.toy_frames import small_toy_frames
 
 OUTPUTS = ("calibration_roundtrip.csv", "calibration_summary.csv", "calibration_detector.csv",
            "calibration_lamr.csv", "calibration_roundtrip.md", "run.json")
@@ -35,9 +35,7 @@ OUTPUTS = ("calibration_roundtrip.csv", "calibration_summary.csv", "calibration_
 @pytest.fixture(scope="module")
 def toy(tmp_path_factory):
     """The frames of tests/test_fullframe_bench.py's toy set: one camera, two frames."""
-    return make_toy_frame_dataset(tmp_path_factory.mktemp("tf") / "data", n_persons=9,
-                                  n_scenes=3, n_backgrounds=2, n_frame_scenes=1,
-                                  frames_per_scene=2, frame_size=(192, 144), seed=2)
+    return small_toy_frames(tmp_path_factory.mktemp("tf") / "data")
 
 
 @pytest.fixture(scope="module")

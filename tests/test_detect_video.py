@@ -14,15 +14,15 @@ import pytest
 
 from benchmark.data import load_dataset
 from benchmark.frames import load_frames, train_source_detectors
-from benchmark.toyframes import make_toy_frame_dataset
 from viewadapt.cli import main
 from viewadapt.detect import (
     DetectorSpec, SourceDetectors, detect_on_ground, detect_stream, distort_image,
     natural_sort_key, open_frames, read_calibration, shipped_model_path,
 )
+from tests.toy_frames import TOY_FRAME_SIZE, small_toy_frames
 
 N_FRAMES = 6
-SIZE = (192, 144)
+SIZE = TOY_FRAME_SIZE
 #: strong barrel distortion: a corner moves by about a quarter of its radius
 DIST = [-0.35, 0.0, 0.0, 0.0, 0.0]
 OUTPUTS = ("detections.csv", "detections_coco.json", "det.txt")
@@ -70,9 +70,7 @@ def _best_iou(ref, other):
 def toy(tmp_path_factory):
     """Six frames of one toy camera as PNGs, an mp4, their calibration and a model."""
     root = tmp_path_factory.mktemp("footage")
-    data = make_toy_frame_dataset(root / "data", n_persons=9, n_scenes=3, n_backgrounds=2,
-                                  n_frame_scenes=1, frames_per_scene=N_FRAMES,
-                                  frame_size=SIZE, seed=2)
+    data = small_toy_frames(root / "data", frames_per_scene=N_FRAMES)
     frames = load_frames(data)
     assert len(frames) == N_FRAMES and len({f.path.parent for f in frames}) == 1
     train_source_detectors(load_dataset(data), quick=True, frame_view="none").save(

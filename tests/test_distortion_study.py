@@ -19,18 +19,16 @@ from benchmark.distortion_study import (
     parse_distortion, resample_half_pixel, run_distortion_study, valid_region,
 )
 from benchmark.frames import load_frames, train_source_detectors
-from benchmark.toyframes import make_toy_frame_dataset
+from tests.toy_frames import TOY_FRAME_SIZE, small_toy_frames
 
-SIZE = (192, 144)
+SIZE = TOY_FRAME_SIZE
 K = np.array([[150.0, 0.0, 95.5], [0.0, 150.0, 71.5], [0.0, 0.0, 1.0]])
 MODERATE = np.array(DEFAULT_DISTORTIONS[0])
 
 
 @pytest.fixture(scope="module")
 def toy(tmp_path_factory):
-    return make_toy_frame_dataset(tmp_path_factory.mktemp("tf") / "data", n_persons=9,
-                                  n_scenes=3, n_backgrounds=2, n_frame_scenes=1,
-                                  frames_per_scene=2, frame_size=SIZE, seed=2)
+    return small_toy_frames(tmp_path_factory.mktemp("tf") / "data")
 
 
 @pytest.fixture(scope="module")

@@ -12,9 +12,9 @@ from benchmark.frames_vs_crops import (
     ELEVATION_EDGES, FPPW_LEVELS, crop_tables, label_windows, main, person_elevations,
 )
 from benchmark.data import load_dataset
-from benchmark.toyframes import make_toy_frame_dataset
 from viewadapt.detect import FrameDetector, ground_truth_rows
 from viewadapt.geometry import camera_from_pose
+from tests.toy_frames import small_toy_frames
 
 
 def test_person_elevation_is_the_angle_to_mid_height():
@@ -56,9 +56,7 @@ def test_crop_tables_need_the_rules_rows():
 
 @pytest.fixture(scope="module")
 def toy(tmp_path_factory):
-    return make_toy_frame_dataset(tmp_path_factory.mktemp("fvc") / "data", n_persons=9,
-                                  n_scenes=3, n_backgrounds=2, n_frame_scenes=1,
-                                  frames_per_scene=2, frame_size=(192, 144), seed=2)
+    return small_toy_frames(tmp_path_factory.mktemp("fvc") / "data")
 
 
 def test_study_end_to_end(toy, tmp_path):

@@ -9,9 +9,9 @@ import pytest
 
 from benchmark.frames import FrameRecord, evaluate_method, load_frames
 from viewadapt.detect import read_calibration, standardize_boxes
-from benchmark.toyframes import make_toy_frame_dataset
 from viewadapt.geometry import camera_from_pose
 from viewadapt.metrics import log_average_miss_rate
+from tests.toy_frames import small_toy_frames
 
 
 def _main(argv):
@@ -41,9 +41,7 @@ def _calibration_file(cam, path):
 
 @pytest.fixture(scope="module")
 def toy(tmp_path_factory):
-    return make_toy_frame_dataset(tmp_path_factory.mktemp("tf") / "data", n_persons=9,
-                                  n_scenes=3, n_backgrounds=2, n_frame_scenes=1,
-                                  frames_per_scene=2, frame_size=(192, 144), seed=2)
+    return small_toy_frames(tmp_path_factory.mktemp("tf") / "data")
 
 
 @pytest.fixture(scope="module")

@@ -7,13 +7,11 @@ import pytest
 from benchmark.data import load_dataset
 from benchmark.frames import train_source_detectors
 from benchmark.perf.footage import format_table, main, run_footage_benchmark
-from benchmark.toyframes import make_toy_frame_dataset
+from tests.toy_frames import small_toy_frames
 
 
 def test_footage_benchmark_times_every_path(tmp_path):
-    data = make_toy_frame_dataset(tmp_path / "data", n_persons=9, n_scenes=3,
-                                  n_backgrounds=2, n_frame_scenes=1, frames_per_scene=2,
-                                  frame_size=(192, 144), seed=2)
+    data = small_toy_frames(tmp_path / "data")
     model = train_source_detectors(load_dataset(data), quick=True, frame_view="none").save(
         tmp_path / "model.npz")
     res = run_footage_benchmark(data, n_frames=4, model=model, workdir=tmp_path / "w")
