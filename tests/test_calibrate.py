@@ -312,6 +312,18 @@ def test_cli_height_check_warns_in_one_line(tmp_path, capsys):
     assert stderr.startswith("warning: the recovered height 4.500 m") and "+12.5 %" in stderr
 
 
+def test_cli_warns_about_points_outside_the_image(tmp_path, capsys):
+    uv, XY = _ground_points(_camera(**CAMERAS["lobby"]))
+    pts = _write_csv(tmp_path / "pts.csv", uv, XY)
+    base = ["calibrate", str(pts), "--overwrite", "--out", str(tmp_path / "cam.yaml")]
+    rc, _, stderr = _run(base + ["--image-size", "384,288"], capsys)
+    assert rc == 0 and stderr == ""
+    # the image size of another camera: some points fall outside it
+    rc, _, stderr = _run(base + ["--image-size", "192,144"], capsys)
+    assert stderr.count("\n") == 1 and stderr.startswith("warning: ")
+    assert "outside the 192x144 image" in stderr
+
+
 def _bad_cli_cases(tmp_path):
     """name -> (CSV text or None for a good one, extra argv, message pattern)."""
     uv, XY = _ground_points(_camera(**CAMERAS["lobby"]))

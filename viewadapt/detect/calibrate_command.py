@@ -156,6 +156,13 @@ def cmd_calibrate(args) -> int:
         if height <= 0:
             raise ValueError(f"--height must be positive metres, got {args.height!r}")
     uv, XY = read_correspondences(args.points)
+    outside = ((uv[:, 0] < -0.5) | (uv[:, 0] > w - 0.5) | (uv[:, 1] < -0.5)
+               | (uv[:, 1] > h - 0.5))
+    if outside.any():
+        print(f"warning: {int(outside.sum())} of {len(uv)} image points lie outside the "
+              f"{int(w)}x{int(h)} image (first: u={uv[outside][0, 0]:g}, "
+              f"v={uv[outside][0, 1]:g}): check --image-size and the u, v columns",
+              file=sys.stderr)
     try:
         result = calibrate_from_ground_points(uv, XY, (int(w), int(h)), focal=focal,
                                               principal_point=pp, dist=dist)
