@@ -32,7 +32,7 @@ from ..geometry import WINDOW_HEIGHT, WINDOW_WIDTH
 __all__ = [
     "HOG_CELL", "N_HOG_BINS", "HOG_CHANNELS", "HOG_WEIGHT_SHAPE", "HOG_CLIP",
     "ACF_SHRINK", "N_ACF_CHANNELS", "N_ACF_ORIENTS", "ACF_WEIGHT_SHAPE", "ACF_GRADIENT_LAMBDA",
-    "fast_orientation_channels", "fast_acf_pixel_channels",
+    "fast_orientation_channels", "fast_acf_pixel_channels", "acf_channel_cell_maps",
     "FrameFeatures", "check_frame",
     "cell_sums", "orientation_cell_maps", "channel_slices3", "correlate_slices",
     "block_normalize_cells",
@@ -134,6 +134,23 @@ def fast_orientation_channels(image, *, n_bins: int = 9, gamma: bool = False) ->
     return out.reshape(mag.shape + (n_bins,))
 
 
+def _smoothed_luv(image) -> np.ndarray:
+    """The toolbox LUV of an (M, N[, 3]) image smoothed by ``convTri(., 1)``: (M, N, 3)
+    float32 (a grey image as three equal RGB channels)."""
+    import cv2
+
+    from .._acf_kernels import rgb_to_luv_rows
+
+    img = check_image(image, dtype=np.float32) * np.float32(1 / 255)
+    if img.ndim == 2:
+        img = cv2.merge([img, img, img])
+    luv = np.empty(img.shape[:2] + (3,), np.float32)
+    xyz, *scalars = LUV_CONSTANTS
+    rgb_to_luv_rows(img, xyz.astype(np.float32), *map(np.float32, scalars), luv)
+    tri1 = triangle_kernel(1).astype(np.float32)
+    return cv2.sepFilter2D(luv, -1, tri1, tri1, borderType=cv2.BORDER_REFLECT)
+
+
 def fast_acf_pixel_channels(image) -> np.ndarray:
     """:func:`viewadapt.acf.acf_pixel_channels` (default parameters) in float32 with OpenCV.
 
@@ -153,18 +170,10 @@ def fast_acf_pixel_channels(image) -> np.ndarray:
     """
     import cv2
 
-    from .._kernels import acf_channels_out, rgb_to_luv
+    from .._kernels import acf_channels_out
 
-    img = check_image(image, dtype=np.float32) * np.float32(1 / 255)
-    if img.ndim == 2:
-        img = cv2.merge([img, img, img])
-    M, N = img.shape[:2]
-    f32 = np.float32
-    luv = np.empty((M, N, 3), np.float32)
-    xyz, *scalars = LUV_CONSTANTS
-    rgb_to_luv(img, xyz.astype(np.float32), *(f32(v) for v in scalars), luv)
-    tri1 = triangle_kernel(1).astype(np.float32)
-    luv = cv2.sepFilter2D(luv, -1, tri1, tri1, borderType=cv2.BORDER_REFLECT)
+    luv = _smoothed_luv(image)
+    M, N = luv.shape[:2]
     # toolbox grad1: central differences / 2 inside, one-sided at the ends
     k = np.array([[-0.5, 0.0, 0.5]], np.float32)
     gx = cv2.filter2D(luv, -1, k, borderType=cv2.BORDER_REPLICATE)
@@ -323,6 +332,52 @@ def orientation_cell_maps(image, cell_sizes, *, n_bins: int = N_HOG_BINS) -> dic
     flat = np.zeros(int(counts.sum()), np.float32)
     hog_gradient_cell_sums(img, n_bins, np.array(direct, np.int64), offsets, n_x, n_y, flat)
     pixel_sums = {c: flat[o:o + k].reshape(ny, nx, n_bins)
+                  for c, o, k, ny, nx in zip(direct, offsets, counts, n_y, n_x)}
+    return _multi_cell_sums((M, N), sizes, pixel_sums.__getitem__)
+
+
+def acf_channel_cell_maps(image, cell_sizes) -> dict:
+    """The ten ACF pixel channels summed over ``c x c`` cells, for each ``c``.
+
+    The cell sums of :func:`fast_acf_pixel_channels` (kept as the reference) up to float32
+    rounding of the sums -- magnitudes and bins are the same numbers -- without its
+    ten-channel pixel array: one compiled pass for the strongest gradient's magnitude and
+    bin, ``convTri(M, 5)``, one that normalises and sums into the cells of each size not a
+    multiple of a smaller one (:mod:`viewadapt._acf_kernels`); the others are summed from
+    those. Remainder rows and columns are dropped.
+
+    Parameters
+    ----------
+    image : (M, N[, 3]) ndarray, uint8 or float in [0, 1] RGB
+    cell_sizes : iterable of int
+
+    Returns
+    -------
+    dict int -> (M // c, N // c, 10) float32 ndarray
+    """
+    import cv2
+
+    from .._acf_kernels import acf_channel_cell_sums, acf_gradient_bins
+
+    sizes = sorted(set(int(c) for c in cell_sizes))
+    if sizes and sizes[0] < 1:
+        raise ValueError(f"cell sizes must be positive integers, got {sizes[0]}")
+    luv = _smoothed_luv(image)
+    M, N = luv.shape[:2]
+    mag, bins = np.empty((M, N), np.float32), np.empty((M, N), np.int8)
+    acf_gradient_bins(luv, N_ACF_ORIENTS, mag, bins)
+    tri5 = triangle_kernel(5).astype(np.float32)
+    mag_smooth = cv2.sepFilter2D(mag, -1, tri5, tri5, borderType=cv2.BORDER_REFLECT)
+    C = 4 + N_ACF_ORIENTS
+    direct = [c for c in sizes if not any(b > 1 and c % b == 0 for b in sizes if b < c)]
+    n_y = np.array([M // c for c in direct], np.int64)
+    n_x = np.array([N // c for c in direct], np.int64)
+    counts = n_y * n_x * C
+    offsets = np.concatenate([[0], np.cumsum(counts)[:-1]]).astype(np.int64)
+    flat = np.zeros(int(counts.sum()), np.float32)
+    acf_channel_cell_sums(luv, mag, mag_smooth, np.float32(0.005), bins, N_ACF_ORIENTS,
+                          np.array(direct, np.int64), offsets, n_x, n_y, flat)
+    pixel_sums = {c: flat[o:o + k].reshape(ny, nx, C)
                   for c, o, k, ny, nx in zip(direct, offsets, counts, n_y, n_x)}
     return _multi_cell_sums((M, N), sizes, pixel_sums.__getitem__)
 
@@ -495,7 +550,8 @@ def acf_frame_features(image, cell_sizes, *, pad: int = 2, smooth_channels: floa
 
     ``x_c = convTri(block_mean_c(P), smooth_channels)`` with ``P`` the ten full-resolution
     channels of :func:`viewadapt.acf.acf_pixel_channels` (``kwargs`` go there) -- the ACF
-    channels the toolbox would compute with ``shrink = c``.
+    channels the toolbox would compute with ``shrink = c``; without ``kwargs`` the cell
+    sums come from :func:`acf_channel_cell_maps` (float32).
 
     Returns
     -------
@@ -505,23 +561,36 @@ def acf_frame_features(image, cell_sizes, *, pad: int = 2, smooth_channels: floa
     import cv2
 
     img = check_frame(image, image_size)
+    M, N = img.shape[:2]
     if kwargs:
         P = acf_pixel_channels(img, shrink=1, **kwargs).astype(np.float32)   # (10, M, N)
         P = np.ascontiguousarray(np.moveaxis(P, 0, -1))
+        cells = _multi_cell_sums(P.shape, cell_sizes, lambda c: cell_sums(P, c))
     else:
-        P = fast_acf_pixel_channels(img)
-    M, N = P.shape[:2]
+        cells = acf_channel_cell_maps(img, cell_sizes)
     tri = triangle_kernel(smooth_channels)
-    maps = {}
-    for c, A in _multi_cell_sums(P.shape, cell_sizes, lambda c: cell_sums(P, c)).items():
-        A = A * np.float32(1.0 / (c * c))
-        if tri is not None:
-            if min(A.shape[:2]) > 1:
-                A = cv2.sepFilter2D(A, -1, tri.astype(np.float32), tri.astype(np.float32),
-                                    borderType=cv2.BORDER_REFLECT)
-            else:
-                A = np.moveaxis(convolve_triangle(np.moveaxis(A, -1, 0), smooth_channels),
-                                0, -1)
-        maps[c] = _pad(A.astype(np.float32), pad)
-    return FrameFeatures(maps, pad, (N, M))
+    # all maps in one zero-padded buffer, in the order of the cell sizes given: the
+    # operator's feature vector without a copy (FrameFeatures.vector)
+    order = tuple(dict.fromkeys(int(c) for c in cell_sizes))
+    shapes = [(M // c + 2 * pad, N // c + 2 * pad, N_ACF_CHANNELS) for c in order]
+    flat = np.zeros(sum(int(np.prod(sh)) for sh in shapes), np.float32)
+    maps, off = {}, 0
+    for c, sh in zip(order, shapes):
+        F = flat[off:off + int(np.prod(sh))].reshape(sh)
+        off += F.size
+        A = cells[c]
+        ny, nx = A.shape[:2]
+        area = np.float32(1.0 / (c * c))
+        if tri is not None and min(ny, nx) > 1:
+            # the block mean's 1 / c^2 folded into the vertical kernel
+            t = tri.astype(np.float32)
+            A = cv2.sepFilter2D(A, -1, t, t * area, borderType=cv2.BORDER_REFLECT)
+        elif tri is not None:
+            A = np.moveaxis(convolve_triangle(np.moveaxis(A * area, -1, 0), smooth_channels),
+                            0, -1)
+        else:
+            A = A * area
+        F[pad:pad + ny, pad:pad + nx] = A
+        maps[c] = F
+    return FrameFeatures(maps, pad, (N, M), _flat=(order, flat))
 

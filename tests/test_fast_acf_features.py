@@ -1,0 +1,117 @@
+"""The fused ACF cell sums (:func:`viewadapt.detect.channels.acf_channel_cell_maps`) and
+:func:`viewadapt.detect.channels.acf_frame_features` against the unfused OpenCV path they
+replaced: the per-pixel channels of
+:func:`viewadapt.detect.channels.fast_acf_pixel_channels` summed by
+:func:`viewadapt.detect.channels.cell_sums`, on deterministic random images."""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose
+
+from viewadapt.acf import triangle_kernel
+from viewadapt.detect.channels import (
+    N_ACF_CHANNELS, acf_channel_cell_maps, acf_frame_features, cell_sums,
+    fast_acf_pixel_channels,
+)
+
+#: float32 tolerances: magnitudes and orientation bins are the same float32 numbers on both
+#: paths, only the order of the cell sums differs (a few float32 ulps of each sum)
+SUM_RTOL, SUM_ATOL_PER_MAX = 1e-5, 1e-6
+
+
+def reference_cell_maps(image, cell_sizes):
+    """Cell sums of the per-pixel channels (the path before the fused pass)."""
+    P = fast_acf_pixel_channels(image)
+    return {c: cell_sums(P, c) for c in cell_sizes}
+
+
+def reference_frame_maps(image, cell_sizes, pad=2):
+    """:func:`acf_frame_features`' maps as computed before the fused pass."""
+    P = fast_acf_pixel_channels(image)
+    tri = triangle_kernel(1).astype(np.float32)
+    out = {}
+    for c in cell_sizes:
+        A = cell_sums(P, c) * np.float32(1.0 / (c * c))
+        if min(A.shape[:2]) > 1:
+            A = cv2.sepFilter2D(A, -1, tri, tri, borderType=cv2.BORDER_REFLECT)
+        F = np.zeros((A.shape[0] + 2 * pad, A.shape[1] + 2 * pad, A.shape[2]), np.float32)
+        F[pad:pad + A.shape[0], pad:pad + A.shape[1]] = A
+        out[c] = F
+    return out
+
+
+def random_image(shape, seed, dtype=np.uint8):
+    rng = np.random.default_rng(seed)
+    img = rng.integers(0, 256, size=shape).astype(np.uint8)
+    if dtype == np.uint8:
+        return img
+    return (img / 255.0).astype(dtype)
+
+
+SHAPES = [(37, 53), (37, 53, 3), (64, 48, 3), (128, 64, 3), (97, 131), (5, 7, 3), (1, 9, 3),
+          (9, 1), (2, 2, 3)]
+
+
+@pytest.mark.parametrize("dtype", [np.uint8, np.float32, np.float64])
+@pytest.mark.parametrize("shape", SHAPES)
+def test_fused_cell_sums_match_pixel_channels_summed(shape, dtype):
+    img = random_image(shape, seed=sum(shape), dtype=dtype)
+    sizes = [1, 2, 3, 4, 6]
+    got = acf_channel_cell_maps(img, sizes)
+    ref = reference_cell_maps(img, sizes)
+    assert sorted(got) == sizes
+    for c in sizes:
+        assert got[c].dtype == np.float32
+        assert got[c].shape == (shape[0] // c, shape[1] // c, N_ACF_CHANNELS)
+        atol = SUM_ATOL_PER_MAX * max(float(np.abs(ref[c]).max(initial=0.0)), 1.0)
+        assert_allclose(got[c], ref[c], rtol=SUM_RTOL, atol=atol, err_msg=f"cell {c}")
+
+
+def test_single_pixel_cells_are_the_pixel_channels_exactly():
+    img = random_image((23, 31, 3), seed=3)
+    np.testing.assert_array_equal(acf_channel_cell_maps(img, [1])[1],
+                                  fast_acf_pixel_channels(img))
+
+
+@pytest.mark.parametrize("shape", [(288, 384, 3), (96, 200), (41, 67, 3)])
+def test_frame_features_match_the_unfused_path(shape):
+    img = random_image(shape, seed=7)
+    sizes = [2, 3, 4]
+    feats = acf_frame_features(img, sizes)
+    ref = reference_frame_maps(img, sizes)
+    for c in sizes:
+        assert_allclose(feats.maps[c], ref[c], rtol=SUM_RTOL, atol=1e-6, err_msg=f"cell {c}")
+
+
+def test_smooth_image_frame_features_match():
+    # a smooth gradient image: many pixels with small, similar gradients in all channels
+    y, x = np.mgrid[0:120, 0:160]
+    img = np.stack([x * 1.5, y * 2.0, (x + y) * 0.7], axis=-1).clip(0, 255).astype(np.uint8)
+    feats = acf_frame_features(img, [2, 4])
+    ref = reference_frame_maps(img, [2, 4])
+    for c in (2, 4):
+        assert_allclose(feats.maps[c], ref[c], rtol=SUM_RTOL, atol=1e-6)
+
+
+def test_invalid_cell_size_raises():
+    with pytest.raises(ValueError, match="positive integers"):
+        acf_channel_cell_maps(random_image((8, 8, 3), seed=1), [0, 2])
+
+
+@pytest.mark.parametrize("shape", [(37, 53, 3), (1, 9, 3), (64, 48, 3)])
+def test_row_wise_luv_is_the_per_pixel_kernel_exactly(shape):
+    from viewadapt._acf_kernels import rgb_to_luv_rows
+    from viewadapt._kernels import rgb_to_luv
+    from viewadapt.acf import LUV_CONSTANTS
+
+    img = random_image(shape, seed=5, dtype=np.float32)
+    img[0, 0] = 0.0                                   # black: the 1e-35 floor
+    xyz, *scalars = LUV_CONSTANTS
+    args = (img, xyz.astype(np.float32), *(np.float32(v) for v in scalars))
+    a, b = np.empty_like(img), np.empty_like(img)
+    rgb_to_luv(*args, a)
+    rgb_to_luv_rows(*args, b)
+    np.testing.assert_array_equal(a, b)
