@@ -504,6 +504,22 @@ def _hog_eps(c: int) -> float:
     return float(c * c) * _EPS_PER_PX
 
 
+def _padded_maps(cell_sizes, frame_shape, pad: int, channels: int):
+    """One zero-padded float32 buffer holding a ``(M // c + 2 pad, N // c + 2 pad,
+    channels)`` map per distinct cell size ``c``, in the order given: the operator's feature
+    vector without a copy (``FrameFeatures.vector``). Returns ``(order, flat, maps)`` with
+    ``maps[c]`` views into ``flat``."""
+    M, N = frame_shape
+    order = tuple(dict.fromkeys(int(c) for c in cell_sizes))
+    shapes = [(M // c + 2 * pad, N // c + 2 * pad, channels) for c in order]
+    flat = np.zeros(sum(int(np.prod(sh)) for sh in shapes), np.float32)
+    maps, off = {}, 0
+    for c, sh in zip(order, shapes):
+        maps[c] = flat[off:off + int(np.prod(sh))].reshape(sh)
+        off += maps[c].size
+    return order, flat, maps
+
+
 def hog_frame_features(image, cell_sizes, *, pad: int = 2, image_size=None) -> FrameFeatures:
     """Normalised HOG cell maps of a frame at several cell sizes, native resolution.
 
@@ -527,20 +543,12 @@ def hog_frame_features(image, cell_sizes, *, pad: int = 2, image_size=None) -> F
     """
     img = check_frame(image, image_size)
     M, N = img.shape[:2]
-    # all maps in one zero-padded buffer, in the order of the cell sizes given: the
-    # operator's feature vector without a copy (FrameFeatures.vector)
-    order = tuple(dict.fromkeys(int(c) for c in cell_sizes))
+    order, flat, maps = _padded_maps(cell_sizes, (M, N), pad, HOG_CHANNELS)
     cells = orientation_cell_maps(img, order)
-    shapes = [(M // c + 2 * pad, N // c + 2 * pad, HOG_CHANNELS) for c in order]
-    flat = np.zeros(sum(int(np.prod(sh)) for sh in shapes), np.float32)
-    maps, off = {}, 0
-    for c, sh in zip(order, shapes):
-        F = flat[off:off + int(np.prod(sh))].reshape(sh)
-        off += F.size
+    for c, F in maps.items():
         X = cells[c]
         ny, nx = X.shape[:2]
         block_normalize_cells(X, eps=_hog_eps(c), out=F[pad:pad + ny, pad:pad + nx])
-        maps[c] = F
     return FrameFeatures(maps, pad, (N, M), _flat=(order, flat))
 
 
@@ -569,15 +577,8 @@ def acf_frame_features(image, cell_sizes, *, pad: int = 2, smooth_channels: floa
     else:
         cells = acf_channel_cell_maps(img, cell_sizes)
     tri = triangle_kernel(smooth_channels)
-    # all maps in one zero-padded buffer, in the order of the cell sizes given: the
-    # operator's feature vector without a copy (FrameFeatures.vector)
-    order = tuple(dict.fromkeys(int(c) for c in cell_sizes))
-    shapes = [(M // c + 2 * pad, N // c + 2 * pad, N_ACF_CHANNELS) for c in order]
-    flat = np.zeros(sum(int(np.prod(sh)) for sh in shapes), np.float32)
-    maps, off = {}, 0
-    for c, sh in zip(order, shapes):
-        F = flat[off:off + int(np.prod(sh))].reshape(sh)
-        off += F.size
+    order, flat, maps = _padded_maps(cell_sizes, (M, N), pad, N_ACF_CHANNELS)
+    for c, F in maps.items():
         A = cells[c]
         ny, nx = A.shape[:2]
         area = np.float32(1.0 / (c * c))
@@ -591,6 +592,5 @@ def acf_frame_features(image, cell_sizes, *, pad: int = 2, smooth_channels: floa
         else:
             A = A * area
         F[pad:pad + ny, pad:pad + nx] = A
-        maps[c] = F
     return FrameFeatures(maps, pad, (N, M), _flat=(order, flat))
 
