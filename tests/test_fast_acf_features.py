@@ -16,6 +16,7 @@ from viewadapt.detect.channels import (
     N_ACF_CHANNELS, acf_channel_cell_maps, acf_frame_features, cell_sums,
     fast_acf_pixel_channels,
 )
+from tests.images import SHAPES, random_image
 
 #: float32 tolerances: magnitudes and orientation bins are the same float32 numbers on both
 #: paths, only the order of the cell sums differs (a few float32 ulps of each sum)
@@ -41,18 +42,6 @@ def reference_frame_maps(image, cell_sizes, pad=2):
         F[pad:pad + A.shape[0], pad:pad + A.shape[1]] = A
         out[c] = F
     return out
-
-
-def random_image(shape, seed, dtype=np.uint8):
-    rng = np.random.default_rng(seed)
-    img = rng.integers(0, 256, size=shape).astype(np.uint8)
-    if dtype == np.uint8:
-        return img
-    return (img / 255.0).astype(dtype)
-
-
-SHAPES = [(37, 53), (37, 53, 3), (64, 48, 3), (128, 64, 3), (97, 131), (5, 7, 3), (1, 9, 3),
-          (9, 1), (2, 2, 3)]
 
 
 @pytest.mark.parametrize("dtype", [np.uint8, np.float32, np.float64])

@@ -13,6 +13,7 @@ from viewadapt.detect.channels import (
     HOG_CHANNELS, N_HOG_BINS, block_normalize_cells, cell_sums, fast_orientation_channels,
     hog_frame_features, orientation_cell_maps,
 )
+from tests.images import SHAPES, random_image
 
 #: float32 tolerances: a pixel's bin position ``t`` in [0, 2 n_bins) is rounded to about
 #: ``2 n_bins eps ~ 2e-6``, which moves up to that fraction of its magnitude between bins,
@@ -26,18 +27,6 @@ def reference_cell_maps(image, cell_sizes):
     """Cell sums of the per-pixel oriented magnitudes (the path before the fused pass)."""
     P = fast_orientation_channels(image)
     return {c: cell_sums(P, c) for c in cell_sizes}
-
-
-def random_image(shape, seed, dtype=np.uint8):
-    rng = np.random.default_rng(seed)
-    img = rng.integers(0, 256, size=shape).astype(np.uint8)
-    if dtype == np.uint8:
-        return img
-    return (img / 255.0).astype(dtype)
-
-
-SHAPES = [(37, 53), (37, 53, 3), (64, 48, 3), (128, 64, 3), (97, 131), (5, 7, 3), (1, 9, 3),
-          (9, 1), (2, 2, 3)]
 
 
 @pytest.mark.parametrize("shape", SHAPES)

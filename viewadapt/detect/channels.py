@@ -324,16 +324,26 @@ def orientation_cell_maps(image, cell_sizes, *, n_bins: int = N_HOG_BINS) -> dic
     if sizes and sizes[0] < 1:
         raise ValueError(f"cell sizes must be positive integers, got {sizes[0]}")
     # the sizes _multi_cell_sums computes from the pixels, all in one compiled pass
+    direct, n_y, n_x, offsets, flat, pixel_sums = _direct_cells(sizes, (M, N), n_bins)
+    hog_gradient_cell_sums(img, n_bins, direct, offsets, n_x, n_y, flat)
+    return _multi_cell_sums((M, N), sizes, pixel_sums.__getitem__)
+
+
+def _direct_cells(sizes, frame_shape, channels: int):
+    """The layout a compiled cell-sum pass fills: the cell sizes it computes from the
+    pixels (those not a multiple of a smaller size > 1), their cell counts, offsets into
+    one zeroed float32 buffer, the buffer, and each size's (ny, nx, channels) view of it.
+    Returns ``(direct, n_y, n_x, offsets, flat, views)``."""
+    M, N = frame_shape
     direct = [c for c in sizes if not any(b > 1 and c % b == 0 for b in sizes if b < c)]
     n_y = np.array([M // c for c in direct], np.int64)
     n_x = np.array([N // c for c in direct], np.int64)
-    counts = n_y * n_x * n_bins
+    counts = n_y * n_x * channels
     offsets = np.concatenate([[0], np.cumsum(counts)[:-1]]).astype(np.int64)
     flat = np.zeros(int(counts.sum()), np.float32)
-    hog_gradient_cell_sums(img, n_bins, np.array(direct, np.int64), offsets, n_x, n_y, flat)
-    pixel_sums = {c: flat[o:o + k].reshape(ny, nx, n_bins)
-                  for c, o, k, ny, nx in zip(direct, offsets, counts, n_y, n_x)}
-    return _multi_cell_sums((M, N), sizes, pixel_sums.__getitem__)
+    views = {c: flat[o:o + k].reshape(ny, nx, channels)
+             for c, o, k, ny, nx in zip(direct, offsets, counts, n_y, n_x)}
+    return np.array(direct, np.int64), n_y, n_x, offsets, flat, views
 
 
 def acf_channel_cell_maps(image, cell_sizes) -> dict:
@@ -369,16 +379,9 @@ def acf_channel_cell_maps(image, cell_sizes) -> dict:
     tri5 = triangle_kernel(5).astype(np.float32)
     mag_smooth = cv2.sepFilter2D(mag, -1, tri5, tri5, borderType=cv2.BORDER_REFLECT)
     C = 4 + N_ACF_ORIENTS
-    direct = [c for c in sizes if not any(b > 1 and c % b == 0 for b in sizes if b < c)]
-    n_y = np.array([M // c for c in direct], np.int64)
-    n_x = np.array([N // c for c in direct], np.int64)
-    counts = n_y * n_x * C
-    offsets = np.concatenate([[0], np.cumsum(counts)[:-1]]).astype(np.int64)
-    flat = np.zeros(int(counts.sum()), np.float32)
+    direct, n_y, n_x, offsets, flat, pixel_sums = _direct_cells(sizes, (M, N), C)
     acf_channel_cell_sums(luv, mag, mag_smooth, np.float32(0.005), bins, N_ACF_ORIENTS,
-                          np.array(direct, np.int64), offsets, n_x, n_y, flat)
-    pixel_sums = {c: flat[o:o + k].reshape(ny, nx, C)
-                  for c, o, k, ny, nx in zip(direct, offsets, counts, n_y, n_x)}
+                          direct, offsets, n_x, n_y, flat)
     return _multi_cell_sums((M, N), sizes, pixel_sums.__getitem__)
 
 
