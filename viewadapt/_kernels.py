@@ -280,31 +280,6 @@ def block_normalize(X, eps, clip, out):  # pragma: no cover - compiled
 
 
 @njit(cache=True, nogil=True, boundscheck=False)
-def rgb_to_luv(img, M, y0, kappa, scale, un, vn, u_off, v_off, out):  # pragma: no cover
-    """Per pixel of an (H, W, 3) float32 RGB image in [0, 1]: XYZ = ``M`` RGB, then the
-    toolbox's scaled LUV (``viewadapt.acf.rgb_to_luv``), written into ``out``."""
-    H, W = img.shape[0], img.shape[1]
-    third = np.float32(1.0 / 3.0)
-    for i in range(H):
-        for j in range(W):
-            r = img[i, j, 0]
-            g = img[i, j, 1]
-            b = img[i, j, 2]
-            x = M[0, 0] * r + M[0, 1] * g + M[0, 2] * b
-            y = M[1, 0] * r + M[1, 1] * g + M[1, 2] * b
-            z = M[2, 0] * r + M[2, 1] * g + M[2, 2] * b
-            if y > y0:
-                L = (np.float32(116.0) * y ** third - np.float32(16.0)) * scale
-            else:
-                L = y * kappa * scale
-            inv = np.float32(1.0) / (x + np.float32(15.0) * y + np.float32(3.0) * z
-                                     + np.float32(1e-35))
-            out[i, j, 0] = L
-            out[i, j, 1] = L * (np.float32(52.0) * x * inv - np.float32(13.0) * un) + u_off
-            out[i, j, 2] = L * (np.float32(117.0) * y * inv - np.float32(13.0) * vn) + v_off
-
-
-@njit(cache=True, nogil=True, boundscheck=False)
 def acf_channels_out(luv, mag, dx, dy, n_orient, out):  # pragma: no cover - compiled
     """The ten ACF pixel channels into ``out`` (H, W, 4 + n_orient): L, U, V, the
     normalised magnitude, and the magnitude in the unsigned orientation bin of
@@ -339,41 +314,101 @@ def acf_channels_out(luv, mag, dx, dy, n_orient, out):  # pragma: no cover - com
                 out[i, j, 4 + k] = m if k == k_bin else np.float32(0.0)
 
 
-@njit(cache=True, nogil=True, boundscheck=False)
+@njit(cache=True, nogil=True, boundscheck=False, error_model="numpy")
 def tree_cascade_scores(x, pos_group, pos_origin, n_groups, indptr, offsets, weights, cols,
                         thr, val, depth, cascade_threshold, use_cascade,
                         out):  # pragma: no cover - compiled; tested through its callers
-    """Soft-cascade scores of remapped boosted trees, one position at a time.
+    """Soft-cascade scores of remapped boosted trees.
 
     Position ``p`` (group ``g = pos_group[p]``, patch origin ``o = pos_origin[p]`` in the
     frame feature vector ``x``) walks the trees in order; at each inner node it computes
     its remapped feature ``f = cols[t, node]`` as the float32 dot product of row
     ``f * n_groups + g`` of the CSR ``(indptr, offsets, weights)`` with
-    ``x[o + offsets]``, branches on ``thr[t, node]`` and adds the leaf's ``val`` to a
-    float64 running score; with ``use_cascade`` it stops at the first running score
-    ``<= cascade_threshold`` and keeps that score (:func:`viewadapt.boosting.cascade_step`).
-    Writes ``out[p]``.
+    ``x[o + offsets]`` (terms in row order), branches on ``thr[t, node]`` and adds the
+    leaf's ``val`` to a float64 running score; with ``use_cascade`` it stops at the first
+    running score ``<= cascade_threshold`` and keeps that score
+    (:func:`viewadapt.boosting.cascade_step`). Writes ``out[p]``.
+
+    Consecutive positions of one group are walked together, tree by tree and node by
+    node: the positions still alive that sit at a node share its row, so the row's terms
+    are the outer loop and the positions the inner one -- independent sums, each in the
+    same order as one position alone (the same scores bit for bit), instead of one long
+    chain of dependent additions at a time.
     """
     T = cols.shape[0]
-    for p in range(pos_group.shape[0]):
-        g = pos_group[p]
-        o = pos_origin[p]
-        score = 0.0
+    P = pos_group.shape[0]
+    longest = 0                          # the longest run of one group
+    a = 0
+    while a < P:
+        b = a + 1
+        while b < P and pos_group[b] == pos_group[a]:
+            b += 1
+        longest = max(longest, b - a)
+        a = b
+    alive = np.empty(longest, np.int64)  # per live slot: its position, origin, node, score
+    base = np.empty(longest, np.int64)
+    node = np.empty(longest, np.int64)
+    score = np.empty(longest, np.float64)
+    sel = np.empty(longest, np.int64)    # the slots at one node, their origins, their sums
+    sel_base = np.empty(longest, np.int64)
+    acc = np.empty(longest, np.float32)
+    a = 0
+    while a < P:
+        g = pos_group[a]
+        b = a + 1
+        while b < P and pos_group[b] == g:
+            b += 1
+        n = b - a
+        for i in range(n):
+            alive[i] = a + i
+            base[i] = pos_origin[a + i]
+            score[i] = 0.0
         for t in range(T):
-            node = 0
-            for _ in range(depth):
-                f = cols[t, node]
-                if f < 0:
-                    break
-                key = f * n_groups + g
-                s = np.float32(0.0)
-                for k in range(indptr[key], indptr[key + 1]):
-                    s += x[o + offsets[k]] * weights[k]
-                node = 2 * node + 1 + (1 if s >= thr[t, node] else 0)
-            score += val[t, node]
-            if use_cascade and score <= cascade_threshold:
+            if n == 0:
                 break
-        out[p] = score
+            for i in range(n):
+                node[i] = 0
+            lo = 0
+            for _ in range(depth):       # the nodes lo .. 2 lo of one depth
+                hi = 2 * lo + 1
+                for nd in range(lo, hi):
+                    f = cols[t, nd]
+                    if f < 0:            # a leaf: its slots stay there
+                        continue
+                    m = 0
+                    for i in range(n):
+                        if node[i] == nd:
+                            sel[m] = i
+                            sel_base[m] = base[i]
+                            m += 1
+                    if m == 0:
+                        continue
+                    key = f * n_groups + g
+                    for i in range(m):
+                        acc[i] = np.float32(0.0)
+                    for k in range(indptr[key], indptr[key + 1]):
+                        ok = offsets[k]
+                        wk = weights[k]
+                        for i in range(m):
+                            acc[i] += x[sel_base[i] + ok] * wk
+                    th = thr[t, nd]
+                    for i in range(m):
+                        node[sel[i]] = 2 * nd + 1 + (1 if acc[i] >= th else 0)
+                lo = hi
+            m = 0
+            for i in range(n):           # add the leaves; keep the slots the cascade passes
+                s = score[i] + val[t, node[i]]
+                if use_cascade and s <= cascade_threshold:
+                    out[alive[i]] = s
+                else:
+                    alive[m] = alive[i]
+                    base[m] = base[i]
+                    score[m] = s
+                    m += 1
+            n = m
+        for i in range(n):
+            out[alive[i]] = score[i]
+        a = b
     return out
 
 

@@ -102,7 +102,7 @@ _V_OFFSET = 134.0 * _LUV_SCALE         # (minu = -88 * maxi, minv = -134 * maxi)
 _Y0 = (6.0 / 29.0) ** 3                # CIE L* knee
 _KAPPA = (29.0 / 3.0) ** 3             # slope of L* below the knee
 #: The toolbox's RGB -> LUV conversion constants, in the argument order of the compiled
-#: kernel (``viewadapt._kernels.rgb_to_luv``): RGB -> XYZ matrix, L* knee, slope below
+#: kernel (``viewadapt._acf_kernels.rgb_to_luv_rows``): RGB -> XYZ matrix, L* knee, slope below
 #: it, output scale, white point u', v', u and v offsets.
 LUV_CONSTANTS = (_RGB_TO_XYZ, _Y0, _KAPPA, _LUV_SCALE, _UN, _VN, _U_OFFSET, _V_OFFSET)
 

@@ -5,7 +5,8 @@ the trees read are needed (Wang et al. 2017, Algorithm 2): each template group k
 ``G[used]``. At run time each distinct window position walks the trees in order until the
 soft cascade (Dollár's ``acfDetect``) stops it, and a remapped feature ``(G_n x)_f`` is
 computed only at the nodes it reaches -- one short dot product over a few frame cells, in
-a compiled loop (:func:`viewadapt._kernels.tree_cascade_scores`, numba).
+a compiled loop (:func:`viewadapt._kernels.tree_cascade_scores`, numba) that walks the
+positions of one group together.
 
 References
 ----------
