@@ -1,16 +1,21 @@
 """Cost of a full cross-validation and sweep on an existing dataset, stage by stage.
 
-    python -m benchmark.perf.crossval_cost --data DIR [--out RES] [--jobs N]
+    python -m benchmark.perf.crossval_cost --data DIR [--out RES] [--jobs N] [--compare RES2]
 
 Runs feature extraction (all window sets and representations the runs need), the nine-fold
 cross-validation of every detector, source and method, the summaries, and the elevation
-sweep, and prints the wall time of each stage and the total. The issue's target for the
-paper-scale set (7956 crops + backgrounds) is <= 20 min on a 2-core machine. Not a test.
+sweep, and prints the wall time of each stage and the total. With ``--out`` the summaries
+(``summary.csv``, ``paired.csv``, ``sweep.csv``) and the stage times (``cost.json``) are
+written there, and ``--compare`` names an earlier run's directory whose summaries must be
+identical (an optimisation must not change a number). Target for the paper-scale set
+(7956 crops + backgrounds): <= 10 min on a 2-core machine. Not a test.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
+import os
 import tempfile
 import time
 from pathlib import Path
@@ -21,10 +26,14 @@ import numpy as np
 def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__,
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--data", type=Path, required=True)
-    p.add_argument("--out", type=Path, default=None, help="cache directory (default: temporary)")
-    p.add_argument("--jobs", type=int, default=2)
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--data", type=Path, required=True, help="a dataset from `viewadapt generate`")
+    p.add_argument("--out", type=Path, default=None,
+                   help="directory for the feature cache, the summaries and the stage times "
+                   "(default: a temporary cache, nothing written)")
+    p.add_argument("--compare", type=Path, default=None,
+                   help="an earlier --out: report whether its summaries equal this run's")
+    p.add_argument("--jobs", type=int, default=2, help="worker processes (default 2)")
+    p.add_argument("--seed", type=int, default=0, help="cross-validation seed (default 0)")
     a = p.parse_args(argv)
 
     from benchmark.crossval import CrossvalConfig, prepare, run_crossval
@@ -49,11 +58,11 @@ def main(argv=None):
     times["cross-validation (train + score)"] = time.perf_counter() - t
     t = time.perf_counter()
     rng = np.random.default_rng(a.seed)
-    summarize(scores, rng=rng)
-    paired_differences(scores, rng=rng)
+    tables = {"summary": summarize(scores, rng=rng),
+              "paired": paired_differences(scores, rng=rng)}
     times["summaries + bootstrap"] = time.perf_counter() - t
     t = time.perf_counter()
-    sweep_summary(run_sweep(ds, cfg, cache))
+    tables["sweep"] = sweep_summary(run_sweep(ds, cfg, cache))
     times["elevation sweep"] = time.perf_counter() - t
     n = ds.persons.shape[0]
     print(f"dataset {a.data}: {n} person crops, {ds.backgrounds.shape[0]} background images, "
@@ -61,8 +70,36 @@ def main(argv=None):
     for k, v in times.items():
         print(f"  {k:36s} {v:8.1f} s")
     total = sum(times.values())
-    print(f"  {'total':36s} {total:8.1f} s  ({total / 60:.1f} min; target for paper scale <= 20 min)")
+    print(f"  {'total':36s} {total:8.1f} s  ({total / 60:.1f} min; target for paper scale <= 10 min)")
+    if a.out is not None:
+        for name, df in tables.items():
+            df.to_csv(out / f"{name}.csv", index=False)
+        (out / "cost.json").write_text(json.dumps(
+            {"data": str(a.data), "jobs": a.jobs, "seed": a.seed, "cpus": os.cpu_count(),
+             "seconds": {k: round(v, 2) for k, v in times.items()},
+             "total_s": round(total, 2)}, indent=2) + "\n")
+    if a.compare is not None:
+        same = compare_summaries(a.compare, tables)
+        print("summaries " + ("identical to" if not same else "DIFFER from ") + str(a.compare)
+              + ("" if not same else ": " + ", ".join(same)))
+        return 1 if same else 0
+    return 0
+
+
+def compare_summaries(earlier: Path, tables: dict) -> list:
+    """Names of the tables that differ from (or are missing in) the earlier run's CSVs; the
+    tables are compared as written (the same CSV text), so any changed digit counts."""
+    import io
+
+    differ = []
+    for name, df in tables.items():
+        f = Path(earlier) / f"{name}.csv"
+        buf = io.StringIO()
+        df.to_csv(buf, index=False)
+        if not f.is_file() or f.read_text() != buf.getvalue():
+            differ.append(name)
+    return differ
 
 
 if __name__ == "__main__":
-    main()
+    raise SystemExit(main())
