@@ -158,26 +158,34 @@ def warp_field(mapping, H, size=(64, 128)) -> np.ndarray:
     return m.astype(np.float32)
 
 
-def exact_remaps(det, s, t, rows, data, cfg, rules):
+def exact_remaps(det, s, t, rows, data, cfg, rules, memo=None):
     """``{rule: [G per row]}``: ``G`` of each target positive in ``rows`` from its own
     correspondences (source crop of the same instance at ``s``: its depth maps, cameras and
-    plane homographies), each instance's mapping built once for every rule."""
+    plane homographies), each instance's mapping built once for every rule. ``memo`` (a
+    dict, optional) keeps the matrices for other detectors with the same ``remap_matrix``
+    on the same elevations (the two HOG detectors share theirs)."""
     import json
 
     inst = data["instances"]
     es, et = data["index"][s], data["index"][t]
+    spec = detector_spec(det)
+    memo = {} if memo is None else memo
     out = {r: [] for r in rules}
     for r in rows.itertuples(index=False):
-        src = inst[(r.person_id, r.scene_id, int(r.instance), es)]
-        tgt = inst[(r.person_id, r.scene_id, int(r.instance), et)]
-        Hs = np.array(json.loads(src["H_window_to_image"]))
-        Ht = np.array(json.loads(tgt["H_window_to_image"]))
-        m = correspondence_mapping(read_depth_map(data["root"], src), manifest_camera(src),
-                                   read_depth_map(data["root"], tgt), manifest_camera(tgt),
-                                   fallback=Ht @ np.linalg.inv(Hs))
-        for rule in rules:
-            out[rule].append(detector_spec(det).remap_matrix(m, rule=rule, per_cell=True,
-                                                             config=cfg))
+        ident = (r.person_id, r.scene_id, int(r.instance))
+        keys = {rule: (type(spec).remap_matrix, es, et, rule) + ident for rule in rules}
+        if any(k not in memo for k in keys.values()):
+            src, tgt = inst[ident + (es,)], inst[ident + (et,)]
+            Hs = np.array(json.loads(src["H_window_to_image"]))
+            Ht = np.array(json.loads(tgt["H_window_to_image"]))
+            m = correspondence_mapping(read_depth_map(data["root"], src), manifest_camera(src),
+                                       read_depth_map(data["root"], tgt),
+                                       manifest_camera(tgt), fallback=Ht @ np.linalg.inv(Hs))
+            for rule, k in keys.items():
+                if k not in memo:
+                    memo[k] = spec.remap_matrix(m, rule=rule, per_cell=True, config=cfg)
+        for rule, k in keys.items():
+            out[rule].append(memo[k])
     return out
 
 
@@ -190,8 +198,9 @@ def fold_masks(meta, fold: Fold, train: bool):
     return in_scene
 
 
-def _task(det, s, t, fold, cfg, data, seed):
-    """All methods for one detector, source elevation and fold -> DataFrame of scores."""
+def _task(det, s, t, fold, cfg, data, seed, memo=None):
+    """All methods for one detector, source elevation and fold -> DataFrame of scores
+    (``memo``: see :func:`exact_remaps`)."""
     spec = detector_spec(det)
     src_rep, fine_rep = feature_key(spec.source_features), feature_key(spec.target_features)
     es, et = data["index"][s], data["index"][t]
@@ -228,7 +237,8 @@ def _task(det, s, t, fold, cfg, data, seed):
             n_pos = int(mp.sum())
             rows = pos_t[mp]
             todo = {n: v for n, v in EXACT_VARIANTS.items() if v[1] in results}
-            Gs = exact_remaps(det, s, t, rows, data, cfg, sorted({r for r, _ in todo.values()}))
+            Gs = exact_remaps(det, s, t, rows, data, cfg, sorted({r for r, _ in todo.values()}),
+                              memo)
             for name, (rule, neg_variant) in todo.items():
                 pos = np.array([spec.score_adapted(model, Xfine[i:i + 1], G)[0]
                                 for i, G in enumerate(Gs[rule])])
@@ -326,14 +336,28 @@ def run_crossval(ds: Dataset, cfg: CrossvalConfig, cache: FeatureCache, *,
     # OpenCV's detector was trained on INRIA (level views): its source elevation is 0 only
     tasks = [(det, s, fold) for det in cfg.detectors for s in cfg.sources for fold in folds
              if not (detector_spec(det).pretrained and s != 0.0)]
-    seeds = [task_seed(cfg.seed, d, s, f) for d, s, f in tasks]
-    it = tqdm(list(zip(tasks, seeds)), desc="cross-validation", disable=not progress)
+    seeds = [int(task_seed(cfg.seed, d, s, f)) for d, s, f in tasks]
+    # detectors whose exact-geometry rows use the same remap_matrix run in one job per
+    # source and fold, so its matrices are built once (exact_remaps' memo)
+    jobs = {}
+    for i, (d, s, f) in enumerate(tasks):
+        spec = detector_spec(d)
+        share = type(spec).remap_matrix if spec.exact_geometry else d
+        jobs.setdefault((share, s, f.name), []).append(i)
+    jobs = list(jobs.values())
+
+    def run(members):
+        memo = {}
+        return [_task(*tasks[i][:2], cfg.target, tasks[i][2], cfg, data, seeds[i], memo)
+                for i in members]
+
+    it = tqdm(jobs, desc="cross-validation", disable=not progress)
     if cfg.n_jobs == 1:
-        parts = [_task(d, s, cfg.target, f, cfg, data, int(sd)) for (d, s, f), sd in it]
+        done = [run(m) for m in it]
     else:
-        parts = Parallel(n_jobs=cfg.n_jobs)(
-            delayed(_task)(d, s, cfg.target, f, cfg, data, int(sd)) for (d, s, f), sd in it)
-    scores = pd.concat(parts, ignore_index=True)
+        done = Parallel(n_jobs=cfg.n_jobs)(delayed(run)(m) for m in it)
+    parts = dict(zip((i for m in jobs for i in m), (df for d in done for df in d)))
+    scores = pd.concat([parts[i] for i in range(len(tasks))], ignore_index=True)
     return scores, folds
 
 

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 import pandas as pd
+from sklearn import config_context
 
 from viewadapt.geometry import elevation_homography
 
@@ -109,25 +110,28 @@ def run_sweep(ds: Dataset, cfg: CrossvalConfig, cache: FeatureCache, *, detector
         tests.append(np.flatnonzero(np.r_[fold_masks(meta_p, fold, False),
                                           fold_masks(meta_n, fold, False)]))
     used = np.unique(np.concatenate(tests))       # background windows serve three folds
-    rows = []
-
-    def record(fold, method, estimate, idx, scores):
-        rows.append(pd.DataFrame({"fold": fold.name, "method": method, "estimate": estimate,
-                                  "label": labels_all[idx],
-                                  "score": np.asarray(scores, np.float32),
-                                  "person_id": pids_all[idx]}))
-
-    for fold, model, idx in zip(folds, models, tests):
-        record(fold, "unadapted", np.nan, idx, spec.score(model, plain[idx]))
-    Xu = fine[used]
-    for (method, e), G in tqdm(list(Gs.items()), desc="sweep: estimates",
-                               disable=not progress):
-        # remap every test window once per estimate, then score it with each fold's model
-        prepared = spec.adapted_inputs(Xu, G)
+    parts = []                                    # (fold, method, estimate, rows, scores)
+    # the models' inputs are finite by construction: skip sklearn's check of every call
+    with config_context(assume_finite=True):
         for fold, model, idx in zip(folds, models, tests):
-            record(fold, method, float(e), idx,
-                   spec.score_adapted_inputs(model, prepared[np.searchsorted(used, idx)], G))
-    return pd.concat(rows, ignore_index=True)
+            parts.append((fold.name, "unadapted", np.nan, idx, spec.score(model, plain[idx])))
+        Xu = fine[used]
+        for (method, e), G in tqdm(list(Gs.items()), desc="sweep: estimates",
+                                   disable=not progress):
+            # remap every test window once per estimate, then score it with each fold's model
+            prepared = spec.adapted_inputs(Xu, G)
+            for fold, model, idx in zip(folds, models, tests):
+                parts.append((fold.name, method, float(e), idx, spec.score_adapted_inputs(
+                    model, prepared[np.searchsorted(used, idx)], G)))
+    sizes = [len(p[3]) for p in parts]
+    idx = np.concatenate([p[3] for p in parts])
+    return pd.DataFrame({"fold": np.repeat([p[0] for p in parts], sizes).astype(object),
+                         "method": np.repeat([p[1] for p in parts], sizes).astype(object),
+                         "estimate": np.repeat([p[2] for p in parts], sizes),
+                         "label": labels_all[idx],
+                         "score": np.concatenate([np.asarray(p[4], np.float32)
+                                                  for p in parts]),
+                         "person_id": pids_all[idx]})
 
 
 def _rule_model(method: str) -> tuple[str, str]:

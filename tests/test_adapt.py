@@ -106,3 +106,24 @@ def test_errors():
         ViewpointAdaptedClassifier(target_elevation=0.5).fit(np.arange(20.0).reshape(4, 5), [0, 1, 0, 1])
     with pytest.raises(ValueError, match=r"\[0, pi/2\)"):
         hog_remap_matrix(elevation_homography(0, 1.6))
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+def test_remap_features_is_scipys_product_exactly(dtype):
+    from viewadapt.adapt import remap_features
+
+    G = hog_remap_matrix(elevation_homography(0, np.pi / 5, distance=10), target_cell_size=4)
+    X = (np.random.default_rng(3).random((37, G.shape[1])) ** 3).astype(dtype)
+    want = np.asarray(G @ np.ascontiguousarray(X.T, dtype=np.float64)).T
+    np.testing.assert_array_equal(remap_features(G, X), want)
+    np.testing.assert_array_equal(remap_features(G.tocoo(), X[5]), want[5:6])
+    with pytest.raises(ValueError, match="columns"):
+        remap_features(G, X[:, 1:])
+
+
+def test_descriptors_of_many_windows_are_each_windows_own():
+    # more windows than one block of the blocked computation, in any memory order
+    X = np.random.default_rng(4).random((300, 16 * 8 * 9))
+    many = cells_to_descriptor(np.asfortranarray(X))
+    for i in (0, 127, 128, 299):
+        np.testing.assert_array_equal(many[i], cells_to_descriptor(X[i]))

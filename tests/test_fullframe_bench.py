@@ -310,6 +310,12 @@ def test_runtime_table_end_to_end(toy, tmp_path):
                        for st in r["stages"])
     table = format_table(rows, info)
     assert "hog_adapted / hog_warp" in table and "## Targets" in table
+    # the ACF speed-up is claimed against the faster of the two pyramids, by name
+    faster = max(("acf_pyramid", "acf_pyramid_fast"),
+                 key=lambda m: next(r["fps_1core"] for r in rows if r["method"] == m))
+    assert info["faster_acf_pyramid"] == faster
+    assert f"acf_adapted / faster ACF pyramid** ({faster}" in table
+    assert "acf_adapted >= 60 fps (1 core)" in info["targets"]
     assert "| hog_adapted | features |" in table and "| acf_adapted | nms |" in table
     # the table says how its detectors were trained and why the all-cores column is empty
     assert info["training"]["frame_view"] == "both" and "frame_view=both" in table

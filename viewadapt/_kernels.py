@@ -413,6 +413,24 @@ def tree_cascade_scores(x, pos_group, pos_origin, n_groups, indptr, offsets, wei
 
 
 @njit(cache=True, nogil=True, boundscheck=False)
+def csr_rows_product(indptr, indices, data, X, out):  # pragma: no cover - compiled
+    """``out[r] = G @ X[r]`` for every row of the (n, m) C-contiguous ``X``, with ``G`` the
+    (S, m) CSR ``(indptr, indices, data)``: per output entry a float64 sum from 0 over the
+    row's terms in stored order -- the arithmetic of scipy's ``csr_matvecs`` on ``X.T``,
+    so the same numbers, without the transposed copies on either side."""
+    S = indptr.shape[0] - 1
+    for r in range(X.shape[0]):
+        x = X[r]
+        o = out[r]
+        for s in range(S):
+            acc = 0.0
+            for k in range(indptr[s], indptr[s + 1]):
+                acc += data[k] * np.float64(x[indices[k]])
+            o[s] = acc
+    return out
+
+
+@njit(cache=True, nogil=True, boundscheck=False)
 def rasterize_depth(uv, z, faces, x0, y0, step, out):  # pragma: no cover - compiled
     """Z-buffer of triangles on a regular sample grid.
 

@@ -37,7 +37,7 @@ from sklearn.utils.multiclass import check_classification_targets, type_of_targe
 from sklearn.utils.validation import check_is_fitted, validate_data
 
 from ._validation import check_int
-from .treegrow import bin_edges, evaluate_trees, grow_tree, one_hot_by_bin, quantize
+from .treegrow import bin_edges, grow_tree, quantize
 
 __all__ = ["AdaBoostTrees", "cascade_step"]
 
@@ -45,9 +45,6 @@ __all__ = ["AdaBoostTrees", "cascade_step"]
 _MAX_ALPHA = 5.0
 # adaBoostTrain stops once the exponential loss sum(exp(-y H)) / 2 falls below 1e-40
 _MIN_LOSS = 1e-40
-# evaluation blocks: trees per block x samples per chunk bounds temporary arrays
-_TREE_BLOCK = 64
-_SAMPLE_CHUNK = 8192
 _MAX_DEPTH_LIMIT = 12
 
 
@@ -235,10 +232,9 @@ class AdaBoostTrees(ClassifierMixin, BaseEstimator):
         n_sub = int(min(max(n_sub, 1), d))
 
         edges = bin_edges(X, n_bins)                    # (d, n_bins - 1)
-        Xq = quantize(X, edges)                         # (n, d) uint8
+        XqT = quantize(X, edges)                        # (d, n) uint8
         is_pos = y_idx == 1
         members = (np.flatnonzero(~is_pos), np.flatnonzero(is_pos))
-        one_hot = [one_hot_by_bin(Xq[m], n_bins) for m in members]
         ysign = np.where(is_pos, 1.0, -1.0)
         # class-balanced initial weights 1 / (2 N_c), kept as logs (adaBoostTrain: exp(H0)/N0/2)
         log_w0 = -np.log(2.0 * np.where(is_pos, members[1].size, members[0].size))
@@ -257,12 +253,9 @@ class AdaBoostTrees(ClassifierMixin, BaseEstimator):
             w /= w.sum()                                  # binaryTreeTrain normalises
             if n_sub < d:
                 subset = np.sort(rng.choice(d, size=n_sub, replace=False))
-                rows = (subset[:, None] * n_bins + np.arange(n_bins)).ravel()
-                hist_ops = [m[rows] for m in one_hot]
             else:
-                subset, hist_ops = np.arange(d), one_hot
-            leaf_of, f_t, b_t, v_t = grow_tree(Xq, members, hist_ops, subset, w,
-                                                n_bins, depth)
+                subset = np.arange(d)
+            leaf_of, f_t, b_t, v_t = grow_tree(XqT, members, subset, w, n_bins, depth)
             if self.algorithm == "discrete":
                 # adaBoostTrain: hs = (hs > 0) * 2 - 1, alpha from the weighted error
                 v_t = np.where(v_t > 0, 1.0, -1.0)
@@ -497,28 +490,20 @@ class AdaBoostTrees(ClassifierMixin, BaseEstimator):
         """Running sums of tree outputs over the first ``n_trees`` trees, soft cascade.
 
         ``X`` columns are indexed by ``feature``. Per sample the arithmetic is the plain
-        sequential sum ``((h_1 + h_2) + h_3) + ...`` whatever the blocking, so cascade /
-        no cascade, truncated / full and remapped / direct evaluations agree bit for bit
-        on the trees they share.
+        sequential sum ``((h_1 + h_2) + h_3) + ...`` (a compiled loop,
+        :func:`viewadapt._tree_kernels.cascade_scores`), so cascade / no cascade, truncated
+        / full and remapped / direct evaluations agree bit for bit on the trees they share.
         """
+        from ._tree_kernels import cascade_scores
+
         thr = self.cascade_threshold
-        n = X.shape[0]
-        scores = np.zeros(n)
         depth = (self.feature_.shape[1] + 1).bit_length() - 2
-        for start in range(0, n, _SAMPLE_CHUNK):
-            rows = np.arange(start, min(start + _SAMPLE_CHUNK, n))
-            s = np.zeros(rows.size)
-            for t0 in range(0, n_trees, _TREE_BLOCK):
-                if rows.size == 0:
-                    break
-                t1 = min(t0 + _TREE_BLOCK, n_trees)
-                h = evaluate_trees(X, rows, feature[t0:t1], self.threshold_[t0:t1],
-                                    self.value_[t0:t1], depth)
-                s, stopped = cascade_step(s, h, thr)
-                scores[rows[stopped]] = s[stopped]
-                rows, s = rows[~stopped], s[~stopped]
-            scores[rows] = s
-        return scores
+        X = np.ascontiguousarray(X, dtype=np.float64)
+        return cascade_scores(X, np.ascontiguousarray(feature, dtype=np.int64),
+                              np.ascontiguousarray(self.threshold_, dtype=np.float64),
+                              np.ascontiguousarray(self.value_, dtype=np.float64), depth,
+                              int(n_trees), 0.0 if thr is None else float(thr),
+                              thr is not None, np.empty(X.shape[0]))
 
 
 # ---------------------------------------------------------------------- helpers

@@ -14,10 +14,8 @@ References
 from __future__ import annotations
 
 import numpy as np
-import scipy.sparse as sp
 
-__all__ = ["bin_edges", "quantize", "one_hot_by_bin", "node_histograms", "best_split", "gini",
-           "grow_tree", "evaluate_trees"]
+__all__ = ["bin_edges", "quantize", "node_histograms", "best_split", "gini", "grow_tree"]
 
 # binaryTreeTrain defaults: a node is a leaf when its (normalised) weight is below
 # minWeight or its positive fraction is outside [1e-3, 1 - 1e-3]
@@ -45,42 +43,33 @@ def bin_edges(X, n_bins):
 
 
 def quantize(X, edges):
-    """Bin index = number of edges <= x, so ``bin >= b  <=>  x >= edges[b - 1]``."""
-    XT = np.ascontiguousarray(X.T)
-    XqT = np.empty(XT.shape, dtype=np.uint8)
-    for f in range(XT.shape[0]):
-        XqT[f] = np.searchsorted(edges[f], XT[f], side="right")
-    return np.ascontiguousarray(XqT.T)
+    """Bin indices, feature-major: ``(n_features, n_samples)`` uint8 with ``bin = number of
+    edges <= x``, so ``bin >= b  <=>  x >= edges[b - 1]`` (a compiled binary search,
+    :func:`viewadapt._tree_kernels.quantize_columns`)."""
+    from ._tree_kernels import quantize_columns
+
+    X = np.asarray(X, dtype=np.float64)
+    edges = np.ascontiguousarray(edges, dtype=np.float64)
+    if edges.shape[1] > 255:
+        raise ValueError(f"at most 256 bins fit in uint8, got {edges.shape[1] + 1}")
+    return quantize_columns(X, edges, np.empty(X.shape[::-1], np.uint8))
 
 
-def one_hot_by_bin(Xq, n_bins):
-    """Sparse ``(n_features * n_bins, n_samples)`` indicator: row ``f * n_bins + b`` marks
-    the samples whose feature ``f`` falls in bin ``b``. ``op @ w`` is every feature's
-    weighted histogram at once."""
-    m, d = Xq.shape
-    # int32 indices where they fit: 8 bytes per entry (float32 one + index) instead of 12
-    idx = np.int32 if max(m * d, d * n_bins) < np.iinfo(np.int32).max else np.int64
-    cols = (np.arange(d, dtype=idx) * idx(n_bins))[None, :] + Xq.astype(idx)
-    one_hot = sp.csr_array(
-        (np.ones(m * d, dtype=np.float32), cols.ravel(), np.arange(0, m * d + 1, d, dtype=idx)),
-        shape=(m, d * n_bins))
-    return one_hot.T.tocsr()
-
-
-def node_histograms(ops, members, w, masks, n_feat, n_bins):
+def node_histograms(XqT, members, w, masks, subset, n_bins):
     """Weighted per-class histograms ``(k, 2, n_feat, n_bins)`` float32 of ``k`` sample
-    subsets (``masks``: (k, n_samples) bool, or None for all samples)."""
+    subsets (``masks``: (k, n_samples) bool, or None for all samples) over the features
+    ``subset`` of the feature-major bins ``XqT``; ``members`` are the samples of each class
+    in increasing order. Each entry is a float32 sum over the subset's samples of the
+    class in that order (:func:`viewadapt._tree_kernels.bin_histograms`)."""
+    from ._tree_kernels import bin_histograms
+
     k = 1 if masks is None else masks.shape[0]
-    out = np.empty((k, 2, n_feat, n_bins), dtype=np.float32)
-    for c, (op, m) in enumerate(zip(ops, members)):
-        wc = w[m].astype(np.float32)
-        if masks is None:
-            out[0, c] = (op @ wc).reshape(n_feat, n_bins)
-        elif k == 1:
-            out[0, c] = (op @ (wc * masks[0, m])).reshape(n_feat, n_bins)
-        else:
-            W = (masks[:, m] * wc).T.astype(np.float32)           # (n_c, k)
-            out[:, c] = (op @ W).T.reshape(k, n_feat, n_bins)
+    out = np.zeros((k, 2, subset.size, n_bins), dtype=np.float32)
+    w32 = w.astype(np.float32)
+    for c, m in enumerate(members):
+        for j in range(k):
+            samples = m if masks is None else m[masks[j, m]]
+            bin_histograms(XqT, samples, w32, subset, out[j, c])
     return out
 
 
@@ -124,13 +113,13 @@ def gini(w0, w1):
     return w0 * w1 / (w0 + w1) if w0 + w1 > 0 else 0.0
 
 
-def grow_tree(Xq, members, ops, subset, w, n_bins, depth):
+def grow_tree(XqT, members, subset, w, n_bins, depth):
     """One weighted tree, level by level (binaryTreeTrain with split='gini').
 
     Returns the leaf of every training sample, and per node (complete-tree layout) the
     global feature (-1 for leaves), the split bin and the output value.
     """
-    n = Xq.shape[0]
+    n = XqT.shape[1]
     n_nodes = 2 ** (depth + 1) - 1
     feature = np.full(n_nodes, -1, dtype=np.int32)
     split_bin = np.zeros(n_nodes, dtype=np.int64)
@@ -139,7 +128,7 @@ def grow_tree(Xq, members, ops, subset, w, n_bins, depth):
     is_pos[members[1]] = True
     node_of = np.zeros(n, dtype=np.intp)
     n_feat = subset.size
-    hists = {0: node_histograms(ops, members, w, None, n_feat, n_bins)[0]}
+    hists = {0: node_histograms(XqT, members, w, None, subset, n_bins)[0]}
     for level in range(depth + 1):
         first, last = 2 ** level - 1, 2 ** (level + 1) - 1
         W0 = np.bincount(node_of, weights=np.where(is_pos, 0.0, w), minlength=n_nodes)
@@ -164,7 +153,7 @@ def grow_tree(Xq, members, ops, subset, w, n_bins, depth):
             fp, b = best_split(hists[j])
             f = int(subset[fp])
             in_node = node_of == j
-            right = in_node & (Xq[:, f] >= b)
+            right = in_node & (XqT[f] >= b)
             left = in_node & ~right
             # exact float64 gain of the chosen split (histograms were float32)
             l0, l1 = w[left & ~is_pos].sum(), w[left & is_pos].sum()
@@ -183,7 +172,7 @@ def grow_tree(Xq, members, ops, subset, w, n_bins, depth):
         smaller = np.array([2 * j + 1 if left_small else 2 * j + 2
                             for j, left_small in split_nodes])
         masks = node_of[None, :] == smaller[:, None]
-        small_h = node_histograms(ops, members, w, masks, n_feat, n_bins)
+        small_h = node_histograms(XqT, members, w, masks, subset, n_bins)
         for (j, left_small), s_node, hs in zip(split_nodes, smaller, small_h):
             other = 2 * j + 2 if left_small else 2 * j + 1
             hists[s_node] = hs
@@ -191,17 +180,3 @@ def grow_tree(Xq, members, ops, subset, w, n_bins, depth):
         for j, _ in split_nodes:
             del hists[j]
     return node_of, feature, split_bin, value
-
-
-def evaluate_trees(X, rows, feature, threshold, value, depth):
-    """Outputs ``(rows.size, n_trees)`` of complete-layout trees on ``X[rows]``."""
-    n_trees = feature.shape[0]
-    node = np.zeros((rows.size, n_trees), dtype=np.intp)
-    trees = np.arange(n_trees)[None, :]
-    rows = rows[:, None]
-    for _ in range(depth):
-        f = feature[trees, node]
-        internal = f >= 0
-        go_right = X[rows, np.maximum(f, 0)] >= threshold[trees, node]
-        node = np.where(internal, 2 * node + 1 + go_right, node)
-    return value[trees, node]

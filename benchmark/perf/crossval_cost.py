@@ -80,7 +80,7 @@ def main(argv=None):
              "total_s": round(total, 2)}, indent=2) + "\n")
     if a.compare is not None:
         same = compare_summaries(a.compare, tables)
-        print("summaries " + ("identical to" if not same else "DIFFER from ") + str(a.compare)
+        print("summaries " + ("identical to " if not same else "DIFFER from ") + str(a.compare)
               + ("" if not same else ": " + ", ".join(same)))
         return 1 if same else 0
     return 0

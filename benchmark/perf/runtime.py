@@ -236,7 +236,7 @@ def run_runtime(data, *, n_frames=3, warp_windows=1000, heights=(1.65, 1.85), jo
                      lambda: linear_scores(hog, f0, "gather"), 2)[0]}
         info["hog_scoring_forms_ms"] = {k: round(1e3 * v, 2) for k, v in forms.items()}
         a0 = acf.frame_features(frames[0])
-        forms = {"cascade: compiled loop, one position at a time (default)":
+        forms = {"cascade: compiled loop, the positions of a group together (default)":
                  _best(lambda: acf.scores(a0), R)[0],
                  "blocks: numpy, blocks of trees over the positions still alive":
                  _best(lambda: trees_scores(acf, a0, "blocks"), R)[0]}
@@ -300,18 +300,29 @@ def run_runtime(data, *, n_frames=3, warp_windows=1000, heights=(1.65, 1.85), jo
         "acf_adapted / acf_warp": fps["acf_adapted"] / fps["acf_warp"],
         "acf_adapted / acf_pyramid": fps["acf_adapted"] / fps["acf_pyramid"],
         "acf_adapted / acf_pyramid_fast": fps["acf_adapted"] / fps["acf_pyramid_fast"],
+        # the honest baseline: the faster of the two ACF pyramids (issue: compare against
+        # the reference implementation's speed, not a slow one)
+        "acf_adapted / faster ACF pyramid": fps["acf_adapted"] / max(
+            fps["acf_pyramid"], fps["acf_pyramid_fast"]),
         "paper: hog_adapted / hog_warp": 11.8 / 0.0666,
         "paper: acf_adapted / acf_warp": 10.7 / 0.0419,
         "paper: hog_adapted / hog_pyramid": 11.8 / 0.439,
         "paper: acf_adapted / acf_pyramid": 10.7 / 3.54,
         "paper: acf_adapted / acf_pyramid_fast": 10.7 / 3.54,
+        "paper: acf_adapted / faster ACF pyramid": 10.7 / 3.54,
     }
+    info["faster_acf_pyramid"] = max(("acf_pyramid", "acf_pyramid_fast"), key=fps.get)
+    nms_ms = {r["method"]: next(st["ms"] for st in r["stages"] if st["stage"] == "nms")
+              for r in rows if r.get("stages")}
     info["paper_windows"] = PAPER_WINDOWS
     info["targets"] = {
         "hog_adapted >= 30 fps (1 core)": fps["hog_adapted"] >= 30,
         "hog_adapted >= 100x hog_warp": fps["hog_adapted"] / fps["hog_warp"] >= 100,
         "hog_adapted >= 10x opencv (4x)": fps["hog_adapted"] / fps["opencv"] >= 10,
         "acf_adapted >= 15 fps (1 core)": fps["acf_adapted"] >= 15,
+        "hog_adapted >= 100 fps (1 core)": fps["hog_adapted"] >= 100,
+        "acf_adapted >= 60 fps (1 core)": fps["acf_adapted"] >= 60,
+        "NMS <= 1 ms (both detectors)": max(nms_ms.values()) <= 1.0,
         "precompute <= 30 s (hog)": info["hog_precompute_s"] <= 30,
         "cache hit <= 1 s (hog)": info["hog_cache_hit_s"] <= 1,
     }
@@ -332,6 +343,10 @@ def format_table(rows, info) -> str:
     for k in ("hog_adapted / hog_warp", "acf_adapted / acf_warp", "hog_adapted / hog_pyramid",
               "acf_adapted / acf_pyramid", "acf_adapted / acf_pyramid_fast"):
         out.append(f"| {k} | {r[k]:.0f}x | {r['paper: ' + k]:.0f}x |")
+    k = "acf_adapted / faster ACF pyramid"
+    out.append(f"| **{k}** ({info['faster_acf_pyramid']}: the baseline the ACF speed-up is "
+               f"claimed against; the paper's 3.54 fps is the toolbox's fast pyramid) | "
+               f"{r[k]:.0f}x | {r['paper: ' + k]:.0f}x |")
     for k in ("hog_adapted / opencv (4x)", "hog_adapted / opencv (native)"):
         out.append(f"| {k} | {r[k]:.1f}x | - |")
     out += ["", "## Frames per second", "",
