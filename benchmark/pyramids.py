@@ -24,7 +24,6 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
-from numba import njit
 
 from viewadapt.boosting import cascade_step
 from viewadapt.detect import (
@@ -115,35 +114,13 @@ def hog_pyramid_detect(image, models, *, upsample: int = 4, step: float = 1.05,
                 HOG_DETECTOR)
 
 
-@njit(cache=True, nogil=True, boundscheck=False)
-def _dense_cascade_kernel(c, origin, offset, feat, thr, val, depth, cascade_threshold,
-                          use_cascade, out):  # pragma: no cover - compiled
-    """Window ``p`` reads feature ``f`` at ``c[origin[p] + offset[f]]``; walks the trees in
-    order, float64 running score, stops at the first ``<= cascade_threshold``."""
-    T = feat.shape[0]
-    for p in range(origin.shape[0]):
-        o = origin[p]
-        score = 0.0
-        for t in range(T):
-            node = 0
-            for _ in range(depth):
-                f = feat[t, node]
-                if f < 0:
-                    break
-                node = 2 * node + 1 + (1 if c[o + offset[f]] >= thr[t, node] else 0)
-            score += val[t, node]
-            if use_cascade and score <= cascade_threshold:
-                break
-        out[p] = score
-    return out
-
-
 def dense_cascade_scores(model, C, positions):
     """Soft-cascade scores of windows read straight from an ACF channel map.
 
     ``C`` (10, h, w) channels, ``positions`` (n, 2) top-left blocks ``(y, x)``; feature
-    ``f`` of the (10, 32, 16) layout is ``C[ch, y + i, x + j]``. A compiled loop, one
-    window at a time, each stopping at the soft cascade's rejection threshold
+    ``f`` of the (10, 32, 16) layout is ``C[ch, y + i, x + j]``. A compiled loop
+    (:meth:`viewadapt.boosting.AdaBoostTrees.gathered_scores`), one window at a time, each
+    stopping at the soft cascade's rejection threshold
     (``acfDetect1``; :func:`viewadapt.boosting.cascade_step`): the same scores as
     :func:`dense_cascade_scores_reference`, bit for bit.
 
@@ -157,16 +134,9 @@ def dense_cascade_scores(model, C, positions):
     offset = (ch * h * w + ii * w + jj).astype(np.int64)
     positions = np.asarray(positions, np.int64).reshape(-1, 2)
     origin = positions[:, 0] * w + positions[:, 1]
-    feat = np.ascontiguousarray(model.feature_, np.int64)
-    depth = (feat.shape[1] + 1).bit_length() - 2
-    casc = model.cascade_threshold
-    out = np.empty(len(origin))
     if len(origin) == 0:
-        return out
-    return _dense_cascade_kernel(C.ravel(), origin, offset, feat,
-                                 np.ascontiguousarray(model.threshold_, np.float64),
-                                 np.ascontiguousarray(model.value_, np.float64), depth,
-                                 0.0 if casc is None else float(casc), casc is not None, out)
+        return np.empty(0)
+    return model.gathered_scores(C.ravel(), origin, offset)
 
 
 def dense_cascade_scores_reference(model, C, positions, block=32):

@@ -50,18 +50,20 @@ def bin_histograms(XqT, samples, w, subset, out):  # pragma: no cover - compiled
 
 
 @njit(cache=True, nogil=True, boundscheck=False)
-def cascade_scores(X, feature, threshold, value, depth, n_trees, cascade_threshold,
-                   use_cascade, out):  # pragma: no cover - compiled
-    """Soft-cascade scores of complete-layout trees on the rows of ``X``.
+def cascade_scores(x, origin, offset, feature, threshold, value, depth, n_trees,
+                   cascade_threshold, use_cascade, out):  # pragma: no cover - compiled
+    """Soft-cascade scores of complete-layout trees on windows read from a flat array.
 
-    Row ``i`` walks trees ``0 .. n_trees - 1`` in order: at an inner node (``feature >=
-    0``) it goes right when ``X[i, feature] >= threshold``; the leaf's ``value`` is added to
-    a float64 running score ``((h_1 + h_2) + h_3) + ...``; with ``use_cascade`` it stops at
-    the first running score ``<= cascade_threshold`` and keeps it
-    (:func:`viewadapt.boosting.cascade_step`, the same sums). Writes ``out[i]``.
+    Window ``i`` reads its feature ``f`` at ``x[origin[i] + offset[f]]`` (rows of a matrix:
+    ``origin = i * n_features``, ``offset = f``; a channel map: the window's corner and
+    each feature's place in it) and walks trees ``0 .. n_trees - 1`` in order: at an inner
+    node (``feature >= 0``) it goes right when the value is ``>= threshold``; the leaf's
+    ``value`` is added to a float64 running score ``((h_1 + h_2) + h_3) + ...``; with
+    ``use_cascade`` it stops at the first running score ``<= cascade_threshold`` and keeps
+    it (:func:`viewadapt.boosting.cascade_step`, the same sums). Writes ``out[i]``.
     """
-    for i in range(X.shape[0]):
-        x = X[i]
+    for i in range(origin.shape[0]):
+        o = origin[i]
         score = 0.0
         for t in range(n_trees):
             node = 0
@@ -69,7 +71,7 @@ def cascade_scores(X, feature, threshold, value, depth, n_trees, cascade_thresho
                 f = feature[t, node]
                 if f < 0:
                     break
-                node = 2 * node + 1 + (1 if x[f] >= threshold[t, node] else 0)
+                node = 2 * node + 1 + (1 if x[o + offset[f]] >= threshold[t, node] else 0)
             score += value[t, node]
             if use_cascade and score <= cascade_threshold:
                 break

@@ -491,19 +491,41 @@ class AdaBoostTrees(ClassifierMixin, BaseEstimator):
 
         ``X`` columns are indexed by ``feature``. Per sample the arithmetic is the plain
         sequential sum ``((h_1 + h_2) + h_3) + ...`` (a compiled loop,
-        :func:`viewadapt._tree_kernels.cascade_scores`), so cascade / no cascade, truncated
+        :meth:`gathered_scores`), so cascade / no cascade, truncated
         / full and remapped / direct evaluations agree bit for bit on the trees they share.
+        """
+        X = np.ascontiguousarray(X, dtype=np.float64)
+        n, m = X.shape
+        return self.gathered_scores(X.ravel(), np.arange(n, dtype=np.int64) * m,
+                                    np.arange(m, dtype=np.int64), feature=feature,
+                                    n_trees=n_trees)
+
+    def gathered_scores(self, x, origin, offset, *, feature=None, n_trees=None):
+        """Soft-cascade scores of windows read from one flat array: window ``i``'s feature
+        ``f`` is ``x[origin[i] + offset[f]]`` (e.g. windows of a channel map, without
+        copying each window out). The same sums as :meth:`decision_function`
+        (:func:`viewadapt._tree_kernels.cascade_scores`); ``feature`` replaces the trees'
+        feature indices (columns of ``offset``), ``n_trees`` truncates.
+
+        Returns
+        -------
+        (len(origin),) float64 ndarray
         """
         from ._tree_kernels import cascade_scores
 
+        check_is_fitted(self)
         thr = self.cascade_threshold
+        feature = self.feature_ if feature is None else feature
+        origin = np.ascontiguousarray(origin, dtype=np.int64).ravel()
+        offset = np.ascontiguousarray(offset, dtype=np.int64).ravel()
         depth = (self.feature_.shape[1] + 1).bit_length() - 2
-        X = np.ascontiguousarray(X, dtype=np.float64)
-        return cascade_scores(X, np.ascontiguousarray(feature, dtype=np.int64),
+        return cascade_scores(np.ascontiguousarray(x).ravel(), origin, offset,
+                              np.ascontiguousarray(feature, dtype=np.int64),
                               np.ascontiguousarray(self.threshold_, dtype=np.float64),
                               np.ascontiguousarray(self.value_, dtype=np.float64), depth,
-                              int(n_trees), 0.0 if thr is None else float(thr),
-                              thr is not None, np.empty(X.shape[0]))
+                              int(self.n_estimators_ if n_trees is None else n_trees),
+                              0.0 if thr is None else float(thr), thr is not None,
+                              np.empty(origin.shape[0]))
 
 
 # ---------------------------------------------------------------------- helpers
