@@ -127,7 +127,6 @@ def grow_tree(XqT, members, subset, w, n_bins, depth):
     is_pos = np.zeros(n, dtype=bool)
     is_pos[members[1]] = True
     node_of = np.zeros(n, dtype=np.intp)
-    n_feat = subset.size
     hists = {0: node_histograms(XqT, members, w, None, subset, n_bins)[0]}
     for level in range(depth + 1):
         first, last = 2 ** level - 1, 2 ** (level + 1) - 1
