@@ -14,6 +14,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from ._kernels import strongest_of_three
+
 
 @njit(cache=True, nogil=True, boundscheck=False, inline="always")
 def _strongest_grad1(luv, i, iu, idn, hy, jl, j, jr, hx):
@@ -21,18 +23,12 @@ def _strongest_grad1(luv, i, iu, idn, hy, jl, j, jr, hx):
     (ties keep the earlier): the toolbox's ``grad1`` differences ``h (a_hi - a_lo)``
     with ``h = 1/2`` inside, 1 at the ends (``a_hi = a_lo`` along an axis of length 1
     gives 0)."""
-    bx = hx * (luv[i, jr, 0] - luv[i, jl, 0])
-    by = hy * (luv[idn, j, 0] - luv[iu, j, 0])
-    best = bx * bx + by * by
-    for k in range(1, 3):
-        x = hx * (luv[i, jr, k] - luv[i, jl, k])
-        y = hy * (luv[idn, j, k] - luv[iu, j, k])
-        m = x * x + y * y
-        if m > best:
-            best = m
-            bx = x
-            by = y
-    return bx, by
+    return strongest_of_three(hx * (luv[i, jr, 0] - luv[i, jl, 0]),
+                              hy * (luv[idn, j, 0] - luv[iu, j, 0]),
+                              hx * (luv[i, jr, 1] - luv[i, jl, 1]),
+                              hy * (luv[idn, j, 1] - luv[iu, j, 1]),
+                              hx * (luv[i, jr, 2] - luv[i, jl, 2]),
+                              hy * (luv[idn, j, 2] - luv[iu, j, 2]))
 
 
 # no fastmath: the magnitudes and the bin tests stay the float32 operations of the OpenCV
@@ -73,22 +69,10 @@ def acf_gradient_bins(luv, n_orient, mag, bins):  # pragma: no cover - compiled
         gxr[0], gyr[0] = _strongest_grad1(luv, i, iu, idn, hy, 0, 0, min(1, N - 1), one)
         # the interior of the row, channels unrolled (vectorises)
         for j in range(1, N - 1):
-            gx = half * (rc[j + 1, 0] - rc[j - 1, 0])
-            gy = hy * (rd[j, 0] - ru[j, 0])
-            x1 = half * (rc[j + 1, 1] - rc[j - 1, 1])
-            y1 = hy * (rd[j, 1] - ru[j, 1])
-            x2 = half * (rc[j + 1, 2] - rc[j - 1, 2])
-            y2 = hy * (rd[j, 2] - ru[j, 2])
-            m0 = gx * gx + gy * gy
-            m1 = x1 * x1 + y1 * y1
-            m2 = x2 * x2 + y2 * y2
-            t1 = m1 > m0
-            gx = x1 if t1 else gx
-            gy = y1 if t1 else gy
-            m0 = m1 if t1 else m0
-            t2 = m2 > m0
-            gxr[j] = x2 if t2 else gx
-            gyr[j] = y2 if t2 else gy
+            gxr[j], gyr[j] = strongest_of_three(
+                half * (rc[j + 1, 0] - rc[j - 1, 0]), hy * (rd[j, 0] - ru[j, 0]),
+                half * (rc[j + 1, 1] - rc[j - 1, 1]), hy * (rd[j, 1] - ru[j, 1]),
+                half * (rc[j + 1, 2] - rc[j - 1, 2]), hy * (rd[j, 2] - ru[j, 2]))
         if N > 1:
             gxr[N - 1], gyr[N - 1] = _strongest_grad1(luv, i, iu, idn, hy, N - 2, N - 1,
                                                       N - 1, one)

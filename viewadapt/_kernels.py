@@ -103,27 +103,34 @@ _DEG = np.float32(np.pi / 180)
 
 
 @njit(cache=True, nogil=True, boundscheck=False, inline="always")
+def strongest_of_three(x0, y0, x1, y1, x2, y2):
+    """The pair ``(x, y)`` of largest ``x**2 + y**2`` of three (ties keep the earlier): the
+    strongest colour channel's gradient, as the HOG and ACF feature passes pick it."""
+    m0 = x0 * x0 + y0 * y0
+    m1 = x1 * x1 + y1 * y1
+    m2 = x2 * x2 + y2 * y2
+    t1 = m1 > m0
+    x0 = x1 if t1 else x0
+    y0 = y1 if t1 else y0
+    m0 = m1 if t1 else m0
+    t2 = m2 > m0
+    return (x2 if t2 else x0), (y2 if t2 else y0)
+
+
+@njit(cache=True, nogil=True, boundscheck=False, inline="always")
 def _strongest_difference(img, i, iu, idn, jl, j, jr):
     """Central differences at pixel ``(i, j)`` of the channel of largest ``dx**2 + dy**2``
     (ties keep the earlier channel), from neighbours ``iu, idn, jl, jr``: the border
-    pixels of ``hog_gradient_cell_sums`` (its interior loop unrolls the same code)."""
+    pixels of ``hog_gradient_cell_sums`` (its interior loop does the same per pixel)."""
     gx = np.float32(img[i, jr, 0]) - np.float32(img[i, jl, 0])
     gy = np.float32(img[idn, j, 0]) - np.float32(img[iu, j, 0])
-    best = gx * gx + gy * gy
     if img.shape[2] == 3:
-        x = np.float32(img[i, jr, 1]) - np.float32(img[i, jl, 1])
-        y = np.float32(img[idn, j, 1]) - np.float32(img[iu, j, 1])
-        m = x * x + y * y
-        take = m > best
-        gx = x if take else gx
-        gy = y if take else gy
-        best = m if take else best
-        x = np.float32(img[i, jr, 2]) - np.float32(img[i, jl, 2])
-        y = np.float32(img[idn, j, 2]) - np.float32(img[iu, j, 2])
-        m = x * x + y * y
-        take = m > best
-        gx = x if take else gx
-        gy = y if take else gy
+        return strongest_of_three(
+            gx, gy,
+            np.float32(img[i, jr, 1]) - np.float32(img[i, jl, 1]),
+            np.float32(img[idn, j, 1]) - np.float32(img[iu, j, 1]),
+            np.float32(img[i, jr, 2]) - np.float32(img[i, jl, 2]),
+            np.float32(img[idn, j, 2]) - np.float32(img[iu, j, 2]))
     return gx, gy
 
 
@@ -168,22 +175,13 @@ def hog_gradient_cell_sums(img, n_bins, sizes, offsets, n_x, n_y,
             # the interior of the row, channels unrolled (vectorises; see
             # _strongest_difference for the borders)
             for j in range(1, N - 1):
-                gx = np.float32(rc[j + 1, 0]) - np.float32(rc[j - 1, 0])
-                gy = np.float32(rd[j, 0]) - np.float32(ru[j, 0])
-                x1 = np.float32(rc[j + 1, 1]) - np.float32(rc[j - 1, 1])
-                y1 = np.float32(rd[j, 1]) - np.float32(ru[j, 1])
-                x2 = np.float32(rc[j + 1, 2]) - np.float32(rc[j - 1, 2])
-                y2 = np.float32(rd[j, 2]) - np.float32(ru[j, 2])
-                m0 = gx * gx + gy * gy
-                m1 = x1 * x1 + y1 * y1
-                m2 = x2 * x2 + y2 * y2
-                t1 = m1 > m0
-                gx = x1 if t1 else gx
-                gy = y1 if t1 else gy
-                m0 = m1 if t1 else m0
-                t2 = m2 > m0
-                gxr[j] = x2 if t2 else gx
-                gyr[j] = y2 if t2 else gy
+                gxr[j], gyr[j] = strongest_of_three(
+                    np.float32(rc[j + 1, 0]) - np.float32(rc[j - 1, 0]),
+                    np.float32(rd[j, 0]) - np.float32(ru[j, 0]),
+                    np.float32(rc[j + 1, 1]) - np.float32(rc[j - 1, 1]),
+                    np.float32(rd[j, 1]) - np.float32(ru[j, 1]),
+                    np.float32(rc[j + 1, 2]) - np.float32(rc[j - 1, 2]),
+                    np.float32(rd[j, 2]) - np.float32(ru[j, 2]))
         else:
             for j in range(1, N - 1):
                 gxr[j] = np.float32(rc[j + 1, 0]) - np.float32(rc[j - 1, 0])
