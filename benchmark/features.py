@@ -264,16 +264,27 @@ class FeatureCache:
             return {feature_key(r): np.zeros((0, 0), np.float32) for r in reps}
         chunks = np.array_split(np.arange(len(ws)), max(1, min(len(ws) // 64, 256)))
         root = self.ds.root
-
-        def work(idx):
-            sub = WindowSet(ws.key, [ws.items[i] for i in idx], ws.meta.iloc[idx])
-            return compute_representations(list(sub.images(root)), reps)
-
         names = "+".join(r if isinstance(r, str) else str(r.key) for r in reps)
         it = tqdm(chunks, desc=f"features {names} {ws.key}", leave=False,
                   disable=not self.progress)
+        # each task carries its own windows only (not the whole set, which would be
+        # pickled again for every chunk)
+        tasks = ([ws.items[i] for i in idx] for idx in it)
         if self.n_jobs == 1:
-            parts = [work(c) for c in it]
+            parts = [_chunk_features(items, root, reps) for items in tasks]
         else:
-            parts = Parallel(n_jobs=self.n_jobs)(delayed(work)(c) for c in it)
+            parts = Parallel(n_jobs=self.n_jobs)(
+                delayed(_chunk_features)(items, root, reps, worker=True) for items in tasks)
         return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
+
+
+def _chunk_features(items, root, reps, worker: bool = False) -> dict:
+    """:func:`compute_representations` of the windows ``items`` (``WindowSet`` items); in a
+    worker process OpenCV runs single-threaded (the workers share the cores; OpenCV's own
+    threads on 64x128 windows only add synchronisation)."""
+    if worker:
+        import cv2
+
+        cv2.setNumThreads(1)
+    return compute_representations(list(WindowSet("", items, pd.DataFrame()).images(root)),
+                                   reps)

@@ -100,29 +100,40 @@ def run_sweep(ds: Dataset, cfg: CrossvalConfig, cache: FeatureCache, *, detector
     labels_all = np.r_[np.ones(n_pos_all, np.int8), np.zeros(len(meta_n), np.int8)]
     pids_all = np.r_[meta_p["person_id"].to_numpy(), np.full(len(meta_n), "")]
     # per fold: the trained model and its test windows (rows of fine / plain)
-    tests, models = [], []
-    for fold, seed in tqdm(list(zip(folds, seeds)), desc="sweep: training", disable=not progress):
-        pm = fold_masks(data["meta"][("person", es)], fold, True)
-        nm = fold_masks(data["meta"][("background", es)], fold, True)
-        models.append(spec.fit(F[(src_rep, "person", es, "")][pm],
-                               F[(src_rep, "background", es, "")][nm], seed=int(seed),
-                               config=cfg))
-        tests.append(np.flatnonzero(np.r_[fold_masks(meta_p, fold, False),
-                                          fold_masks(meta_n, fold, False)]))
+    train = [(fold_masks(data["meta"][("person", es)], fold, True),
+              fold_masks(data["meta"][("background", es)], fold, True), int(seed))
+             for fold, seed in zip(folds, seeds)]
+    args = (spec, F[(src_rep, "person", es, "")], F[(src_rep, "background", es, "")], cfg)
+    it = tqdm(train, desc="sweep: training", disable=not progress)
+    if cfg.n_jobs == 1:
+        models = [_fit_fold(*t, *args) for t in it]
+    else:
+        from joblib import Parallel, delayed
+
+        models = Parallel(n_jobs=cfg.n_jobs)(delayed(_fit_fold)(*t, *args) for t in it)
+    tests = [np.flatnonzero(np.r_[fold_masks(meta_p, fold, False), fold_masks(meta_n, fold, False)])
+             for fold in folds]
     used = np.unique(np.concatenate(tests))       # background windows serve three folds
     parts = []                                    # (fold, method, estimate, rows, scores)
     # the models' inputs are finite by construction: skip sklearn's check of every call
     with config_context(assume_finite=True):
         for fold, model, idx in zip(folds, models, tests):
             parts.append((fold.name, "unadapted", np.nan, idx, spec.score(model, plain[idx])))
-        Xu = fine[used]
-        for (method, e), G in tqdm(list(Gs.items()), desc="sweep: estimates",
-                                   disable=not progress):
-            # remap every test window once per estimate, then score it with each fold's model
-            prepared = spec.adapted_inputs(Xu, G)
-            for fold, model, idx in zip(folds, models, tests):
-                parts.append((fold.name, method, float(e), idx, spec.score_adapted_inputs(
-                    model, prepared[np.searchsorted(used, idx)], G)))
+    Xu = fine[used]
+    rows = [np.searchsorted(used, idx) for idx in tests]
+    # each estimate's scores depend on its G alone, so workers may take them in any order
+    # (joblib hands the windows to the workers once, memory-mapped)
+    args = (spec, Xu, models, rows)
+    it = tqdm(list(Gs.values()), desc="sweep: estimates", disable=not progress)
+    if cfg.n_jobs == 1:
+        done = [_score_estimate(G, *args) for G in it]
+    else:
+        from joblib import Parallel, delayed
+
+        done = Parallel(n_jobs=cfg.n_jobs)(delayed(_score_estimate)(G, *args) for G in it)
+    for (method, e), scores in zip(Gs, done):
+        for fold, idx, sc in zip(folds, tests, scores):
+            parts.append((fold.name, method, float(e), idx, sc))
     sizes = [len(p[3]) for p in parts]
     idx = np.concatenate([p[3] for p in parts])
     return pd.DataFrame({"fold": np.repeat([p[0] for p in parts], sizes).astype(object),
@@ -132,6 +143,21 @@ def run_sweep(ds: Dataset, cfg: CrossvalConfig, cache: FeatureCache, *, detector
                          "score": np.concatenate([np.asarray(p[4], np.float32)
                                                   for p in parts]),
                          "person_id": pids_all[idx]})
+
+
+def _fit_fold(pos_mask, neg_mask, seed, spec, X_pos, X_neg, cfg):
+    """One fold's source model from its training windows (rows of ``X_pos``, ``X_neg``)."""
+    return spec.fit(X_pos[pos_mask], X_neg[neg_mask], seed=seed, config=cfg)
+
+
+def _score_estimate(G, spec, Xu, models, rows) -> list:
+    """Each fold model's scores of its test windows (``rows`` of ``Xu``) through ``G``;
+    every window is remapped once."""
+    # the models' inputs are finite by construction: skip sklearn's check of every call
+    with config_context(assume_finite=True):
+        prepared = spec.adapted_inputs(Xu, G)
+        return [spec.score_adapted_inputs(model, prepared[r], G)
+                for model, r in zip(models, rows)]
 
 
 def _rule_model(method: str) -> tuple[str, str]:

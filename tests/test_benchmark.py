@@ -165,3 +165,18 @@ def test_reproduce_runs_every_stage_in_order(tmp_path, monkeypatch):
     monkeypatch.setattr(cli, "main", lambda argv: calls.append(argv) or (2 if argv[0] == "bench"
                                                                       else 0))
     assert cli._cmd_reproduce(args) == 2 and len(calls) == 2
+
+
+def test_sweep_in_two_processes_equals_one(toy, tmp_path):
+    # the estimates are scored by worker processes in any order; the rows come back in the
+    # order of one process, with the same scores bit for bit
+    from benchmark.crossval import CrossvalConfig
+    from benchmark.features import FeatureCache
+    from benchmark.sweep import run_sweep
+
+    ds = load_dataset(toy)
+    cache = FeatureCache(ds, tmp_path / "cache", progress=False)
+    runs = [run_sweep(ds, CrossvalConfig(n_jobs=n, acf_estimators=8, acf_stages=(8,)), cache,
+                      step=np.pi / 12, sigma=0.1, progress=False) for n in (1, 2)]
+    assert len(runs[0]) > 0 and runs[0]["estimate"].nunique() > 3
+    pd.testing.assert_frame_equal(runs[0], runs[1], check_exact=True)

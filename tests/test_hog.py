@@ -179,3 +179,54 @@ def test_bad_parameters():
         hog_cells(img, n_bins=1)
     with pytest.raises(ValueError, match="normalize"):
         hog_cells(img, normalize="global")
+
+
+def test_opencv_blocks_equal_the_per_pixel_weighted_sums():
+    # the block histograms as the direct weighted sums over each block's pixels (the form the
+    # matrix products replaced): equal to float64 rounding, and the float32 descriptors the
+    # benchmark caches are identical
+    from viewadapt.hog import _opencv_block_weights
+
+    rng = np.random.default_rng(11)
+    W = _opencv_block_weights(8)
+    for win in _windows(6, rng):
+        O = orientation_channels(win, gamma=True, dtype=np.float32)
+        ref = np.empty((7, 15, 4, 9))
+        for bx in range(7):
+            for by in range(15):
+                patch = O[by * 8:by * 8 + 16, bx * 8:bx * 8 + 16]      # (16, 16, 9)
+                ref[bx, by] = np.einsum("ijb,ijk->kb", patch, W)
+        ours = hog_opencv_blocks(win)
+        assert np.allclose(ours, ref, rtol=1e-13, atol=1e-12)
+        assert np.array_equal(normalize_blocks_l2hys(ours).astype(np.float32),
+                              normalize_blocks_l2hys(ref).astype(np.float32))
+
+
+def test_orientation_split_equals_the_vectorised_formula():
+    # the compiled split against the numpy form it replaced (fancy-indexed assignment),
+    # bit for bit, on window gradients and on random ones with zeros and signed zeros
+    from viewadapt.hog import _orientation_channels_from_gradients, image_gradients
+
+    def reference(dx, dy, n_bins):
+        mag = np.hypot(dx, dy)
+        t = np.mod(np.arctan2(dy, dx), np.pi) * (n_bins / np.pi) - 0.5
+        lo = np.floor(t)
+        frac = t - lo
+        lo = lo.astype(np.int64) % n_bins
+        O = np.zeros(mag.shape + (n_bins,))
+        flat = O.reshape(-1, n_bins)
+        idx = np.arange(mag.size)
+        flat[idx, lo.ravel()] = (mag * (1.0 - frac)).ravel()
+        flat[idx, ((lo + 1) % n_bins).ravel()] += (mag * frac).ravel()
+        return O
+
+    rng = np.random.default_rng(12)
+    cases = [image_gradients(w, gamma=True, dtype=np.float32) for w in _windows(3, rng)]
+    x, y = rng.normal(size=(2, 300, 200)).astype(np.float32)
+    x[::7], y[::11], x[::13] = 0.0, 0.0, -0.0
+    cases.append((x, y))
+    for dx, dy in cases:
+        for n_bins in (9, 6):
+            dx64, dy64 = dx.astype(np.float64), dy.astype(np.float64)
+            assert np.array_equal(_orientation_channels_from_gradients(dx64, dy64, n_bins),
+                                  reference(dx64, dy64, n_bins))

@@ -480,3 +480,81 @@ def rasterize_depth(uv, z, faces, x0, y0, step, out):  # pragma: no cover - comp
                 if d < out[i, j]:
                     out[i, j] = d
     return out
+
+
+@njit(cache=True, nogil=True, boundscheck=False)
+def split_orientations(mag, theta, n_bins, out):  # pragma: no cover - compiled
+    """Each pixel's magnitude split linearly between the two nearest of ``n_bins`` unsigned
+    orientation bins: ``t = (theta mod pi) n_bins / pi - 1/2``, ``(1 - frac)`` of ``mag`` to
+    bin ``floor(t) mod n_bins`` and ``frac`` to the next (float64, the operations of
+    :func:`viewadapt.hog.orientation_channels` in their order). ``mag``, ``theta``: (M, N);
+    ``out``: (M, N, n_bins), overwritten."""
+    M, N = mag.shape
+    scale = n_bins / np.pi
+    for i in range(M):
+        for j in range(N):
+            t = (theta[i, j] % np.pi) * scale - 0.5
+            lo = np.floor(t)
+            frac = t - lo
+            k = int(lo) % n_bins
+            g = mag[i, j]
+            for b in range(n_bins):
+                out[i, j, b] = 0.0
+            out[i, j, k] = g * (1.0 - frac)
+            out[i, j, (k + 1) % n_bins] += g * frac
+    return out
+
+
+@njit(cache=True, nogil=True, boundscheck=False)
+def clip_to_rects(poly, counts, rects, out, out_counts):  # pragma: no cover - compiled
+    """Sutherland-Hodgman clipping of each polygon ``poly[p, :counts[p]]`` to the
+    rectangle ``rects[p] = (xmin, ymin, xmax, ymax)``: the edges x >= xmin, x <= xmax,
+    y >= ymin, y <= ymax in that order; per vertex, the vertex if inside, then the edge's
+    crossing ``cur + t (nxt - cur)``, ``t = dc / (dc - dn)`` (the arithmetic of
+    :func:`viewadapt.remap.clip_polygons_to_rects`' vectorised form). Writes the vertices
+    into ``out[p]`` (room for ``2**4`` times the input's) and their count into
+    ``out_counts[p]``."""
+    P, V = poly.shape[0], poly.shape[1]
+    cap = out.shape[1]
+    ax = np.empty(cap)
+    ay = np.empty(cap)
+    bx = np.empty(cap)
+    by = np.empty(cap)
+    for p in range(P):
+        n = counts[p]
+        for i in range(n):
+            ax[i] = poly[p, i, 0]
+            ay[i] = poly[p, i, 1]
+        for e in range(4):
+            axis = 0 if e < 2 else 1
+            col = (0, 2, 1, 3)[e]
+            sign = 1.0 if e % 2 == 0 else -1.0
+            bound = rects[p, col]
+            m = 0
+            for i in range(n):
+                j = i + 1
+                if j == n:
+                    j = 0
+                cx, cy, nx, ny = ax[i], ay[i], ax[j], ay[j]
+                dc = sign * ((cx if axis == 0 else cy) - bound)
+                dn = sign * ((nx if axis == 0 else ny) - bound)
+                cin = dc >= 0
+                if cin:
+                    bx[m] = cx
+                    by[m] = cy
+                    m += 1
+                if cin != (dn >= 0):
+                    d = dc - dn
+                    t = dc / (1.0 if d == 0 else d)
+                    bx[m] = cx + t * (nx - cx)
+                    by[m] = cy + t * (ny - cy)
+                    m += 1
+            n = m
+            for i in range(n):
+                ax[i] = bx[i]
+                ay[i] = by[i]
+        out_counts[p] = n
+        for i in range(n):
+            out[p, i, 0] = ax[i]
+            out[p, i, 1] = ay[i]
+    return out_counts

@@ -112,20 +112,14 @@ def orientation_channels(image, *, n_bins: int = 9, gamma: bool = False,
 
 
 def _orientation_channels_from_gradients(dx, dy, n_bins):
-    mag = np.hypot(dx, dy)
-    theta = np.mod(np.arctan2(dy, dx), np.pi)
-    t = theta * (n_bins / np.pi) - 0.5
-    lo = np.floor(t)
-    frac = t - lo
-    lo = lo.astype(np.int64) % n_bins
-    hi = (lo + 1) % n_bins
-    O = np.zeros(mag.shape + (n_bins,))
-    flat = O.reshape(-1, n_bins)
-    idx = np.arange(mag.size)
-    # lo != hi for every pixel, so neither fancy assignment repeats an index
-    flat[idx, lo.ravel()] = (mag * (1.0 - frac)).ravel()
-    flat[idx, hi.ravel()] += (mag * frac).ravel()
-    return O
+    from ._kernels import split_orientations
+
+    # numpy's hypot and arctan2 (vectorised libm/SVML; a compiled scalar atan2 can differ
+    # in the last bit), then the split in one compiled pass:
+    # t = mod(theta, pi) n_bins / pi - 1/2, (1 - frac) to bin floor(t), frac to the next
+    mag = np.ascontiguousarray(np.hypot(dx, dy))
+    theta = np.ascontiguousarray(np.arctan2(dy, dx))
+    return split_orientations(mag, theta, int(n_bins), np.empty(mag.shape + (n_bins,)))
 
 
 def locally_normalize_channels(channels, *, cell_size: int = 8, eps: float = 1e-2) -> np.ndarray:
@@ -339,14 +333,15 @@ def hog_opencv_blocks(image, *, cell_size: int = 8, n_bins: int = 9,
     if ny < 2 or nx < 2:
         raise ValueError(f"image must hold at least 2x2 cells, got {N}x{M} pixels")
     W = _opencv_block_weights(c)                            # (2c, 2c, 4)
-    # Tile sums with each of the 4 tile roles (quadrant of the block the tile fills).
-    tiles = O.reshape(ny, c, nx, c, B)
+    # Tile sums with each of the 4 tile roles (quadrant of the block the tile fills), as one
+    # matrix product per role: (tile, bin) rows of c*c pixels times the role's c*c x 4 weights.
+    tiles = O.reshape(ny, c, nx, c, B).transpose(0, 2, 4, 1, 3).reshape(ny, nx, B, c * c)
     out = np.zeros((nx - 1, ny - 1, 4, B))
     for ry in range(2):
         for rx in range(2):
-            Wq = W[ry * c:(ry + 1) * c, rx * c:(rx + 1) * c]   # (c, c, 4)
-            T = np.einsum("yixjb,ijk->yxkb", tiles, Wq)         # (ny, nx, 4, B)
-            out += T[ry:ny - 1 + ry, rx:nx - 1 + rx].transpose(1, 0, 2, 3)
+            Wq = W[ry * c:(ry + 1) * c, rx * c:(rx + 1) * c].reshape(c * c, 4)
+            T = tiles @ Wq                                       # (ny, nx, B, 4)
+            out += T[ry:ny - 1 + ry, rx:nx - 1 + rx].transpose(1, 0, 3, 2)
     return out
 
 
