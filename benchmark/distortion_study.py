@@ -1,5 +1,5 @@
-"""Lens distortion: does undistorting every frame detect as well as on pinhole frames, and
-what does it cost?
+"""Lens distortion: undistort every frame, or map the windows through the lens? Which
+detects as well as on pinhole frames, and at what cost?
 
 ``python -m benchmark.distortion_study --data DIR --out DIR [--model M]
 [--dist k1,k2,p1,p2,k3 ...] [--seed S]``
@@ -7,9 +7,10 @@ what does it cost?
 ``viewadapt detect`` corrects a distorted camera by undistorting each frame with maps
 computed once (:class:`viewadapt.detect.Undistortion`: ``cv2.remap`` per frame, new camera
 matrix = ``K``) and then runs the adapted detector built for the pinhole camera. The
-alternative of issue 17 -- mapping every candidate window through the lens model when the
-adapted operator is built, no per-frame work -- is not implemented; this study measures
-whether there is anything for it to win.
+alternative maps every candidate window through the lens model when the adapted operator
+is built (:func:`viewadapt.detect.windows.windows_through_lens`: each window's homography
+refitted to where the lens puts its pixels) and scores the distorted frame itself, with no
+per-frame work.
 
 On a dataset's rendered (pinhole) frames, one camera per ``scene_id``, the adapted HOG/SVM
 detector (:class:`viewadapt.detect.FrameDetector`, person heights 1.65 and 1.85 m, as
@@ -24,6 +25,10 @@ detector (:class:`viewadapt.detect.FrameDetector`, person heights 1.65 and 1.85 
 ``(c) uncorrected``
     the distorted frames detected as if they were pinhole frames (the cost of ignoring the
     lens);
+``(w) lens-windows``
+    the distorted frames detected by the detector whose windows are mapped through the lens
+    (``FrameDetector(..., lens=dist)``); its boxes, in distorted pixels, are undistorted
+    (:func:`undistorted_boxes`) to be scored against the same ground truth;
 ``(b') edge-restored``
     a control: (b) with the pixels the synthetic render leaves without data (the thin ring
     along the frame's edges where the remaps mix in border fill, see :func:`valid_region`)
@@ -86,7 +91,7 @@ from .frames import load_frames
 
 __all__ = ["DEFAULT_DISTORTIONS", "STUDY_HEIGHTS", "MAX_REMAP_FRACTION", "VALID_WEIGHT",
            "REMAP_REPEATS", "parse_distortion", "distortion_label", "valid_region",
-           "invalid_box_fractions", "resample_half_pixel", "group_by_scene",
+           "invalid_box_fractions", "resample_half_pixel", "group_by_scene", "undistorted_boxes",
            "run_distortion_study", "main"]
 
 #: The coefficient sets studied by default, OpenCV's ``[k1, k2, p1, p2, k3]`` relative to
@@ -224,6 +229,23 @@ def invalid_box_fractions(boxes, valid) -> np.ndarray:
     return np.array(out, float)
 
 
+def undistorted_boxes(dets, undistortion) -> np.ndarray:
+    """Detections ``(x, y, w, h, score)`` in distorted-frame pixels -> the same in the
+    undistorted frame: each box's corners and edge midpoints undistorted
+    (:meth:`Undistortion.undistort_points <viewadapt.detect.Undistortion.undistort_points>`),
+    their bounding box kept, the score unchanged."""
+    d = np.asarray(dets, dtype=np.float64).reshape(-1, 5)
+    if len(d) == 0:
+        return d.copy()
+    x, y, w, h = d[:, 0], d[:, 1], d[:, 2], d[:, 3]
+    u = np.array([0, 0.5, 1, 1, 1, 0.5, 0, 0])
+    v = np.array([0, 0, 0, 0.5, 1, 1, 1, 0.5])
+    pts = np.stack([x[:, None] + u * w[:, None], y[:, None] + v * h[:, None]], -1)
+    q = undistortion.undistort_points(pts.reshape(-1, 2)).reshape(-1, 8, 2)
+    lo, hi = q.min(axis=1), q.max(axis=1)
+    return np.c_[lo, hi - lo, d[:, 4]]
+
+
 def group_by_scene(frames) -> dict:
     """``scene_id -> [frame index, ...]``; a scene whose frames disagree on the camera is
     a ``ValueError`` (the study builds one detector per scene)."""
@@ -252,7 +274,7 @@ def _timed(fn, repeats):
 def run_distortion_study(frames, models, distortions, *, cache_dir=None,
                          person_heights=STUDY_HEIGHTS, repeats: int = 3,
                          remap_repeats: int = REMAP_REPEATS, log=None) -> dict:
-    """Detections of the three conditions on every frame, their per-frame times and the
+    """Detections of every condition on every frame, their per-frame times and the
     valid-region shares.
 
     Parameters
@@ -275,12 +297,14 @@ def run_distortion_study(frames, models, distortions, *, cache_dir=None,
         ``detections``: method -> list of (D, 5) arrays, one per frame (``"(a) original"``,
         ``"(r1) resampled-once"``, ``"(r2) resampled-twice"``,
         ``"(b) undistorted <label>"``, ``"(c) uncorrected <label>"``,
-        ``"(b') edge-restored <label>"``); ``labels``: the sets' labels; ``times``: a
+        ``"(b') edge-restored <label>"``, ``"(w) lens-windows <label>"``); ``labels``:
+        the sets' labels; ``times``: a
         DataFrame with one row per frame and method (``frame``, ``scene_id``, ``method``,
         ``detect_s``, ``remap_s``); ``coverage``: one row per frame, coefficient set and
         ground-truth person (``invalid_fraction``); ``max_shift_px``: label -> the largest
         displacement of the lens model in each camera's frame, pixels; ``operators``:
-        scene -> seconds to build or load the operator, and whether it came from the cache.
+        scene (and ``"<scene> <label>"`` for the lens-window detectors) -> seconds to
+        build or load the operator, and whether it came from the cache.
     """
     if repeats < 1 or remap_repeats < 1:
         raise ValueError("repeats must be at least 1")
@@ -289,7 +313,7 @@ def run_distortion_study(frames, models, distortions, *, cache_dir=None,
         raise ValueError("--dist: the same coefficient set is given twice")
     methods = [ORIGINAL, ONCE, TWICE] + [f"({c}) {name} {lab}" for lab in labels
                              for c, name in (("b", "undistorted"), ("c", "uncorrected"),
-                                             ("b'", "edge-restored"))]
+                                             ("b'", "edge-restored"), ("w", "lens-windows"))]
     dets = {m: [None] * len(frames) for m in methods}
     times, coverage, shifts, operators = [], [], {lab: 0.0 for lab in labels}, {}
     for scene, idx in group_by_scene(frames).items():
@@ -305,7 +329,14 @@ def run_distortion_study(frames, models, distortions, *, cache_dir=None,
             h, w = und.map_x.shape
             ys, xs = np.mgrid[0:h, 0:w]
             shifts[lab] = max(shifts[lab], float(np.hypot(und.map_x - xs, und.map_y - ys).max()))
-            lens.append((lab, d, und, valid_region(cam.K, d, cam.image_size)))
+            through = FrameDetector(cam, models, person_heights=person_heights,
+                                    cache_dir=cache_dir, lens=d)
+            t0 = time.perf_counter()
+            through.operator("hog")
+            operators[f"{scene} {lab}"] = {
+                "seconds": round(time.perf_counter() - t0, 2),
+                "from_cache": bool(through.cache_hit.get("hog"))}
+            lens.append((lab, d, und, valid_region(cam.K, d, cam.image_size), through))
         for i in idx:
             f = frames[i]
             img = f.image()
@@ -317,7 +348,7 @@ def run_distortion_study(frames, models, distortions, *, cache_dir=None,
                 dets[m][i], t = _timed(lambda: det.detect(blurred, "hog"), repeats)
                 times.append(dict(frame=i, scene_id=scene, method=m, detect_s=t,
                                   remap_s=np.nan))
-            for lab, d, und, valid in lens:
+            for lab, d, und, valid, through in lens:
                 distorted = distort_image(img, cam.K, d)
                 fixed, t_remap = _timed(lambda: und(distorted), remap_repeats)
                 m = f"(b) undistorted {lab}"
@@ -331,6 +362,11 @@ def run_distortion_study(frames, models, distortions, *, cache_dir=None,
                 restored = np.where(valid[..., None] if fixed.ndim == 3 else valid, fixed, img)
                 m = f"(b') edge-restored {lab}"
                 dets[m][i], t = _timed(lambda: det.detect(restored, "hog"), repeats)
+                times.append(dict(frame=i, scene_id=scene, method=m, detect_s=t,
+                                  remap_s=np.nan))
+                m = f"(w) lens-windows {lab}"
+                found, t = _timed(lambda: through.detect(distorted, "hog"), repeats)
+                dets[m][i] = undistorted_boxes(found, und)
                 times.append(dict(frame=i, scene_id=scene, method=m, detect_s=t,
                                   remap_s=np.nan))
                 for g, frac in enumerate(invalid_box_fractions(f.gt, valid)):

@@ -271,7 +271,8 @@ def test_distorted_frames_are_undistorted(toy, detect):
                     distort_image(cv2.imread(str(f.path)), toy.cam.K, DIST))
     calib = _write_calibration(toy.root / "cam_dist.json", toy.cam, dist=DIST)
     ref = _rows(detect("folder", toy.folder))
-    fixed = detect("distorted", "--annotate", "none", folder, calibration=calib)
+    fixed = detect("distorted", "--annotate", "none", "--lens", "undistort", folder,
+                   calibration=calib)
     raw = detect("distorted_raw", "--annotate", "none", folder)
     fixed_iou, raw_iou = _best_iou(ref, _rows(fixed)), _best_iou(ref, _rows(raw))
     assert len(fixed_iou) >= 10 and (fixed_iou > 0.5).all()
@@ -279,6 +280,28 @@ def test_distorted_frames_are_undistorted(toy, detect):
     meta = json.loads((fixed / "metadata.json").read_text())
     assert meta["undistortion"]["dist"] == DIST
     assert json.loads((raw / "metadata.json").read_text())["undistortion"] is None
+    assert meta["lens_windows"] is None
+
+
+def test_windows_through_the_lens_find_the_same_persons(toy, detect):
+    """--lens windows reads the distorted frames as they are: its boxes, undistorted, are
+    those of the pinhole frames' detections."""
+    from benchmark.distortion_study import undistorted_boxes
+    from viewadapt.detect import Undistortion
+
+    folder = toy.root / "distorted"           # written by the test above
+    calib = _write_calibration(toy.root / "cam_dist.json", toy.cam, dist=DIST)
+    ref = _rows(detect("folder", toy.folder))
+    out = detect("lens_windows", "--annotate", "none", "--lens", "windows", folder,
+                 calibration=calib)
+    rows = _rows(out)
+    und = Undistortion(toy.cam.K, DIST, toy.cam.image_size)
+    back = undistorted_boxes(rows[["x", "y", "w", "h", "score"]].to_numpy(), und)
+    rows[["x", "y", "w", "h"]] = back[:, :4]
+    iou = _best_iou(ref, rows)
+    assert len(iou) >= 10 and (iou > 0.5).all() and np.median(iou) > 0.7, iou
+    meta = json.loads((out / "metadata.json").read_text())
+    assert meta["lens_windows"]["dist"] == DIST and meta["undistortion"] is None
 
 
 # ------------------------------------------------------------------ bad input

@@ -167,3 +167,64 @@ def test_bad_dist_is_a_one_line_error_naming_the_field(value, match, camera, tmp
         read_distortion(p)
     assert "\n" not in str(err.value) and str(err.value).startswith(f"calibration {p}: dist")
     read_calibration(p)                                      # the camera itself is fine
+
+
+def _lens_camera():
+    return camera_from_pose(focal=340.0, principal_point=(191.5, 143.5), height=5.0,
+                            tilt=np.radians(25), image_size=SIZE)
+
+
+def test_distort_pixels_is_the_lens_model_and_undistortion_inverts_it():
+    from viewadapt.detect.windows import distort_pixels
+
+    rng = np.random.default_rng(2)
+    p = rng.uniform([20, 20], [364, 268], size=(200, 2))
+    np.testing.assert_allclose(distort_pixels(p, K, DIST), _project_through_lens(p), atol=1e-9)
+    np.testing.assert_allclose(distort_pixels(p, K, np.zeros(5)), p, atol=1e-9)
+    back = Undistortion(K, DIST, SIZE).undistort_points(distort_pixels(p, K, DIST))
+    np.testing.assert_allclose(back, p, atol=1e-6)
+
+
+def test_windows_through_the_lens_follow_it_to_a_fraction_of_a_pixel():
+    from viewadapt.detect.windows import (
+        distort_pixels, map_points, select_candidate_windows, windows_through_lens,
+    )
+    from viewadapt.geometry import WINDOW_CORNERS
+
+    cam = _lens_camera()
+    W = select_candidate_windows(cam)
+    grid = np.stack(np.meshgrid(np.linspace(0, 63, 7), np.linspace(0, 127, 13)), -1).reshape(-1, 2)
+    same, keep = windows_through_lens(W, cam.K, np.zeros(5))
+    assert keep.all()
+    np.testing.assert_allclose(map_points(same.homographies, grid),
+                               map_points(W.homographies, grid), atol=1e-3)
+    L, keep = windows_through_lens(W, cam.K, DIST)
+    assert 0 < len(L) <= len(W) and len(L) == keep.sum()
+    np.testing.assert_array_equal(L.ground_xy, W.ground_xy[keep])
+    want = distort_pixels(map_points(W.homographies[keep], grid), cam.K, DIST)
+    err = np.linalg.norm(map_points(L.homographies, grid) - want, axis=-1)
+    assert err.max() < 1.5 and np.median(err) < 0.2
+    # the lens moves the windows (barrel: towards the centre), and they stay in the frame
+    moved = np.linalg.norm(map_points(L.homographies, WINDOW_CORNERS)
+                           - map_points(W.homographies[keep], WINDOW_CORNERS), axis=-1)
+    assert moved.max() > 5
+    c = map_points(L.homographies, WINDOW_CORNERS)
+    assert (c[..., 0] >= -0.5).all() and (c[..., 0] <= SIZE[0] - 0.5).all()
+
+
+def test_frame_detector_through_a_lens(tmp_path):
+    from viewadapt.detect import FrameDetector, SourceDetectors, shipped_model_path
+
+    cam = _lens_camera()
+    models = SourceDetectors.load(shipped_model_path())
+    det = FrameDetector(cam, models, lens=DIST, cache_dir=tmp_path)
+    plain = FrameDetector(cam, models, cache_dir=tmp_path)
+    assert det.params["lens"] == DIST.tolist() and "lens" not in plain.params
+    assert det.windows.camera is None and len(det.windows) > 0
+    img = np.zeros((SIZE[1], SIZE[0], 3), np.uint8)
+    assert det.detect(img).shape[1] == 5
+    assert not det.cache_hit["hog"]            # its own operator, not the pinhole one's
+    with pytest.raises(ValueError, match="plane object model"):
+        FrameDetector(cam, models, lens=DIST, object_model="body")
+    with pytest.raises(ValueError, match="got 3"):
+        FrameDetector(cam, models, lens=[0.1, 0.2, 0.3])

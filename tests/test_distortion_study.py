@@ -58,18 +58,24 @@ def test_zero_distortion_detects_exactly_as_the_original_frames(study):
     dets = s["detections"]
     assert list(dets) == ["(a) original", "(r1) resampled-once", "(r2) resampled-twice",
                           "(b) undistorted none", "(c) uncorrected none",
-                          "(b') edge-restored none", "(b) undistorted k1=-0.25 k2=0.08",
+                          "(b') edge-restored none", "(w) lens-windows none",
+                          "(b) undistorted k1=-0.25 k2=0.08",
                           "(c) uncorrected k1=-0.25 k2=0.08",
-                          "(b') edge-restored k1=-0.25 k2=0.08"]
+                          "(b') edge-restored k1=-0.25 k2=0.08",
+                          "(w) lens-windows k1=-0.25 k2=0.08"]
     assert sum(len(d) for d in dets["(a) original"]) > 0
     for i in range(len(frames)):
         for m in ("(b) undistorted none", "(c) uncorrected none", "(b') edge-restored none"):
             np.testing.assert_array_equal(dets[m][i], dets["(a) original"][i])
+        # no lens: the refitted windows are the pinhole ones (to the fit's rounding, which
+        # moves float32 scores in their last digits)
+        np.testing.assert_allclose(dets["(w) lens-windows none"][i], dets["(a) original"][i],
+                                   rtol=1e-4, atol=1e-4)
     # a real lens changes what the uncorrected detector sees
     assert any(not np.array_equal(a, c) for a, c in
                zip(dets["(a) original"], dets["(c) uncorrected k1=-0.25 k2=0.08"]))
     summ = summarize_distortion_study(s, frames, n_boot=50, seed=0)
-    zero = summ[summ["dist"] == "none"].iloc[3:]          # (b), (c), (b') of the zero set
+    zero = summ[summ["dist"] == "none"].iloc[3:6]         # (b), (c), (b') of the zero set
     assert list(zero["condition"]) == ["b undistorted", "c uncorrected", "b' edge-restored"]
     assert (zero[["diff", "diff_low", "diff_high"]].to_numpy() == 0).all()
     assert (zero["lamr"] == summ.iloc[0]["lamr"]).all()
@@ -85,19 +91,31 @@ def test_zero_distortion_detects_exactly_as_the_original_frames(study):
     assert und.set_index("dist").loc["none", "gt_partly_invalid"] == 0
     assert und.set_index("dist").loc["k1=-0.25 k2=0.08", "max_shift_px"] > 5
     assert summ["n_gt"].iloc[0] == sum(len(f.gt) for f in frames)
+    # the lens windows: no remap, their (w) - (b) paired on the same draws
+    win = summ[summ["condition"] == "w lens-windows"].set_index("dist")
+    assert win["remap_ms"].isna().all() and (win["frame_ms"] == win["detect_ms"]).all()
+    assert win.loc["none", "diff_b"] == pytest.approx(
+        win.loc["none", "diff"] - und.set_index("dist").loc["none", "diff"], abs=1e-12)
+    np.testing.assert_allclose(und["frame_ms"], und["detect_ms"] + und["remap_ms"])
+    assert summ[summ["condition"] != "w lens-windows"]["diff_b"].isna().all()
 
 
-def _table(b, b_r2, r1, fraction=0.03):
+def _table(b, b_r2, r1, fraction=0.03, w=None, w_ms=None):
     """A summary with one coefficient set: the (low, high) intervals of (b) - (a),
-    (b) - (r2) and (r1) - (a)."""
+    (b) - (r2) and (r1) - (a), and optionally (w) - (a) with (w)'s ms per frame (against
+    10 ms for undistortion plus detection)."""
     nan = (np.nan, np.nan)
     rows = []
-    for cond, d, d2 in (("a original", (0.0, 0.0), nan), ("r1 resampled-once", r1, nan),
-                        ("r2 resampled-twice", (-0.05, 0.09), nan), ("b undistorted", b, b_r2),
-                        ("c uncorrected", (0.1, 0.3), nan)):
-        rows.append(dict(condition=cond, diff_low=d[0], diff_high=d[1], diff_r2_low=d2[0],
+    conds = [("a original", (0.0, 0.0), nan), ("r1 resampled-once", r1, nan),
+             ("r2 resampled-twice", (-0.05, 0.09), nan), ("b undistorted", b, b_r2),
+             ("c uncorrected", (0.1, 0.3), nan)] + ([("w lens-windows", w, nan)] if w else [])
+    for cond, d, d2 in conds:
+        rows.append(dict(condition=cond, dist="k1=-0.25" if cond[0] in "bcw" else "none",
+                         diff_low=d[0], diff_high=d[1], diff_r2_low=d2[0],
                          diff_r2_high=d2[1],
-                         remap_fraction=fraction if cond == "b undistorted" else np.nan))
+                         remap_fraction=fraction if cond == "b undistorted" else np.nan,
+                         frame_ms={"b undistorted": 10.0, "w lens-windows": w_ms}.get(
+                             cond, 9.0)))
     return pd.DataFrame(rows)
 
 
@@ -111,6 +129,19 @@ def _table(b, b_r2, r1, fraction=0.03):
 ])
 def test_verdict_follows_the_rule(b, b_r2, r1, fraction, verdict):
     assert study_verdict(_table(b, b_r2, r1, fraction)) == verdict
+
+
+@pytest.mark.parametrize("b, fraction, w, w_ms, verdict", [
+    ((-0.01, 0.05), 0.03, (-0.02, 0.04), 9.5, "map the windows through the lens"),  # cheaper
+    ((-0.01, 0.05), 0.03, (-0.05, -0.01), 9.5, "map the windows through the lens"),  # better
+    ((-0.01, 0.05), 0.03, (-0.02, 0.04), 10.5, "keep undistortion"),   # dearer, both as good
+    ((-0.01, 0.05), 0.03, (0.01, 0.06), 9.5, "keep undistortion"),     # resolvably worse
+    ((0.001, 0.07), 0.03, (-0.02, 0.04), 10.5, "map the windows through the lens"),  # (b) fails
+    ((0.001, 0.07), 0.03, (0.01, 0.04), 9.5, "undecided"),             # neither qualifies
+])
+def test_verdict_weighs_the_lens_windows(b, fraction, w, w_ms, verdict):
+    # (b) - (r2) resolvably worse, so undistortion qualifies only on (b) - (a)
+    assert study_verdict(_table(b, (0.001, 0.05), (-0.05, 0.03), fraction, w, w_ms)) == verdict
 
 
 def test_resample_half_pixel_is_a_box_then_a_binomial_blur():
@@ -179,13 +210,14 @@ def test_cli_writes_all_outputs(toy, model, cache, tmp_path, capsys):
     tab = pd.read_csv(out / "distortion_study.csv")
     assert list(tab["condition"]) == ["a original", "r1 resampled-once",
                                       "r2 resampled-twice"] + ["b undistorted", "c uncorrected",
-                                                       "b' edge-restored"] * 2
-    assert list(tab["dist"])[3:] == ["k1=-0.25 k2=0.08"] * 3 + ["k1=-0.4 k2=0.15"] * 3
+                                                       "b' edge-restored", "w lens-windows"] * 2
+    assert list(tab["dist"])[3:] == ["k1=-0.25 k2=0.08"] * 4 + ["k1=-0.4 k2=0.15"] * 4
     assert tab[["lamr", "ci_low", "ci_high", "detect_ms"]].notna().all().all()
     run = json.loads((out / "run.json").read_text())
     assert run["seed"] == 3 and run["n_boot"] == 20 and run["model"] == str(model)
     assert run["verdict"] in ("keep undistortion", "keep undistortion (synthetic resampling)",
-                              "undecided")
+                              "map the windows through the lens", "undecided")
+    assert "k1=-0.4 k2=0.15" in " ".join(run["operators"])     # the lens windows' builds
     assert run["distortions"]["k1=-0.4 k2=0.15"] == [-0.4, 0.15, 0, 0, 0]
     md = (out / "distortion_study.md").read_text()
     assert "## Conclusion" in md and "k1=-0.4 k2=0.15" in md

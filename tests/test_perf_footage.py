@@ -17,7 +17,8 @@ def test_footage_benchmark_times_every_path(tmp_path):
     res = run_footage_benchmark(data, n_frames=4, model=model, workdir=tmp_path / "w")
     assert [r["method"] for r in res["rows"]] == [
         "detector on the decoded clip (video)", "detect (video)",
-        "detector on the decoded clip (video, dist)", "detect (video, dist)"]
+        "detector on the decoded clip (video, dist)", "detect (video, dist)",
+        "detect (video, dist, lens windows)"]
     for r in res["rows"]:
         assert r["frames"] == 4 and r["fps"] > 0 and r["seconds"] > 0
     assert res["rows"][0]["ratio_to_detector"] == 1.0
@@ -25,8 +26,13 @@ def test_footage_benchmark_times_every_path(tmp_path):
         res["rows"][1]["fps"] / res["rows"][0]["fps"])
     assert res["windows"] > 1000            # the CAVIAR-like timing camera
     # the distorted clip was undistorted by the command
-    meta = json.loads((tmp_path / "w" / "out_clip_dist" / "metadata.json").read_text())
+    meta = json.loads((tmp_path / "w" / "out_clip_dist_undistort" / "metadata.json").read_text())
     assert meta["undistortion"]["dist"] == res["distortion"]
+    # and read as it is through the lens windows, against the same bare detector
+    meta = json.loads((tmp_path / "w" / "out_clip_dist_windows" / "metadata.json").read_text())
+    assert meta["lens_windows"]["dist"] == res["distortion"] and meta["undistortion"] is None
+    assert res["rows"][4]["ratio_to_detector"] == pytest.approx(
+        res["rows"][4]["fps"] / res["rows"][2]["fps"])
     assert "Bar (issue 17)" in format_table(res)
 
 

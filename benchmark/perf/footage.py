@@ -15,6 +15,10 @@ decoding and undistortion included. Both are timed here, in one process and one 
 ``detect (video, dist)``
     the same with lens distortion in the calibration (the clip distorted by
     :func:`viewadapt.detect.distort_image`), so every frame is undistorted first;
+``detect (video, dist, lens windows)``
+    the same distorted clip with ``--lens windows``: the candidate windows mapped through
+    the lens once, the frames read as they are (no undistortion); compared with the bare
+    detector on the undistorted frames of the row before (the pinhole detector's fps);
 ``detector``, per clip
     :meth:`FrameDetector.detect <viewadapt.detect.FrameDetector.detect>` at the score
     threshold 0 the command uses by default (``bench runtime``'s operating point) on the
@@ -119,30 +123,37 @@ def run_footage_benchmark(data, *, n_frames: int = 150, model=None, heights=(1.6
                 det.detect(img, "hog")
             return time.perf_counter() - t
 
-        clips = {"detect (video)": (_write_clip(work / "clip.mp4", frames), None)}
-        distorted = [distort_image(img, cam.K, DISTORTION) for img in frames]
-        clips["detect (video, dist)"] = (_write_clip(work / "clip_dist.mp4", distorted),
-                                         DISTORTION)
-        for name, (clip, dist) in clips.items():
-            undistort = Undistortion(cam.K, dist, SIZE) if dist is not None else None
-            seen = [f.image if undistort is None else undistort(f.image)
-                    for f in open_frames(clip)]
-            before = bare(seen)
+        plain = _write_clip(work / "clip.mp4", frames)
+        bent = _write_clip(work / "clip_dist.mp4",
+                           [distort_image(img, cam.K, DISTORTION) for img in frames])
+        # (row, clip, dist, --lens); the lens-windows row reads the clip of the row before
+        # and is compared with the same bare detector on the same undistorted frames
+        runs = [("detect (video)", plain, None, "undistort"),
+                ("detect (video, dist)", bent, DISTORTION, "undistort"),
+                ("detect (video, dist, lens windows)", bent, DISTORTION, "windows")]
+        reference = None
+        for name, clip, dist, lens in runs:
+            if lens == "undistort":
+                undistort = Undistortion(cam.K, dist, SIZE) if dist is not None else None
+                seen = [f.image if undistort is None else undistort(f.image)
+                        for f in open_frames(clip)]
+                before = bare(seen)
             cal = _calibration(work / f"{clip.stem}.json", cam, dist)
-            out = work / f"out_{clip.stem}"
+            out = work / f"out_{clip.stem}_{lens}"
             rc = viewadapt_main(["detect", "--calibration", str(cal), "--model", str(model),
                                  "--cache", str(cache), "--annotate", "none", "--quiet",
-                                 "--threshold", "0",
+                                 "--threshold", "0", "--lens", lens,
                                  "--heights", ",".join(f"{h:g}" for h in heights),
                                  "--out", str(out), str(clip)])
             if rc != 0:
                 raise RuntimeError(f"viewadapt detect failed on {clip} (exit {rc})")
             meta = json.loads((out / "metadata.json").read_text())
-            seconds = min(before, bare(seen))
-            reference = len(seen) / seconds
-            rows.append(dict(method=name.replace("detect", "detector on the decoded clip"),
-                             frames=len(seen), seconds=seconds, fps=reference,
-                             ratio_to_detector=1.0))
+            if lens == "undistort":
+                seconds = min(before, bare(seen))
+                reference = len(seen) / seconds
+                rows.append(dict(method=name.replace("detect", "detector on the decoded clip"),
+                                 frames=len(seen), seconds=seconds, fps=reference,
+                                 ratio_to_detector=1.0))
             rows.append(dict(method=name, frames=meta["frames"], seconds=meta["seconds"],
                              fps=meta["frames_per_second"],
                              ratio_to_detector=meta["frames_per_second"] / reference))

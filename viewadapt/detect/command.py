@@ -29,6 +29,11 @@ __all__ = ["register", "cmd_detect", "check_frame_selection", "person_heights", 
            "add_cache_options"]
 
 
+#: How ``detect`` handles a calibration's lens distortion (``--lens``).
+LENS_CHOICES = ("windows", "undistort")
+DEFAULT_LENS = "undistort"
+
+
 def person_heights(text):
     """argparse type: comma-separated person heights in metres."""
     try:
@@ -93,11 +98,16 @@ def _metadata(args, det, stream, writer, dist, annotate, *, operator_seconds,
         input=stream.describe(), frames=writer.n_frames, detections=writer.n_detections,
         annotate=annotate, jobs=args.jobs, model=str(args.model),
         model_training=det.models.training,
-        undistortion=None if dist is None else {
+        undistortion=None if dist is None or args.lens != "undistort" else {
             "dist": dist.tolist(),
             "method": "every frame remapped (cv2.remap, bilinear) with maps precomputed once "
                       "by cv2.initUndistortRectifyMap, new camera matrix = K: boxes and "
                       "annotations are in the undistorted frame's pixels"},
+        lens_windows=None if dist is None or args.lens != "windows" else {
+            "dist": dist.tolist(),
+            "method": "each candidate window's homography refitted to where the lens puts "
+                      "its pixels (viewadapt.detect.windows_through_lens); the frames are "
+                      "read as they are: boxes and annotations are in their pixels"},
         ground_position="the ground point (world X, Y, metres) of the detection's candidate "
                         "window",
         operator_seconds=round(operator_seconds, 2),
@@ -117,7 +127,8 @@ def cmd_detect(args) -> int:
     check_frame_selection(args)
     cam = read_calibration(args.calibration)
     dist = read_distortion(args.calibration)
-    undistort = Undistortion(cam.K, dist, cam.image_size) if dist is not None else None
+    undistort = Undistortion(cam.K, dist, cam.image_size) \
+        if dist is not None and args.lens == "undistort" else None
     stream = open_frames(args.inputs, start=args.start, every=args.every,
                          max_frames=args.max_frames)
     if args.model is None:
@@ -153,6 +164,8 @@ def cmd_detect(args) -> int:
                    else args.upsample_below,
                    thresholds={args.detector: args.threshold}, rule=args.rule,
                    object_model=args.object_model)
+    if dist is not None and args.lens == "windows":
+        options["lens"] = dist.tolist()
     spec = DetectorSpec.create(cam, args.model, args.detector, **options)
     det = FrameDetector(cam, models, **options)
     t0 = time.perf_counter()
@@ -189,7 +202,8 @@ def cmd_detect(args) -> int:
         "video": ["annotated.mp4"], "frames": ["annotated/"], "none": []}[annotate]
     print(f"{writer.n_detections} detections in {writer.n_frames} frames "
           f"({len(det.windows)} candidate windows, {writer.n_frames / max(seconds, 1e-9):.1f} "
-          f"frames/s{', undistorted' if undistort is not None else ''}); wrote "
+          f"frames/s{', undistorted' if undistort is not None else ''}"
+          f"{', windows through the lens' if 'lens' in options else ''}); wrote "
           f"{args.out}/{', '.join(wrote)}")
     if evaluation is not None:
         print(f"against {evaluation['n_gt']} boxes of {args.boxes}: log-average miss rate "
@@ -206,8 +220,8 @@ def register(sub, common) -> None:
                     "camera. The calibration file is YAML or JSON with image_size and either "
                     "K, R, t (OpenCV convention, world Z up, ground Z = 0) or focal, height "
                     "(m), tilt (degrees below horizontal) [, principal_point, roll], and "
-                    "optionally dist (OpenCV lens distortion coefficients: every frame is "
-                    "undistorted first). Frames are streamed from a video, a folder, a glob "
+                    "optionally dist (OpenCV lens distortion coefficients, see --lens). "
+                    "Frames are streamed from a video, a folder, a glob "
                     "pattern or image files. Writes detections.csv (frame, source, box, "
                     "score, ground position in metres), detections_coco.json (COCO "
                     "results), det.txt (MOTChallenge) and annotated.mp4 or annotated/*.png; "
@@ -242,6 +256,12 @@ def register(sub, common) -> None:
                    help="how a person's pixels move between the views: plane (default, the "
                         "paper's person plane) or body (a mean body shape shipped with the "
                         "package; slower to build, cached)")
+    p.add_argument("--lens", choices=LENS_CHOICES, default=DEFAULT_LENS,
+                   help="with dist in the calibration: windows (map the candidate windows "
+                        "through the lens once and read the frames as they are; boxes in "
+                        "their pixels) or undistort (remap every frame first; boxes in the "
+                        f"undistorted frame's pixels). Default {DEFAULT_LENS}: "
+                        "docs/findings.md (lens distortion) has the measurement")
     p.add_argument("--threshold", type=float, default=0.0, help="score threshold (default 0)")
     p.add_argument("--heights", type=person_heights, default=(PERSON_HEIGHT_M,),
                    help="assumed person heights, metres, comma-separated (default 1.75)")

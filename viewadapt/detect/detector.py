@@ -21,7 +21,8 @@ from .kinds import DETECTOR_KINDS, HOG_DETECTOR, detector_kind
 from .layers import UPSAMPLE_BELOW, build_multiresolution_operator
 from .models import SourceDetectors
 from .templates import CELLS_PER_SOURCE_CELL, HOG_TOLERANCE
-from .windows import select_candidate_windows
+from .distortion import check_distortion
+from .windows import select_candidate_windows, windows_through_lens
 
 __all__ = ["DEFAULT_THRESHOLD", "FrameDetector"]
 #: Score threshold of the detections kept for non-maximum suppression: low, so that a DET
@@ -61,6 +62,12 @@ class FrameDetector:
         How a person's pixels move between the source view and the frame: the paper's
         plane, or the mean body of :mod:`viewadapt.objectmodel`
         (:func:`~viewadapt.detect.templates.window_mapping`).
+    lens : (D,) array_like or None
+        OpenCV distortion coefficients of the camera (relative to ``camera.K``): the
+        candidate windows are mapped through the lens
+        (:func:`~viewadapt.detect.windows.windows_through_lens`) and the detector reads the
+        *distorted* frames as they come, its boxes in their pixels. None (default): the
+        frames are pinhole frames (undistorted ones, if the camera has a lens).
     """
 
     def __init__(self, camera: Camera, models: SourceDetectors, *,
@@ -69,7 +76,7 @@ class FrameDetector:
                  tolerance: float = HOG_TOLERANCE,
                  cells_per_source_cell: float = CELLS_PER_SOURCE_CELL,
                  upsample_below: float = UPSAMPLE_BELOW, thresholds=None,
-                 rule: str = "covariant", object_model: str = "plane"):
+                 rule: str = "covariant", object_model: str = "plane", lens=None):
         if not isinstance(camera, Camera) or camera.image_size is None:
             raise ValueError("camera must be a Camera with its image_size (width, height)")
         self.camera = camera
@@ -92,6 +99,12 @@ class FrameDetector:
         self.cache_limit_gb = cache_limit_gb
         self.windows = select_candidate_windows(camera, self.size,
                                                 person_heights=self.params["person_heights"])
+        if lens is not None:
+            if object_model != "plane":
+                raise ValueError("windows mapped through a lens need the plane object model")
+            lens = check_distortion(lens)
+            self.params["lens"] = [float(v) for v in lens]
+            self.windows, _ = windows_through_lens(self.windows, camera.K, lens)
         self._ops = {}
         #: seconds each operator took to build or load, and whether it came from the cache
         self.build_seconds = {}

@@ -397,3 +397,88 @@ def _too_close(occupied: dict, p, d: float) -> bool:
                 if (q[0] - p[0]) ** 2 + (q[1] - p[1]) ** 2 < d * d:
                     return True
     return False
+
+
+#: Window points (a 5 x 9 grid over the canonical 64x128 window) whose positions through the
+#: lens the homography of a window seen through it is fitted to.
+_LENS_FIT_POINTS = np.stack(np.meshgrid(np.linspace(-0.5, WINDOW_WIDTH - 0.5, 5),
+                                        np.linspace(-0.5, WINDOW_HEIGHT - 0.5, 9)),
+                            -1).reshape(-1, 2)
+
+
+def distort_pixels(points, K, dist) -> np.ndarray:
+    """Pixels of the pinhole camera ``K`` -> where a lens with OpenCV coefficients ``dist``
+    images them (``cv2.projectPoints`` of the normalised rays; the forward lens model).
+
+    Parameters
+    ----------
+    points : (..., 2) array_like
+    K : (3, 3) array_like
+    dist : (D,) array_like, ``D`` in 4, 5, 8, 12, 14
+
+    Returns
+    -------
+    (..., 2) ndarray
+    """
+    import cv2
+
+    p = np.asarray(points, dtype=np.float64)
+    K = np.asarray(K, dtype=np.float64)
+    rays = np.c_[p.reshape(-1, 2), np.ones(p.size // 2)] @ np.linalg.inv(K).T
+    if np.any(rays[:, 2] <= 0):
+        raise ValueError("points behind the camera")
+    q, _ = cv2.projectPoints(rays.reshape(-1, 1, 3), np.zeros(3), np.zeros(3), K,
+                             np.asarray(dist, dtype=np.float64))
+    return q.reshape(p.shape)
+
+
+def windows_through_lens(windows: CandidateWindows, K, dist) -> tuple:
+    """The candidate windows as a distorted frame shows them: each window's homography
+    refitted to where the lens puts its points.
+
+    A window's pixels under the pinhole homography ``H`` land, through the lens, at
+    ``distort(H p)``; over one window the lens is smooth, so a homography fitted (least
+    squares, ``cv2.findHomography``) to a 5 x 9 grid of the window's points stands in for
+    it, and the adapted detector scores the distorted frame itself, with no per-frame
+    undistortion (the alternative :class:`~viewadapt.detect.Undistortion` is measured
+    against in ``benchmark.distortion_study``). The person's ground position is the
+    window's own, unchanged.
+
+    Parameters
+    ----------
+    windows : CandidateWindows
+        Selected for the pinhole camera (``K`` of the undistorted frame).
+    K : (3, 3) array_like
+    dist : (D,) array_like
+        OpenCV distortion coefficients.
+
+    Returns
+    -------
+    (CandidateWindows, keep)
+        The windows whose distorted corners stay inside the frame, with the fitted
+        homographies (``camera`` None: the pinhole camera no longer describes them), and
+        the (N,) bool mask of ``windows`` they are.
+    """
+    import cv2
+
+    H = windows.homographies
+    w, h = windows.image_size
+    fitted = np.empty_like(H)
+    seen = distort_pixels(map_points(H, _LENS_FIT_POINTS), K, dist)      # (N, P, 2)
+    for k in range(len(windows)):
+        G, _ = cv2.findHomography(_LENS_FIT_POINTS, seen[k], 0)
+        if G is None:
+            raise ValueError("the lens model folds a candidate window over itself: check "
+                             "the distortion coefficients")
+        fitted[k] = G / G[2, 2]
+    corners = map_points(fitted, WINDOW_CORNERS)
+    keep = np.all((corners[..., 0] >= -0.5) & (corners[..., 0] <= w - 0.5)
+                  & (corners[..., 1] >= -0.5) & (corners[..., 1] <= h - 0.5), axis=1)
+    if not keep.any():
+        raise ValueError("no candidate window stays inside the frame through the lens")
+    out = CandidateWindows(windows.ground_xy[keep], windows.person_height[keep], fitted[keep],
+                           windows.image_size, windows.grid_index[keep], None)
+    return out, keep
+
+
+__all__ += ["distort_pixels", "windows_through_lens"]
