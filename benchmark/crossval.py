@@ -199,8 +199,8 @@ def fold_masks(meta, fold: Fold, train: bool):
 
 
 def _task(det, s, t, fold, cfg, data, seed, memo=None):
-    """All methods for one detector, source elevation and fold -> DataFrame of scores
-    (``memo``: see :func:`exact_remaps`)."""
+    """All methods for one detector, source elevation and fold -> (DataFrame of scores, the
+    source model) (``memo``: see :func:`exact_remaps`)."""
     spec = detector_spec(det)
     src_rep, fine_rep = feature_key(spec.source_features), feature_key(spec.target_features)
     es, et = data["index"][s], data["index"][t]
@@ -250,7 +250,7 @@ def _task(det, s, t, fold, cfg, data, seed, memo=None):
         frames.append(test_meta.assign(detector=spec.name, method=method, source_elevation=s,
                                        target_elevation=t, fold=fold.name,
                                        score=np.asarray(sc, np.float64)))
-    return pd.concat(frames, ignore_index=True)
+    return pd.concat(frames, ignore_index=True), model
 
 
 def _warp_key(s, model):
@@ -324,15 +324,21 @@ def prepare(ds: Dataset, cfg: CrossvalConfig, cache: FeatureCache, elevations=No
 
 
 def run_crossval(ds: Dataset, cfg: CrossvalConfig, cache: FeatureCache, *,
-                 progress: bool = True) -> tuple[pd.DataFrame, list]:
-    """Run all folds; returns (per-window scores, folds)."""
+                 progress: bool = True, data: dict | None = None,
+                 models: dict | None = None) -> tuple[pd.DataFrame, list]:
+    """Run all folds; returns (per-window scores, folds).
+
+    ``data``: :func:`prepare`'s result for ``cfg`` if the caller has it (else prepared
+    here). ``models``: a dict to receive the source model of every (detector, source,
+    fold name) trained -- e.g. for :func:`benchmark.sweep.run_sweep`, which trains the same
+    models (same seeds, same windows)."""
     from joblib import Parallel, delayed
     from tqdm.auto import tqdm
 
     rng = np.random.default_rng(cfg.seed)
     p = ds.persons
     folds = make_folds(p["person_id"], p["scene_id"], rng=rng)
-    data = prepare(ds, cfg, cache)
+    data = prepare(ds, cfg, cache) if data is None else data
     # OpenCV's detector was trained on INRIA (level views): its source elevation is 0 only
     tasks = [(det, s, fold) for det in cfg.detectors for s in cfg.sources for fold in folds
              if not (detector_spec(det).pretrained and s != 0.0)]
@@ -356,8 +362,11 @@ def run_crossval(ds: Dataset, cfg: CrossvalConfig, cache: FeatureCache, *,
         done = [run(m) for m in it]
     else:
         done = Parallel(n_jobs=cfg.n_jobs)(delayed(run)(m) for m in it)
-    parts = dict(zip((i for m in jobs for i in m), (df for d in done for df in d)))
-    scores = pd.concat([parts[i] for i in range(len(tasks))], ignore_index=True)
+    parts = dict(zip((i for m in jobs for i in m), (r for d in done for r in d)))
+    scores = pd.concat([parts[i][0] for i in range(len(tasks))], ignore_index=True)
+    if models is not None:
+        for i, (d, s, f) in enumerate(tasks):
+            models[(d, float(s), f.name)] = parts[i][1]
     return scores, folds
 
 

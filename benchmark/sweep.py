@@ -54,13 +54,16 @@ def averaged_remap(det, source, estimate, sigma, cfg, n_nodes: int = 5):
 
 def run_sweep(ds: Dataset, cfg: CrossvalConfig, cache: FeatureCache, *, detector="hog",
               source=0.0, step=np.pi / 72, sigma=0.1, variants=SWEEP_VARIANTS,
-              progress=True) -> pd.DataFrame:
+              progress=True, models=None) -> pd.DataFrame:
     """Per fold, method and estimate: the test windows' scores.
 
     Every variant of ``variants`` (names of :data:`benchmark.crossval.ADAPT_VARIANTS`: an
     angle rule and an object model; those whose model is not in ``cfg.object_models`` are
     left out) is adapted to each estimate and scored by the same fold models, so the
     curves differ only in the rule and model. The prior-averaged curve uses ``adapted``.
+    ``models`` (optional): source models by ``(detector, source, fold name)`` from
+    :func:`benchmark.crossval.run_crossval` with the same seed and windows, used instead of
+    training them again (the same models: the seeds derive from the same ids).
 
     Returns
     -------
@@ -104,13 +107,19 @@ def run_sweep(ds: Dataset, cfg: CrossvalConfig, cache: FeatureCache, *, detector
               fold_masks(data["meta"][("background", es)], fold, True), int(seed))
              for fold, seed in zip(folds, seeds)]
     args = (spec, F[(src_rep, "person", es, "")], F[(src_rep, "background", es, "")], cfg)
-    it = tqdm(train, desc="sweep: training", disable=not progress)
-    if cfg.n_jobs == 1:
-        models = [_fit_fold(*t, *args) for t in it]
+    given = models or {}
+    have = [given.get((detector, float(source), f.name)) for f in folds]
+    todo = [k for k, m in enumerate(have) if m is None]
+    it = tqdm([train[k] for k in todo], desc="sweep: training", disable=not progress)
+    if cfg.n_jobs == 1 or len(todo) < 2:
+        fitted = [_fit_fold(*t, *args) for t in it]
     else:
         from joblib import Parallel, delayed
 
-        models = Parallel(n_jobs=cfg.n_jobs)(delayed(_fit_fold)(*t, *args) for t in it)
+        fitted = Parallel(n_jobs=cfg.n_jobs)(delayed(_fit_fold)(*t, *args) for t in it)
+    for k, m in zip(todo, fitted):
+        have[k] = m
+    models = have
     tests = [np.flatnonzero(np.r_[fold_masks(meta_p, fold, False), fold_masks(meta_n, fold, False)])
              for fold in folds]
     used = np.unique(np.concatenate(tests))       # background windows serve three folds

@@ -167,16 +167,26 @@ def test_reproduce_runs_every_stage_in_order(tmp_path, monkeypatch):
     assert cli._cmd_reproduce(args) == 2 and len(calls) == 2
 
 
-def test_sweep_in_two_processes_equals_one(toy, tmp_path):
+def test_sweep_in_two_processes_and_with_the_crossval_models_equals_one(toy, tmp_path):
     # the estimates are scored by worker processes in any order; the rows come back in the
-    # order of one process, with the same scores bit for bit
-    from benchmark.crossval import CrossvalConfig
+    # order of one process, with the same scores bit for bit; the cross-validation's source
+    # models are the ones the sweep trains
+    from benchmark.crossval import CrossvalConfig, run_crossval
     from benchmark.features import FeatureCache
     from benchmark.sweep import run_sweep
 
     ds = load_dataset(toy)
     cache = FeatureCache(ds, tmp_path / "cache", progress=False)
-    runs = [run_sweep(ds, CrossvalConfig(n_jobs=n, acf_estimators=8, acf_stages=(8,)), cache,
-                      step=np.pi / 12, sigma=0.1, progress=False) for n in (1, 2)]
+
+    def cfg(n):
+        return CrossvalConfig(n_jobs=n, acf_estimators=8, acf_stages=(8,), detectors=("hog",),
+                              ablations=False, synthesised=False, upper_bound=False)
+
+    models = {}
+    run_crossval(ds, cfg(2), cache, progress=False, models=models)
+    assert len(models) == 27 and ("hog", 0.0, "p0s0") in models
+    runs = [run_sweep(ds, cfg(n), cache, step=np.pi / 12, sigma=0.1, progress=False,
+                      models=m) for n, m in ((1, None), (2, None), (1, models))]
     assert len(runs[0]) > 0 and runs[0]["estimate"].nunique() > 3
-    pd.testing.assert_frame_equal(runs[0], runs[1], check_exact=True)
+    for other in runs[1:]:
+        pd.testing.assert_frame_equal(runs[0], other, check_exact=True)

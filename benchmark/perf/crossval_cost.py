@@ -51,10 +51,11 @@ def main(argv=None):
                          framing=str(ds.config.get("framing", "plane")))
     cache = FeatureCache(ds, out / "cache", n_jobs=a.jobs)
     t = time.perf_counter()
-    prepare(ds, cfg, cache)
+    data = prepare(ds, cfg, cache)
     times["features (all sets, cached)"] = time.perf_counter() - t
     t = time.perf_counter()
-    scores, _ = run_crossval(ds, cfg, cache)
+    models = {}          # the source models, for the sweep (it trains the same ones)
+    scores, _ = run_crossval(ds, cfg, cache, data=data, models=models)
     times["cross-validation (train + score)"] = time.perf_counter() - t
     t = time.perf_counter()
     rng = np.random.default_rng(a.seed)
@@ -62,7 +63,7 @@ def main(argv=None):
               "paired": paired_differences(scores, rng=rng)}
     times["summaries + bootstrap"] = time.perf_counter() - t
     t = time.perf_counter()
-    tables["sweep"] = sweep_summary(run_sweep(ds, cfg, cache))
+    tables["sweep"] = sweep_summary(run_sweep(ds, cfg, cache, models=models))
     times["elevation sweep"] = time.perf_counter() - t
     n = ds.persons.shape[0]
     print(f"dataset {a.data}: {n} person crops, {ds.backgrounds.shape[0]} background images, "
