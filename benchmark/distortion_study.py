@@ -303,8 +303,8 @@ def run_distortion_study(frames, models, distortions, *, cache_dir=None,
         ``detect_s``, ``remap_s``); ``coverage``: one row per frame, coefficient set and
         ground-truth person (``invalid_fraction``); ``max_shift_px``: label -> the largest
         displacement of the lens model in each camera's frame, pixels; ``operators``:
-        scene (and ``"<scene> <label>"`` for the lens-window detectors) -> seconds to
-        build or load the operator, and whether it came from the cache.
+        scene -> seconds to build or load the operator, and whether it came from the cache
+        (``lens_windows``: the same per coefficient set for the lens-window detectors).
     """
     if repeats < 1 or remap_repeats < 1:
         raise ValueError("repeats must be at least 1")
@@ -333,7 +333,7 @@ def run_distortion_study(frames, models, distortions, *, cache_dir=None,
                                     cache_dir=cache_dir, lens=d)
             t0 = time.perf_counter()
             through.operator("hog")
-            operators[f"{scene} {lab}"] = {
+            operators[scene].setdefault("lens_windows", {})[lab] = {
                 "seconds": round(time.perf_counter() - t0, 2),
                 "from_cache": bool(through.cache_hit.get("hog"))}
             lens.append((lab, d, und, valid_region(cam.K, d, cam.image_size), through))

@@ -40,3 +40,18 @@ def test_footage_benchmark_bad_input(tmp_path, capsys):
     assert main(["--data", str(tmp_path), "--frames", "1"]) == 2
     assert "--frames" in capsys.readouterr().out
     assert main(["--data", str(tmp_path / "none")]) == 2
+
+
+def test_memory_benchmark_samples_the_detect_process(tmp_path):
+    from benchmark.perf.footage_memory import format_memory, main as memory_main, \
+        run_memory_benchmark
+
+    data = small_toy_frames(tmp_path / "data")
+    res = run_memory_benchmark(data, minutes=40 / 25 / 60, workdir=tmp_path / "w",
+                               interval=0.05)
+    assert res["returncode"] == 0, res["stderr_tail"]
+    assert res["frames"] == 40 and res["detect_frames"] == 40
+    assert len(res["samples"]) >= 2 and max(mb for _, mb in res["samples"]) > 50
+    md = format_memory(res)
+    assert "| 100% |" in md and "growth" in md
+    assert memory_main(["--data", str(data), "--minutes", "0"]) == 2

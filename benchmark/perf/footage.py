@@ -48,10 +48,11 @@ import numpy as np
 DISTORTION = (-0.25, 0.08, 0.0, 0.0, 0.0)
 SIZE = (384, 288)
 
-__all__ = ["DISTORTION", "run_footage_benchmark", "main"]
+__all__ = ["DISTORTION", "SIZE", "clip_frames", "write_clip", "write_calibration",
+           "run_footage_benchmark", "format_table", "main"]
 
 
-def _clip_frames(data, n_frames: int) -> list:
+def clip_frames(data, n_frames: int) -> list:
     """``n_frames`` RGB frames of 384x288: the dataset's frames resized, repeated in order."""
     import cv2
 
@@ -66,7 +67,8 @@ def _clip_frames(data, n_frames: int) -> list:
     return [base[i % len(base)] for i in range(n_frames)]
 
 
-def _write_clip(path, frames, fps: float = 25.0) -> Path:
+def write_clip(path, frames, fps: float = 25.0) -> Path:
+    """An mp4 (mp4v) of RGB ``frames`` of :data:`SIZE` at ``path``."""
     import cv2
 
     vw = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"mp4v"), fps, SIZE)
@@ -78,7 +80,8 @@ def _write_clip(path, frames, fps: float = 25.0) -> Path:
     return Path(path)
 
 
-def _calibration(path, camera, dist=None) -> Path:
+def write_calibration(path, camera, dist=None) -> Path:
+    """A calibration JSON (``image_size``, ``K``, ``R``, ``t`` [, ``dist``]) at ``path``."""
     doc = {"image_size": list(camera.image_size), "K": camera.K.tolist(),
            "R": camera.R.tolist(), "t": camera.t.tolist()}
     if dist is not None:
@@ -105,7 +108,7 @@ def run_footage_benchmark(data, *, n_frames: int = 150, model=None, heights=(1.6
     model = Path(model) if model else shipped_model_path()
     work = Path(workdir) if workdir else Path(tempfile.mkdtemp(prefix="viewadapt-footage-"))
     cache = work / "cache"
-    frames = _clip_frames(data, n_frames)
+    frames = clip_frames(data, n_frames)
     cam = timing_camera(SIZE)
     rows = []
     with single_thread():
@@ -123,8 +126,8 @@ def run_footage_benchmark(data, *, n_frames: int = 150, model=None, heights=(1.6
                 det.detect(img, "hog")
             return time.perf_counter() - t
 
-        plain = _write_clip(work / "clip.mp4", frames)
-        bent = _write_clip(work / "clip_dist.mp4",
+        plain = write_clip(work / "clip.mp4", frames)
+        bent = write_clip(work / "clip_dist.mp4",
                            [distort_image(img, cam.K, DISTORTION) for img in frames])
         # (row, clip, dist, --lens); the lens-windows row reads the clip of the row before
         # and is compared with the same bare detector on the same undistorted frames
@@ -138,7 +141,7 @@ def run_footage_benchmark(data, *, n_frames: int = 150, model=None, heights=(1.6
                 seen = [f.image if undistort is None else undistort(f.image)
                         for f in open_frames(clip)]
                 before = bare(seen)
-            cal = _calibration(work / f"{clip.stem}.json", cam, dist)
+            cal = write_calibration(work / f"{clip.stem}.json", cam, dist)
             out = work / f"out_{clip.stem}_{lens}"
             rc = viewadapt_main(["detect", "--calibration", str(cal), "--model", str(model),
                                  "--cache", str(cache), "--annotate", "none", "--quiet",

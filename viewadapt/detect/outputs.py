@@ -116,16 +116,16 @@ class DetectionWriter:
         i = int(frame.index)
         source = _csv_field(str(frame.source))
         csv_rows, mot_rows, coco_rows = [], [], []
-        # the same text as csv.writer, f"{v:.2f}" and json.dumps give (json writes floats
-        # with repr), formatted once per value
+        # every value formatted once (boxes to 0.01 px, scores to 1e-6, ground to 1 mm) and
+        # the same text in the three files (JSON numbers may end in zeros)
         for (x, y, w, h, s), (gx, gy) in zip(boxes.tolist(), ground.tolist()):
-            box = f"{x:.2f},{y:.2f},{w:.2f},{h:.2f}"
+            bx, by, bw, bh = f"{x:.2f}", f"{y:.2f}", f"{w:.2f}", f"{h:.2f}"
             score = f"{s:.6f}"
+            box = f"{bx},{by},{bw},{bh}"
             csv_rows.append(f"{i},{source},{box},{score},{gx:.3f},{gy:.3f}\n")
             mot_rows.append(f"{i + 1},-1,{box},{score},-1,-1,-1\n")
-            coco_rows.append('{"image_id": %d, "category_id": 1, "bbox": [%r, %r, %r, %r], '
-                             '"score": %r}' % (i + 1, round(x, 2), round(y, 2), round(w, 2),
-                                                round(h, 2), round(s, 6)))
+            coco_rows.append(f'{{"image_id": {i + 1}, "category_id": 1, "bbox": [{bx}, {by}, '
+                             f'{bw}, {bh}], "score": {score}}}')
         if coco_rows:
             self._coco.write(("\n" if self.n_detections == 0 else ",\n")
                              + ",\n".join(coco_rows))
