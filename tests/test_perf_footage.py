@@ -14,7 +14,8 @@ def test_footage_benchmark_times_every_path(tmp_path):
     data = small_toy_frames(tmp_path / "data")
     model = train_source_detectors(load_dataset(data), quick=True, frame_view="none").save(
         tmp_path / "model.npz")
-    res = run_footage_benchmark(data, n_frames=4, model=model, workdir=tmp_path / "w")
+    res = run_footage_benchmark(data, n_frames=4, model=model, workdir=tmp_path / "w",
+                                repeats=2)
     assert [r["method"] for r in res["rows"]] == [
         "detector on the decoded clip (video)", "detect (video)",
         "detector on the decoded clip (video, dist)", "detect (video, dist)",
@@ -31,6 +32,7 @@ def test_footage_benchmark_times_every_path(tmp_path):
     # and read as it is through the lens windows, against the same bare detector
     meta = json.loads((tmp_path / "w" / "out_clip_dist_windows" / "metadata.json").read_text())
     assert meta["lens_windows"]["dist"] == res["distortion"] and meta["undistortion"] is None
+    assert (tmp_path / "w" / "out_clip_dist_windows_1" / "metadata.json").is_file()  # repeat
     assert res["rows"][4]["ratio_to_detector"] == pytest.approx(
         res["rows"][4]["fps"] / res["rows"][2]["fps"])
     assert "Bar (issue 17)" in format_table(res)
@@ -39,6 +41,8 @@ def test_footage_benchmark_times_every_path(tmp_path):
 def test_footage_benchmark_bad_input(tmp_path, capsys):
     assert main(["--data", str(tmp_path), "--frames", "1"]) == 2
     assert "--frames" in capsys.readouterr().out
+    assert main(["--data", str(tmp_path), "--repeats", "0"]) == 2
+    assert "--repeats" in capsys.readouterr().out
     assert main(["--data", str(tmp_path / "none")]) == 2
 
 
