@@ -158,11 +158,17 @@ def study_verdict(summ) -> str:
     und = _undistortion_verdict(summ)
     win = summ[summ["condition"] == "w lens-windows"]
     if len(win) and bool((win["diff_low"] <= 0).all()):
-        b = summ[summ["condition"] == "b undistorted"].set_index("dist")["frame_ms"]
-        cheaper = bool((win.set_index("dist")["frame_ms"] < b.reindex(win["dist"])).all())
-        if cheaper or und == "undecided":
+        if _windows_cheaper(summ) or und == "undecided":
             return "map the windows through the lens"
     return und
+
+
+def _windows_cheaper(summ) -> bool:
+    """Whether the lens windows cost less per frame than undistortion plus detection on
+    every coefficient set (False without lens-window rows)."""
+    win = summ[summ["condition"] == "w lens-windows"].set_index("dist")["frame_ms"]
+    und = summ[summ["condition"] == "b undistorted"].set_index("dist")["frame_ms"]
+    return len(win) > 0 and bool((win < und.reindex(win.index)).all())
 
 
 def _conclusion(summ) -> list:
@@ -209,8 +215,7 @@ def _conclusion(summ) -> list:
                   "frames as they are, is not resolvably worse than the pinhole frames (the "
                   "paired 95 % interval of (w) - (a) reaches 0 or lies below it), and it "
                   + ("costs less per frame than undistorting and detecting."
-                     if len(win) and (win["frame_ms"] < und.set_index("dist")["frame_ms"]
-                                      .reindex(win.index)).all()
+                     if _windows_cheaper(summ)
                      else "undistortion does not qualify.")]
     elif verdict == "keep undistortion":
         lines += ["", "**Keep per-frame undistortion.** On every coefficient set it detects as "

@@ -106,40 +106,38 @@ def run_sweep(ds: Dataset, cfg: CrossvalConfig, cache: FeatureCache, *, detector
     train = [(fold_masks(data["meta"][("person", es)], fold, True),
               fold_masks(data["meta"][("background", es)], fold, True), int(seed))
              for fold, seed in zip(folds, seeds)]
-    args = (spec, F[(src_rep, "person", es, "")], F[(src_rep, "background", es, "")], cfg)
-    given = models or {}
-    have = [given.get((detector, float(source), f.name)) for f in folds]
-    todo = [k for k, m in enumerate(have) if m is None]
+    data_args = (spec, F[(src_rep, "person", es, "")], F[(src_rep, "background", es, "")], cfg)
+    fold_models = [(models or {}).get((detector, float(source), f.name)) for f in folds]
+    todo = [k for k, m in enumerate(fold_models) if m is None]
     it = tqdm([train[k] for k in todo], desc="sweep: training", disable=not progress)
     if cfg.n_jobs == 1 or len(todo) < 2:
-        fitted = [_fit_fold(*t, *args) for t in it]
+        fitted = [_fit_fold(*t, *data_args) for t in it]
     else:
         from joblib import Parallel, delayed
 
-        fitted = Parallel(n_jobs=cfg.n_jobs)(delayed(_fit_fold)(*t, *args) for t in it)
+        fitted = Parallel(n_jobs=cfg.n_jobs)(delayed(_fit_fold)(*t, *data_args) for t in it)
     for k, m in zip(todo, fitted):
-        have[k] = m
-    models = have
-    tests = [np.flatnonzero(np.r_[fold_masks(meta_p, fold, False), fold_masks(meta_n, fold, False)])
-             for fold in folds]
+        fold_models[k] = m
+    tests = [np.flatnonzero(np.r_[fold_masks(meta_p, fold, False),
+                                  fold_masks(meta_n, fold, False)]) for fold in folds]
     used = np.unique(np.concatenate(tests))       # background windows serve three folds
     parts = []                                    # (fold, method, estimate, rows, scores)
     # the models' inputs are finite by construction: skip sklearn's check of every call
     with config_context(assume_finite=True):
-        for fold, model, idx in zip(folds, models, tests):
+        for fold, model, idx in zip(folds, fold_models, tests):
             parts.append((fold.name, "unadapted", np.nan, idx, spec.score(model, plain[idx])))
     Xu = fine[used]
     rows = [np.searchsorted(used, idx) for idx in tests]
     # each estimate's scores depend on its G alone, so workers may take them in any order
     # (joblib hands the windows to the workers once, memory-mapped)
-    args = (spec, Xu, models, rows)
+    score_args = (spec, Xu, fold_models, rows)
     it = tqdm(list(Gs.values()), desc="sweep: estimates", disable=not progress)
     if cfg.n_jobs == 1:
-        done = [_score_estimate(G, *args) for G in it]
+        done = [_score_estimate(G, *score_args) for G in it]
     else:
         from joblib import Parallel, delayed
 
-        done = Parallel(n_jobs=cfg.n_jobs)(delayed(_score_estimate)(G, *args) for G in it)
+        done = Parallel(n_jobs=cfg.n_jobs)(delayed(_score_estimate)(G, *score_args) for G in it)
     for (method, e), scores in zip(Gs, done):
         for fold, idx, sc in zip(folds, tests, scores):
             parts.append((fold.name, method, float(e), idx, sc))

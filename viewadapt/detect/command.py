@@ -34,6 +34,15 @@ LENS_CHOICES = ("windows", "undistort")
 DEFAULT_LENS = "undistort"
 
 
+_CORRECTION_NOTE = {None: "", "undistort": ", undistorted",
+                    "windows": ", windows through the lens"}
+
+
+def _lens_correction(dist, args):
+    """How this run handles the lens: None (no ``dist``), "undistort" or "windows"."""
+    return None if dist is None else args.lens
+
+
 def person_heights(text):
     """argparse type: comma-separated person heights in metres."""
     try:
@@ -98,12 +107,12 @@ def _metadata(args, det, stream, writer, dist, annotate, *, operator_seconds,
         input=stream.describe(), frames=writer.n_frames, detections=writer.n_detections,
         annotate=annotate, jobs=args.jobs, model=str(args.model),
         model_training=det.models.training,
-        undistortion=None if dist is None or args.lens != "undistort" else {
+        undistortion=None if _lens_correction(dist, args) != "undistort" else {
             "dist": dist.tolist(),
             "method": "every frame remapped (cv2.remap, bilinear) with maps precomputed once "
                       "by cv2.initUndistortRectifyMap, new camera matrix = K: boxes and "
                       "annotations are in the undistorted frame's pixels"},
-        lens_windows=None if dist is None or args.lens != "windows" else {
+        lens_windows=None if _lens_correction(dist, args) != "windows" else {
             "dist": dist.tolist(),
             "method": "each candidate window's homography refitted to where the lens puts "
                       "its pixels (viewadapt.detect.windows_through_lens); the frames are "
@@ -127,8 +136,9 @@ def cmd_detect(args) -> int:
     check_frame_selection(args)
     cam = read_calibration(args.calibration)
     dist = read_distortion(args.calibration)
+    correction = _lens_correction(dist, args)
     undistort = Undistortion(cam.K, dist, cam.image_size) \
-        if dist is not None and args.lens == "undistort" else None
+        if correction == "undistort" else None
     stream = open_frames(args.inputs, start=args.start, every=args.every,
                          max_frames=args.max_frames)
     if args.model is None:
@@ -164,7 +174,7 @@ def cmd_detect(args) -> int:
                    else args.upsample_below,
                    thresholds={args.detector: args.threshold}, rule=args.rule,
                    object_model=args.object_model)
-    if dist is not None and args.lens == "windows":
+    if correction == "windows":
         options["lens"] = dist.tolist()
     spec = DetectorSpec.create(cam, args.model, args.detector, **options)
     det = FrameDetector(cam, models, **options)
@@ -202,8 +212,7 @@ def cmd_detect(args) -> int:
         "video": ["annotated.mp4"], "frames": ["annotated/"], "none": []}[annotate]
     print(f"{writer.n_detections} detections in {writer.n_frames} frames "
           f"({len(det.windows)} candidate windows, {writer.n_frames / max(seconds, 1e-9):.1f} "
-          f"frames/s{', undistorted' if undistort is not None else ''}"
-          f"{', windows through the lens' if 'lens' in options else ''}); wrote "
+          f"frames/s{_CORRECTION_NOTE[correction]}); wrote "
           f"{args.out}/{', '.join(wrote)}")
     if evaluation is not None:
         print(f"against {evaluation['n_gt']} boxes of {args.boxes}: log-average miss rate "

@@ -17,11 +17,11 @@ from ..objectmodel import OBJECT_MODELS
 from ..remap import ANGLE_RULES
 from .cache import DEFAULT_CACHE_LIMIT_GB, OperatorCache
 from .channels import check_frame
+from .distortion import check_distortion
 from .kinds import DETECTOR_KINDS, HOG_DETECTOR, detector_kind
 from .layers import UPSAMPLE_BELOW, build_multiresolution_operator
 from .models import SourceDetectors
 from .templates import CELLS_PER_SOURCE_CELL, HOG_TOLERANCE
-from .distortion import check_distortion
 from .windows import select_candidate_windows, windows_through_lens
 
 __all__ = ["DEFAULT_THRESHOLD", "FrameDetector"]

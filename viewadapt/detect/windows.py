@@ -358,9 +358,7 @@ def select_candidate_windows(camera: Camera, image_size=None, *,
                 continue
             xy, jj, ii = xy[ok], j_range[ok], ii[ok]
             H = window_homographies(camera, xy, hgt)
-            corners = map_points(H, WINDOW_CORNERS)
-            inside = np.all((corners[..., 0] >= -0.5) & (corners[..., 0] <= w - 0.5)
-                            & (corners[..., 1] >= -0.5) & (corners[..., 1] <= h - 0.5), axis=1)
+            inside = _corners_inside(H, w, h)
             feet = map_points(H, WINDOW_FEET)
             tall = np.linalg.norm(feet - map_points(H, WINDOW_HEAD), axis=1) >= min_person_height_px
             if min_person_height_px > 0 and not tall.any():
@@ -387,6 +385,14 @@ def select_candidate_windows(camera: Camera, image_size=None, *,
                             np.concatenate([p[1] for p in parts]),
                             np.concatenate([p[2] for p in parts]), (w, h),
                             np.concatenate([p[3] for p in parts]), camera)
+
+
+def _corners_inside(H, w: int, h: int) -> np.ndarray:
+    """(N,) whether each window's canonical corners, mapped by ``H``, lie in a ``w x h``
+    frame (pixel centres at integers, so its edges at -0.5 and w - 0.5, h - 0.5)."""
+    c = map_points(H, WINDOW_CORNERS)
+    return np.all((c[..., 0] >= -0.5) & (c[..., 0] <= w - 0.5)
+                  & (c[..., 1] >= -0.5) & (c[..., 1] <= h - 0.5), axis=1)
 
 
 def _too_close(occupied: dict, p, d: float) -> bool:
@@ -471,9 +477,7 @@ def windows_through_lens(windows: CandidateWindows, K, dist) -> tuple:
             raise ValueError("the lens model folds a candidate window over itself: check "
                              "the distortion coefficients")
         fitted[k] = G / G[2, 2]
-    corners = map_points(fitted, WINDOW_CORNERS)
-    keep = np.all((corners[..., 0] >= -0.5) & (corners[..., 0] <= w - 0.5)
-                  & (corners[..., 1] >= -0.5) & (corners[..., 1] <= h - 0.5), axis=1)
+    keep = _corners_inside(fitted, w, h)
     if not keep.any():
         raise ValueError("no candidate window stays inside the frame through the lens")
     out = CandidateWindows(windows.ground_xy[keep], windows.person_height[keep], fitted[keep],
