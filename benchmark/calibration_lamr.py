@@ -25,8 +25,9 @@ from viewadapt.metrics import accumulate_frames, log_average_miss_rate, match_de
 
 from .frames import evaluate_method
 
-__all__ = ["LAMR_BAR", "PERSON_HEIGHTS", "FOCAL_MODES", "VARIANTS", "frame_matches",
-           "matches_lamr", "paired_lamr_difference", "detector_check", "summarize_lamr",
+__all__ = ["LAMR_BAR", "PERSON_HEIGHTS", "FOCAL_MODES", "VARIANTS", "grid_phases",
+           "frame_matches", "matches_lamr", "paired_lamr_difference", "phase_mean_difference",
+           "detector_check", "summarize_lamr",
            "detector_markdown", "fmt_number", "met_text"]
 
 #: issue 17's bar of the detector check: the adapted HOG detector's LAMR with the recovered
@@ -41,10 +42,21 @@ FOCAL_MODES = ("known", "estimated")
 VARIANTS = ("true", "focal known", "focal estimated")
 
 
-def _detect_frames(camera, models, group, cache_dir):
-    """Adapted HOG detections on the frames of ``group`` with ``camera``; windows, times."""
+def grid_phases(n: int) -> list:
+    """The ``n x n`` ground-grid phases ``(i / n, j / n)`` of the candidate windows
+    (:func:`viewadapt.detect.select_candidate_windows`' ``grid_phase``), the default grid's
+    ``(0, 0)`` first."""
+    if n < 1:
+        raise ValueError(f"the number of grid phases per axis must be at least 1, got {n}")
+    return [(i / n, j / n) for i in range(n) for j in range(n)]
+
+
+def _detect_frames(camera, models, group, cache_dir, phase):
+    """Adapted HOG detections on the frames of ``group`` with ``camera`` and its windows at
+    grid phase ``phase``; windows, times (operators of the default grid only are cached)."""
     t0 = time.perf_counter()
-    fd = FrameDetector(camera, models, person_heights=PERSON_HEIGHTS, cache_dir=cache_dir)
+    fd = FrameDetector(camera, models, person_heights=PERSON_HEIGHTS, grid_phase=phase,
+                       cache_dir=None if any(phase) else cache_dir)
     fd.operator("hog")                                   # the offline step, timed apart
     t1 = time.perf_counter()
     dets = [fd.detect(f.image(), "hog") for f in group]
@@ -82,13 +94,22 @@ def matches_lamr(matches) -> float:
 
 
 def paired_lamr_difference(dets, reference, frames, *, n_boot: int, rng) -> tuple:
-    """``LAMR(dets) - LAMR(reference)`` on ``frames`` and its 95 % paired bootstrap
-    interval over frames (the same resampled frames for both).
+    """``LAMR(dets) - LAMR(reference)``, each a list of per-frame ``(D, 5)`` detections of
+    ``frames``, with its 95 % paired bootstrap interval over frames: the one-phase case of
+    :func:`phase_mean_difference` (same parameters and result)."""
+    return phase_mean_difference([dets], [reference], frames, n_boot=n_boot, rng=rng)
+
+
+def phase_mean_difference(dets, reference, frames, *, n_boot: int, rng) -> tuple:
+    """The difference of two mean LAMRs over grid phases and its 95 % paired bootstrap
+    interval over frames (each replicate resamples the frames once, for every phase of
+    both).
 
     Parameters
     ----------
-    dets, reference : list of (D, 5) ndarray
-        Per frame of ``frames``.
+    dets, reference : list of lists of (D, 5) ndarray
+        Per grid phase (any number, not necessarily the same for both), per frame of
+        ``frames``.
     frames : list of FrameRecord
     n_boot : int
         Bootstrap replicates (0: no interval, NaN bounds).
@@ -98,20 +119,30 @@ def paired_lamr_difference(dets, reference, frames, *, n_boot: int, rng) -> tupl
     -------
     (difference, ci_low, ci_high) : floats
     """
-    a, b = frame_matches(dets, frames), frame_matches(reference, frames)
-    diff = matches_lamr(a) - matches_lamr(b)
+    a = [frame_matches(d, frames) for d in dets]
+    b = [frame_matches(d, frames) for d in reference]
+
+    def mean_diff(idx):
+        return (np.mean([matches_lamr([m[i] for i in idx]) for m in a])
+                - np.mean([matches_lamr([m[i] for i in idx]) for m in b]))
+
+    diff = mean_diff(range(len(frames)))
     if n_boot <= 0:
         return float(diff), np.nan, np.nan
-    boot = np.empty(n_boot)
-    for k in range(n_boot):
-        idx = rng.integers(len(frames), size=len(frames))
-        boot[k] = matches_lamr([a[i] for i in idx]) - matches_lamr([b[i] for i in idx])
+    boot = [mean_diff(rng.integers(len(frames), size=len(frames))) for _ in range(n_boot)]
     return float(diff), float(np.quantile(boot, 0.025)), float(np.quantile(boot, 0.975))
 
 
 def detector_check(groups: dict, recovered: dict, models, *, n_detector_draws: int = 1,
-                   cache_dir=None, n_boot: int = 500, seed: int = 0, progress: bool = True):
-    """The adapted HOG detector on every frame with the true and the recovered cameras.
+                   phases: int = 1, cache_dir=None, n_boot: int = 500, seed: int = 0,
+                   n_jobs: int = 1, progress: bool = True):
+    """The adapted HOG detector on every frame with the true and the recovered cameras,
+    each with its candidate windows at ``phases x phases`` ground-grid phases.
+
+    Where the windows' grid falls on the ground is arbitrary, and a frame LAMR moves with
+    it; a camera's LAMR here is the mean over the grid phases (:func:`grid_phases`), so that
+    the comparison of two cameras measures the calibration, not where each camera's grid
+    happens to fall.
 
     Parameters
     ----------
@@ -125,79 +156,103 @@ def detector_check(groups: dict, recovered: dict, models, *, n_detector_draws: i
         mode unscored).
     models : SourceDetectors
     n_detector_draws : int
+    phases : int
+        Grid phases per ground axis (1: the default grid only).
     cache_dir : path or None
-        Operator cache of the true cameras (the recovered ones are built each run and not
-        cached: each is used once).
+        Operator cache of the true cameras' default grid (the others are built each run
+        and not cached: each is used once).
     n_boot : int
-        Replicates of the paired bootstrap over frames (:func:`paired_lamr_difference`).
+        Replicates of the paired bootstrap over frames (:func:`phase_mean_difference`).
     seed : int
         Seeds the bootstrap.
+    n_jobs : int
+        Processes for the (camera, variant, phase) runs (joblib).
 
     Returns
     -------
     overall : pandas.DataFrame
         One row per camera variant over all frames: ``variant`` (:data:`VARIANTS`),
-        ``draw`` (-1 for the true cameras), ``lamr``, ``n_detections``,
-        ``lamr_minus_true`` with its 95 % paired bootstrap interval ``diff_ci_low,
-        diff_ci_high`` and ``within_bar`` (``|lamr_minus_true| <= LAMR_BAR``); LAMR NaN
-        where a camera's calibration failed.
+        ``draw`` (-1 for the true cameras), ``lamr`` (mean over the grid phases),
+        ``lamr_sd, lamr_min, lamr_max`` (over the phases), ``lamr_grid0`` (the default
+        grid's), ``n_phases``, ``n_detections`` (the default grid's), ``lamr_minus_true``
+        with its 95 % paired bootstrap interval ``diff_ci_low, diff_ci_high`` and
+        ``within_bar`` (``|lamr_minus_true| <= LAMR_BAR``); LAMR NaN where a camera's
+        calibration failed.
     per_camera : pandas.DataFrame
-        One row per (camera, variant, draw): ``n_frames, n_gt, n_windows, n_detections,
-        lamr, build_seconds, detect_seconds``.
+        One row per (camera, variant, draw, grid phase): ``phase_forward, phase_left,
+        n_frames, n_gt, n_windows, n_detections, lamr, build_seconds, detect_seconds``.
     """
+    from joblib import Parallel, delayed
+
     frames_all = [f for g in groups.values() for f in g]
+    grid = grid_phases(phases)
     keys = [("true", -1)] + [(f"focal {m}", k) for k in range(n_detector_draws)
                              for m in FOCAL_MODES]
-    dets = {key: [] for key in keys}
-    failed, rows = set(), []
+    failed, rows, tasks = set(), [], []
     for name, group in groups.items():
         for variant, k in keys:
             if variant == "true":
-                cam, cache = group[0].camera, cache_dir
+                cam = group[0].camera
             else:
                 r = recovered[name][k][variant.split()[1]]
-                cam, cache = (None if r is None else r.camera), None
+                cam = None if r is None else r.camera
             row = {"camera": name, "variant": variant, "draw": k, "n_frames": len(group),
                    "n_gt": int(sum(len(f.gt) for f in group))}
             if cam is None:
                 failed.add((variant, k))
-                rows.append(row | {"lamr": np.nan})
+                rows += [row | {"phase_forward": a, "phase_left": b, "lamr": np.nan}
+                         for a, b in grid]
                 continue
-            d, n_windows, build, detect = _detect_frames(cam, models, group, cache)
-            dets[(variant, k)] += d
-            rows.append(row | {"n_windows": n_windows,
-                               "n_detections": int(sum(len(x) for x in d)),
-                               "lamr": float(evaluate_method(d, group)["lamr"]),
-                               "build_seconds": build, "detect_seconds": detect})
-            if progress:
-                print(f"  {name} [{variant}{'' if k < 0 else f', draw {k}'}]: {n_windows} "
-                      f"windows, operator {build:.0f} s, {len(group)} frames {detect:.1f} s",
-                      flush=True)
+            cache = cache_dir if variant == "true" else None
+            tasks += [(row | {"phase_forward": a, "phase_left": b}, cam, group, cache, (a, b))
+                      for a, b in grid]
+    dets = {(v, k, p): [] for v, k in keys for p in grid}
+    run = Parallel(n_jobs=n_jobs, return_as="generator")(
+        delayed(_detect_frames)(cam, models, group, cache, p)
+        for _, cam, group, cache, p in tasks)
+    for (row, _, group, _, p), (d, n_windows, build, detect) in zip(tasks, run):
+        dets[(row["variant"], row["draw"], p)] += d
+        rows.append(row | {"n_windows": n_windows, "n_detections": int(sum(len(x) for x in d)),
+                           "lamr": float(evaluate_method(d, group)["lamr"]),
+                           "build_seconds": build, "detect_seconds": detect})
+        if progress:
+            k = row["draw"]
+            print(f"  {row['camera']} [{row['variant']}{'' if k < 0 else f', draw {k}'}, grid "
+                  f"phase {p[0]:g},{p[1]:g}]: {n_windows} windows, operator {build:.0f} s, "
+                  f"{len(group)} frames {detect:.1f} s", flush=True)
     rng = np.random.default_rng([seed, 17])
+    true = [dets[("true", -1, p)] for p in grid]
     out = []
     for variant, k in keys:
         if (variant, k) in failed:
-            out.append({"variant": variant, "draw": k, "lamr": np.nan, "n_detections": 0,
-                        "lamr_minus_true": np.nan, "diff_ci_low": np.nan,
+            out.append({"variant": variant, "draw": k, "lamr": np.nan, "n_phases": len(grid),
+                        "n_detections": 0, "lamr_minus_true": np.nan, "diff_ci_low": np.nan,
                         "diff_ci_high": np.nan, "within_bar": False})
             continue
-        d = dets[(variant, k)]
-        row = {"variant": variant, "draw": k,
-               "lamr": float(evaluate_method(d, frames_all)["lamr"]),
-               "n_detections": int(sum(len(x) for x in d))}
+        d = [dets[(variant, k, p)] for p in grid]
+        per_phase = np.array([evaluate_method(x, frames_all)["lamr"] for x in d])
+        row = {"variant": variant, "draw": k, "lamr": float(per_phase.mean()),
+               "lamr_sd": float(per_phase.std(ddof=1)) if len(grid) > 1 else 0.0,
+               "lamr_min": float(per_phase.min()), "lamr_max": float(per_phase.max()),
+               "lamr_grid0": float(per_phase[0]), "n_phases": len(grid),
+               "n_detections": int(sum(len(x) for x in d[0]))}
         if variant == "true":
             row |= {"lamr_minus_true": 0.0, "diff_ci_low": 0.0, "diff_ci_high": 0.0,
                     "within_bar": True}
         else:
-            diff, lo, hi = paired_lamr_difference(d, dets[("true", -1)], frames_all,
-                                                  n_boot=n_boot, rng=rng)
+            diff, lo, hi = phase_mean_difference(d, true, frames_all, n_boot=n_boot, rng=rng)
             row |= {"lamr_minus_true": diff, "diff_ci_low": lo, "diff_ci_high": hi,
                     "within_bar": bool(abs(diff) <= LAMR_BAR)}
         out.append(row)
-    cols = ["camera", "variant", "draw", "n_frames", "n_gt", "n_windows", "n_detections",
-            "lamr", "build_seconds", "detect_seconds"]
-    return pd.DataFrame(out), pd.DataFrame(rows).reindex(columns=cols)
-
+    cols = ["camera", "variant", "draw", "phase_forward", "phase_left", "n_frames", "n_gt",
+            "n_windows", "n_detections", "lamr", "build_seconds", "detect_seconds"]
+    per_camera = pd.DataFrame(rows).reindex(columns=cols)
+    order = {key: i for i, key in enumerate(keys)}
+    per_camera["_o"] = [order[(v, k)] for v, k in zip(per_camera["variant"], per_camera["draw"])]
+    per_camera = per_camera.sort_values(["camera", "_o", "phase_forward", "phase_left"],
+                                        kind="stable", key=lambda c: c.map(list(groups).index)
+                                        if c.name == "camera" else c)
+    return pd.DataFrame(out), per_camera.drop(columns="_o").reset_index(drop=True)
 
 
 def summarize_lamr(overall: pd.DataFrame) -> pd.DataFrame:
@@ -247,20 +302,40 @@ def detector_markdown(overall: pd.DataFrame, per_camera: pd.DataFrame, *, model:
     lamr = summarize_lamr(overall)
     true = overall[overall["variant"] == "true"].iloc[0]
     first = overall[overall["draw"] == 0].set_index("variant")
+    n_phases = int(true["n_phases"])
+    side = int(round(np.sqrt(n_phases)))
+    if n_phases > 1:
+        grid_text = (f"Each camera's candidate windows are scored at {side} x {side} phases of "
+                     "their ground grid (offsets of 0, "
+                     + ", ".join(f"{i}/{side}" for i in range(1, side))
+                     + " of a stride along each ground axis); a LAMR is the mean over "
+                     "the phases, and the interval resamples the frames for every phase of "
+                     "both cameras. The true cameras' LAMR alone moves between "
+                     f"{fmt_number(true['lamr_min'])} and {fmt_number(true['lamr_max'])} "
+                     f"(sd {fmt_number(true['lamr_sd'])}) with where their grid falls.")
+    else:
+        grid_text = "One grid phase (the default grid)."
     lines = ["", "## Detector check (adapted HOG)", "",
              f"Persons {', '.join(f'{h:g}' for h in PERSON_HEIGHTS)} m; model: {model}. "
              f"LAMR over all {n_frames} frames against the same ground truth; the interval "
-             f"is a 95 % paired bootstrap over frames ({n_boot} replicates). The bar: the "
-             f"first draw's recovered cameras within {LAMR_BAR:g} LAMR of the true ones.", "",
-             "| cameras used | LAMR | minus true | 95 % CI | detections | within "
-             f"{LAMR_BAR:g} |", "|---|---|---|---|---|---|",
-             f"| true | {fmt_number(true['lamr'], '.4f')} | — | — | {true['n_detections']} "
-             "| — |"]
+             f"is a 95 % paired bootstrap over frames ({n_boot} replicates). {grid_text} "
+             f"The bar: the first draw's recovered cameras within {LAMR_BAR:g} LAMR of the "
+             "true ones.", "",
+             "| cameras used | LAMR | sd over phases | min…max | default grid | minus true | "
+             f"95 % CI | detections (default grid) | within {LAMR_BAR:g} |",
+             "|---|---|---|---|---|---|---|---|---|"]
+
+    def cells(r):
+        return (f"{fmt_number(r['lamr'], '.4f')} | {fmt_number(r.get('lamr_sd'), '.4f')} | "
+                f"{fmt_number(r.get('lamr_min'))}…{fmt_number(r.get('lamr_max'))} | "
+                f"{fmt_number(r.get('lamr_grid0'), '.4f')}")
+
+    lines.append(f"| true | {cells(true)} | — | — | {true['n_detections']} | — |")
     for v in VARIANTS[1:]:
         if v not in first.index:
             continue
         r = first.loc[v]
-        lines.append(f"| recovered (draw 0), {v} | {fmt_number(r['lamr'], '.4f')} | "
+        lines.append(f"| recovered (draw 0), {v} | {cells(r)} | "
                      f"{fmt_number(r['lamr_minus_true'], '+.4f')} | "
                      f"{fmt_number(r['diff_ci_low'], '+.3f')}…"
                      f"{fmt_number(r['diff_ci_high'], '+.3f')} "
@@ -277,13 +352,15 @@ def detector_markdown(overall: pd.DataFrame, per_camera: pd.DataFrame, *, model:
                          f"{fmt_number(r['min_diff'], '+.4f')} | "
                          f"{fmt_number(r['max_diff'], '+.4f')} | "
                          f"{100 * r['fraction_within']:.0f} % |")
-    lines += ["", "Per camera (the true cameras and the first draw's; all draws in "
-              "`calibration_detector.csv`):", "",
+    lines += ["", "Per camera (the true cameras and the first draw's, means over the grid "
+              "phases; every phase and draw in `calibration_detector.csv`):", "",
               "| camera | cameras used | frames | persons | windows | detections | LAMR |",
               "|---|---|---|---|---|---|---|"]
-    for _, r in per_camera[per_camera["draw"] <= 0].iterrows():
-        nw = "n/a" if pd.isna(r["n_windows"]) else f"{int(r['n_windows'])}"
-        nd = "n/a" if pd.isna(r["n_detections"]) else f"{int(r['n_detections'])}"
-        lines.append(f"| {r['camera']} | {r['variant']} | {r['n_frames']} | {r['n_gt']} | "
-                     f"{nw} | {nd} | {fmt_number(r['lamr'], '.4f')} |")
+    sel = per_camera[per_camera["draw"] <= 0]
+    for (name, variant), g in sel.groupby(["camera", "variant"], sort=False):
+        nw, nd = g["n_windows"].mean(), g["n_detections"].mean()
+        nw = "n/a" if pd.isna(nw) else f"{nw:.0f}"
+        nd = "n/a" if pd.isna(nd) else f"{nd:.0f}"
+        lines.append(f"| {name} | {variant} | {g['n_frames'].iloc[0]} | {g['n_gt'].iloc[0]} | "
+                     f"{nw} | {nd} | {fmt_number(g['lamr'].mean(), '.4f')} |")
     return lines

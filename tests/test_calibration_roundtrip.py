@@ -14,7 +14,8 @@ import pandas as pd
 import pytest
 
 from benchmark.calibration_lamr import (
-    FOCAL_MODES, VARIANTS, frame_matches, matches_lamr, paired_lamr_difference,
+    FOCAL_MODES, VARIANTS, frame_matches, grid_phases, matches_lamr, paired_lamr_difference,
+    phase_mean_difference,
 )
 from benchmark.calibration_roundtrip import (
     calibrate_draws, choose_ground_points, group_cameras, main, summarize_draws,
@@ -193,6 +194,35 @@ def test_paired_lamr_difference(toy):
     assert diff0 == diff and np.isnan(lo0) and np.isnan(hi0)
 
 
+def test_grid_phases():
+    assert grid_phases(1) == [(0.0, 0.0)]
+    assert grid_phases(2) == [(0.0, 0.0), (0.0, 0.5), (0.5, 0.0), (0.5, 0.5)]
+    assert len(set(grid_phases(4))) == 16
+    with pytest.raises(ValueError, match="at least 1"):
+        grid_phases(0)
+
+
+def test_phase_mean_difference(toy):
+    frames = load_frames(toy)
+    perfect = [np.c_[f.gt, np.ones(len(f.gt))] for f in frames]
+    half = [d[: len(d) // 2] for d in perfect]
+    none = [d[:0] for d in perfect]
+    lamr = {k: matches_lamr(frame_matches(v, frames))
+            for k, v in (("perfect", perfect), ("half", half), ("none", none))}
+    # one phase each: the paired difference, replicate for replicate
+    a = phase_mean_difference([half], [perfect], frames, n_boot=25,
+                              rng=np.random.default_rng(3))
+    b = paired_lamr_difference(half, perfect, frames, n_boot=25, rng=np.random.default_rng(3))
+    assert a == b
+    # the means over the phases (two against three of them)
+    diff, lo, hi = phase_mean_difference([half, none], [perfect, perfect, half], frames,
+                                         n_boot=25, rng=np.random.default_rng(0))
+    expected = (lamr["half"] + lamr["none"]) / 2 - (2 * lamr["perfect"] + lamr["half"]) / 3
+    assert diff == pytest.approx(expected) and lo <= diff <= hi
+    assert phase_mean_difference([half, perfect], [perfect, half], frames, n_boot=10,
+                                 rng=np.random.default_rng(0)) == (0, 0, 0)
+
+
 # --------------------------------------------------------------------------------- CLI
 
 
@@ -201,7 +231,7 @@ def test_cli_noiseless_writes_everything_and_detects_as_the_true_camera(
     out = tmp_path / "out"
     rc, stdout, err = _run(["--data", toy, "--out", out, "--model", model_file,
                             "--noise", 0, "--draws", 2, "--cache", tmp_path / "cache",
-                            "--bootstrap", 20], capsys)
+                            "--bootstrap", 20, "--phases", 2, "--jobs", 2], capsys)
     assert rc == 0, err
     for name in OUTPUTS:
         assert (out / name).is_file()
@@ -217,9 +247,22 @@ def test_cli_noiseless_writes_everything_and_detects_as_the_true_camera(
     lamr = pd.read_csv(out / "calibration_lamr.csv")
     assert list(lamr["variant"]) == list(VARIANTS) and list(lamr["draw"]) == [-1, 0, 0]
     assert lamr["lamr"].nunique() == 1 and (lamr["n_detections"] > 0).all()
+    assert (lamr["n_phases"] == 4).all() and lamr["lamr_grid0"].nunique() == 1
+    assert (lamr["lamr_min"] <= lamr["lamr"]).all() and (lamr["lamr"] <= lamr["lamr_max"]).all()
     per_cam = pd.read_csv(out / "calibration_detector.csv")
-    assert list(per_cam["variant"]) == list(VARIANTS)
-    assert per_cam["n_detections"].nunique() == 1 and per_cam["n_windows"].nunique() == 1
+    # every variant at the four grid phases, in grid_phases order
+    assert list(per_cam["variant"]) == [v for v in VARIANTS for _ in range(4)]
+    assert [tuple(p) for p in per_cam[["phase_forward", "phase_left"]].to_numpy()[:4]] == \
+        grid_phases(2)
+    # the same camera gives the same windows and detections at the same phase
+    for _, g in per_cam.groupby(["phase_forward", "phase_left"]):
+        assert g["n_detections"].nunique() == 1 and g["n_windows"].nunique() == 1
+    # one camera: the reported LAMR is the mean of its per-phase LAMRs, the first the
+    # default grid's
+    true = per_cam[per_cam["variant"] == "true"]
+    np.testing.assert_allclose(lamr["lamr"].iloc[0], true["lamr"].mean(), rtol=1e-5)
+    np.testing.assert_allclose(lamr["lamr_grid0"].iloc[0], true["lamr"].iloc[0], rtol=1e-5)
+    assert run["grid_phases"] == 4
     for m in FOCAL_MODES:
         assert run["calibration"][m]["height_bar_met"] and run["calibration"][m]["tilt_bar_met"]
     md = (out / "calibration_roundtrip.md").read_text()
@@ -242,7 +285,7 @@ def test_cli_noiseless_writes_everything_and_detects_as_the_true_camera(
 
 def test_cli_with_noise_trains_its_own_model(toy, tmp_path, capsys):
     out = tmp_path / "out"
-    rc, stdout, err = _run(["--data", toy, "--out", out, "--quick", "--draws", 3,
+    rc, stdout, err = _run(["--data", toy, "--out", out, "--quick", "--draws", 3, "--phases", 1,
                             "--points", 5, "--detector-draws", 2, "--bootstrap", 20], capsys)
     assert rc == 0, err
     assert "training" in stdout
@@ -263,7 +306,7 @@ def test_cli_with_noise_trains_its_own_model(toy, tmp_path, capsys):
 
 
 @pytest.mark.parametrize("case", ["no frames", "points", "noise", "noise nan", "draws",
-                                  "detector draws", "model", "option"])
+                                  "detector draws", "phases", "jobs", "model", "option"])
 def test_bad_input_is_one_line_and_writes_nothing(case, toy, tmp_path, capsys):
     no_frames = tmp_path / "crops_only"
     no_frames.mkdir()
@@ -274,6 +317,8 @@ def test_bad_input_is_one_line_and_writes_nothing(case, toy, tmp_path, capsys):
             "noise nan": ["--data", toy, "--noise", "nan"],
             "draws": ["--data", toy, "--draws", 0],
             "detector draws": ["--data", toy, "--draws", 2, "--detector-draws", 3],
+            "phases": ["--data", toy, "--phases", 0],
+            "jobs": ["--data", toy, "--jobs", 0],
             "option": ["--data", toy, "--points", "six"],
             "model": ["--data", toy, "--model", tmp_path / "missing.npz"]}[case]
     out = tmp_path / "out"

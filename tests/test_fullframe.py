@@ -87,6 +87,29 @@ def test_windows_inside_and_apart(windows):
     assert np.allclose(ij, np.round(ij), atol=1e-9)
 
 
+def test_grid_phase_moves_the_grid_and_nothing_else(camera, windows):
+    # this camera's grid is axis-aligned (it looks along +X from above the origin), so a
+    # phase moves every ground position by that fraction of a stride along X and Y
+    assert np.array_equal(select_candidate_windows(camera, grid_phase=(0, 0)).ground_xy,
+                          windows.ground_xy)
+    shifted = select_candidate_windows(camera, grid_phase=(0.25, 0.5))
+    ij = shifted.ground_xy / GROUND_STRIDE_M - [0.25, 0.5]
+    assert np.allclose(ij, np.round(ij), atol=1e-9)
+    assert np.allclose(ij, shifted.grid_index, atol=1e-9)
+    # the same rules hold on the moved grid: inside, 1 px apart, own homographies
+    feet = shifted.feet
+    d2 = ((feet[:, None] - feet[None]) ** 2).sum(-1)
+    np.fill_diagonal(d2, np.inf)
+    assert d2.min() >= 1.0
+    k = len(shifted) // 2
+    H = window_to_image_homography(camera, shifted.ground_xy[k])
+    assert np.allclose(H / H[2, 2], shifted.homographies[k], **EXACT)
+    assert abs(len(shifted) - len(windows)) < 0.1 * len(windows)
+    for bad in [(1.0, 0.0), (-0.1, 0.0), (0.5,), (np.nan, 0.0)]:
+        with pytest.raises(ValueError, match="grid_phase"):
+            select_candidate_windows(camera, grid_phase=bad)
+
+
 def test_vectorised_homographies_match_geometry(camera, windows):
     for k in (0, len(windows) // 2, len(windows) - 1):
         H = window_to_image_homography(camera, windows.ground_xy[k])
@@ -376,6 +399,13 @@ def test_operator_cache_invalidates_on_calibration_change(tmp_path, frame):
     d3.operator("hog")
     assert d3.cache_hit["hog"] is False
     assert len(list(tmp_path.glob("operator-*.npz"))) == 2
+    # another grid phase is another operator; the default phase is the default grid's
+    d4 = FrameDetector(cam, Models(), cache_dir=tmp_path, grid_phase=(0.5, 0.0))
+    d4.operator("hog")
+    assert d4.cache_hit["hog"] is False and len(d4.windows) != len(d1.windows)
+    d5 = FrameDetector(cam, Models(), cache_dir=tmp_path, grid_phase=(0.0, 0.0))
+    d5.operator("hog")
+    assert d5.cache_hit["hog"] is True
 
 
 def test_operator_cache_keeps_to_its_size_limit(tmp_path, windows):

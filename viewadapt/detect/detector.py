@@ -68,6 +68,9 @@ class FrameDetector:
         (:func:`~viewadapt.detect.windows.windows_through_lens`) and the detector reads the
         *distorted* frames as they come, its boxes in their pixels. None (default): the
         frames are pinhole frames (undistorted ones, if the camera has a lens).
+    grid_phase : (2,) float
+        Offset of the ground grid of candidate windows, in strides (forward, left), each in
+        ``[0, 1)`` (:func:`~viewadapt.detect.windows.select_candidate_windows`).
     """
 
     def __init__(self, camera: Camera, models: SourceDetectors, *,
@@ -76,7 +79,8 @@ class FrameDetector:
                  tolerance: float = HOG_TOLERANCE,
                  cells_per_source_cell: float = CELLS_PER_SOURCE_CELL,
                  upsample_below: float = UPSAMPLE_BELOW, thresholds=None,
-                 rule: str = "covariant", object_model: str = "plane", lens=None):
+                 rule: str = "covariant", object_model: str = "plane", lens=None,
+                 grid_phase=(0.0, 0.0)):
         if not isinstance(camera, Camera) or camera.image_size is None:
             raise ValueError("camera must be a Camera with its image_size (width, height)")
         self.camera = camera
@@ -98,7 +102,10 @@ class FrameDetector:
         self.cache_dir = cache_dir
         self.cache_limit_gb = cache_limit_gb
         self.windows = select_candidate_windows(camera, self.size,
-                                                person_heights=self.params["person_heights"])
+                                                person_heights=self.params["person_heights"],
+                                                grid_phase=grid_phase)
+        if any(grid_phase):                # the default grid's cache keys stay those of before
+            self.params["grid_phase"] = [float(v) for v in grid_phase]
         if lens is not None:
             if object_model != "plane":
                 raise ValueError("windows mapped through a lens need the plane object model")

@@ -284,7 +284,8 @@ def window_homographies(camera: Camera, ground_xy, person_height=PERSON_HEIGHT_M
 def select_candidate_windows(camera: Camera, image_size=None, *,
                              person_heights=(PERSON_HEIGHT_M,), stride: float = GROUND_STRIDE_M,
                              min_separation: float = 1.0, min_person_height_px: float = 16.0,
-                             max_distance: float = 200.0) -> CandidateWindows:
+                             max_distance: float = 200.0,
+                             grid_phase=(0.0, 0.0)) -> CandidateWindows:
     """World-space candidate windows of a calibrated camera (Wang et al. 2017, Sec. 5.1).
 
     Parameters
@@ -303,6 +304,11 @@ def select_candidate_windows(camera: Camera, image_size=None, *,
         Drop windows whose person is shorter than this in the image (see the module Notes).
     max_distance : float
         Ground distance from the camera beyond which nothing is searched, metres.
+    grid_phase : (2,) float
+        Offset of the grid from the point below the camera, in strides along its forward
+        and left axes, each in ``[0, 1)``. The grid's origin is arbitrary; scoring the same
+        frames at several phases measures how much a result depends on where the windows
+        happen to fall.
 
     Returns
     -------
@@ -327,8 +333,13 @@ def select_candidate_windows(camera: Camera, image_size=None, *,
     heights = np.atleast_1d(np.asarray(person_heights, dtype=np.float64))
     if heights.size == 0 or np.any(~np.isfinite(heights)) or np.any(heights <= 0):
         raise ValueError(f"person_heights must be positive metres, got {person_heights!r}")
+    phase = np.asarray(grid_phase, dtype=np.float64)
+    if phase.shape != (2,) or not np.all((phase >= 0) & (phase < 1)):
+        raise ValueError(f"grid_phase must be two fractions of a stride in [0, 1), got "
+                         f"{grid_phase!r}")
     seen = check_ground_visible(camera, (w, h))
     origin, fwd, left = _camera_ground_frame(camera)
+    origin = origin + stride * (phase[0] * fwd + phase[1] * left)
     rel = seen - origin[:2]
     f_seen, l_seen = rel @ fwd[:2], rel @ left[:2]
     f_lo = max(float(f_seen.min()), -max_distance)
