@@ -17,7 +17,7 @@ from benchmark.frames import load_frames, train_source_detectors
 from viewadapt.cli import main
 from viewadapt.detect import (
     DetectorSpec, SourceDetectors, detect_on_ground, detect_stream, distort_image,
-    natural_sort_key, open_frames, read_calibration, shipped_model_path,
+    natural_sort_key, open_frames, prefetched, read_calibration, shipped_model_path,
 )
 from tests.toy_frames import TOY_FRAME_SIZE, small_toy_frames
 
@@ -125,6 +125,44 @@ def test_inputs_are_opened_and_sorted(toy, tmp_path):
         [toy.frames[1].path, toy.frames[0].path]            # a list keeps its order
 
 
+def test_prefetched_keeps_order_raises_in_place_and_stops_early():
+    import threading
+    import time
+
+    assert list(prefetched(iter(range(100)), depth=3)) == list(range(100))
+    assert list(prefetched([])) == []
+
+    def failing():
+        yield from range(5)
+        raise ValueError("frame 5 is broken")
+
+    got = []
+    with pytest.raises(ValueError, match="frame 5 is broken"):
+        for x in prefetched(failing(), depth=2):
+            got.append(x)
+    assert got == [0, 1, 2, 3, 4]                # every item before the error arrives
+
+    produced, closed = [], []
+
+    def endless():
+        try:
+            for i in range(10**9):
+                produced.append(i)
+                yield i
+        finally:
+            closed.append(True)
+
+    it = prefetched(endless(), depth=2)
+    assert [next(it) for _ in range(3)] == [0, 1, 2]
+    time.sleep(0.2)
+    assert len(produced) <= 3 + 2 + 1               # at most depth ahead (+ one in hand)
+    it.close()                                      # the consumer stops early
+    assert closed == [True]                         # ... and the source was closed
+    assert not any(t.name == "viewadapt-prefetch" for t in threading.enumerate())
+    with pytest.raises(ValueError, match="depth"):
+        next(prefetched([1], depth=0))
+
+
 def test_ground_positions_are_those_of_the_windows(toy):
     """detect_on_ground gives FrameDetector.detect's boxes, each with the ground point of
     its window -- which is where the feet of that window's person project, and close to
@@ -193,6 +231,7 @@ def test_every_start_and_max_frames_select_frames(toy, detect):
     pd.testing.assert_frame_equal(sel, want)
     meta = json.loads((out / "metadata.json").read_text())
     assert meta["frames"] == 2 and meta["input"]["start"] == 1 and meta["input"]["every"] == 2
+    assert meta["cpu_seconds"] > 0 and meta["frames_per_second"] > 0
     # a video: frame numbers are the video's
     vfull = _rows(detect("video", toy.video))
     out = detect("video_sel", "--start", 2, "--every", 3, "--annotate", "frames", toy.video)
@@ -355,6 +394,21 @@ def test_bad_input_is_one_line_and_writes_nothing(toy, tmp_path, capfd):
         main(["detect", "--calibration", str(toy.calibration), "--model", str(toy.model),
               "--out", str(tmp_path / "o"), "--annotate", str(toy.video)])
     assert exc.value.code == 2 and not (tmp_path / "o").exists()
+
+
+def test_a_later_frame_of_another_size_fails_after_frames_were_detected(toy, tmp_path, capfd):
+    """Found by the reading thread after three frames were detected: one line, exit 2, no
+    outputs (the operator cache, kept apart here, is all that stays)."""
+    small = tmp_path / "small.png"
+    cv2.imwrite(str(small), np.zeros((120, 160, 3), np.uint8))
+    out = tmp_path / "out"
+    capfd.readouterr()
+    rc = main(["detect", "--calibration", str(toy.calibration), "--model", str(toy.model),
+               "--out", str(out), "--cache", str(tmp_path / "cache"), "--quiet",
+               *[str(f.path) for f in toy.frames[:3]], str(small)])
+    err = capfd.readouterr().err.strip()
+    assert rc == 2 and len(err.splitlines()) == 1, err
+    assert "small.png is 160x120 px" in err and not out.exists()
 
 
 def test_a_model_and_calibration_load_as_the_command_does(toy):

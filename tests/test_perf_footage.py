@@ -22,6 +22,7 @@ def test_footage_benchmark_times_every_path(tmp_path):
         "detect (video, dist, lens windows)"]
     for r in res["rows"]:
         assert r["frames"] == 4 and r["fps"] > 0 and r["seconds"] > 0
+        assert r["cpu_ms_per_frame"] > 0
     assert res["rows"][0]["ratio_to_detector"] == 1.0
     assert res["rows"][1]["ratio_to_detector"] == pytest.approx(
         res["rows"][1]["fps"] / res["rows"][0]["fps"])

@@ -4,8 +4,10 @@
 
 Issue 17's bar: on a 384x288 clip, ``viewadapt detect`` with the shipped HOG model runs
 within 10 % of the adapted detector's own frame rate (``bench runtime``'s adapted fps),
-decoding and undistortion included. Both are timed here, in one process and one thread
-(OpenCV and BLAS limited to one), on the same frames and the same operator:
+decoding and undistortion included. Both are timed here, in one process with OpenCV and
+BLAS limited to one thread, on the same frames and the same operator; the command reads
+(and undistorts) the next frames in a second thread while it detects, so its CPU time per
+frame is reported beside the frame rates:
 
 ``detect (video)``
     the ``viewadapt detect`` command on an mp4 of the frames (decoding, detection with
@@ -128,10 +130,10 @@ def run_footage_benchmark(data, *, n_frames: int = 150, model=None, heights=(1.6
         det.detect(frames[0], "hog")                      # warm-up
 
         def bare(images):
-            t = time.perf_counter()
+            t, c = time.perf_counter(), time.process_time()
             for img in images:
                 det.detect(img, "hog")
-            return time.perf_counter() - t
+            return time.perf_counter() - t, time.process_time() - c
 
         plain = write_clip(work / "clip.mp4", frames)
         bent = write_clip(work / "clip_dist.mp4",
@@ -147,7 +149,7 @@ def run_footage_benchmark(data, *, n_frames: int = 150, model=None, heights=(1.6
                 undistort = Undistortion(cam.K, dist, SIZE) if dist is not None else None
                 seen = [f.image if undistort is None else undistort(f.image)
                         for f in open_frames(clip)]
-                before = bare(seen)
+                before, before_cpu = bare(seen)
             cal = write_calibration(work / f"{clip.stem}.json", cam, dist)
             meta = None
             for r in range(repeats):
@@ -160,19 +162,24 @@ def run_footage_benchmark(data, *, n_frames: int = 150, model=None, heights=(1.6
                 if rc != 0:
                     raise RuntimeError(f"viewadapt detect failed on {clip} (exit {rc})")
                 m = json.loads((out / "metadata.json").read_text())
+                m["cpu_ms"] = 1e3 * m["cpu_seconds"] / m["frames"]
                 if meta is None or m["frames_per_second"] > meta["frames_per_second"]:
                     meta = m
                 if lens == "undistort":
-                    before = min(before, bare(seen))
+                    again = bare(seen)
+                    if again[0] < before:
+                        before, before_cpu = again
             if lens == "undistort":
                 seconds = before
                 reference = len(seen) / seconds
                 rows.append(dict(method=name.replace("detect", "detector on the decoded clip"),
                                  frames=len(seen), seconds=seconds, fps=reference,
-                                 ratio_to_detector=1.0))
+                                 ratio_to_detector=1.0,
+                                 cpu_ms_per_frame=1e3 * before_cpu / len(seen)))
             rows.append(dict(method=name, frames=meta["frames"], seconds=meta["seconds"],
                              fps=meta["frames_per_second"],
-                             ratio_to_detector=meta["frames_per_second"] / reference))
+                             ratio_to_detector=meta["frames_per_second"] / reference,
+                             cpu_ms_per_frame=meta["cpu_ms"]))
     return {"rows": rows, "windows": len(det.windows), "model": str(model),
             "operator_build_s": round(build, 2), "frame_size": list(SIZE),
             "distortion": list(DISTORTION)}
@@ -180,16 +187,22 @@ def run_footage_benchmark(data, *, n_frames: int = 150, model=None, heights=(1.6
 
 def format_table(result) -> str:
     lines = [f"`viewadapt detect` on a {result['frame_size'][0]}x{result['frame_size'][1]} "
-             f"clip, one thread, {result['windows']} candidate windows, model "
+             f"clip, OpenCV limited to one thread, {result['windows']} candidate windows, model "
              f"`{result['model']}` (operator built in {result['operator_build_s']} s, not "
              "timed below).", "",
-             "| method | frames | s | fps | / detector |", "|---|---|---|---|---|"]
+             "| method | frames | s | fps | / detector | CPU ms / frame |",
+             "|---|---|---|---|---|---|"]
     for r in result["rows"]:
         lines.append(f"| {r['method']} | {r['frames']} | {r['seconds']:.2f} | "
-                     f"{r['fps']:.1f} | {r['ratio_to_detector']:.3f} |")
+                     f"{r['fps']:.1f} | {r['ratio_to_detector']:.3f} | "
+                     f"{r['cpu_ms_per_frame']:.2f} |")
     worst = min(r["ratio_to_detector"] for r in result["rows"])
     lines += ["", f"Bar (issue 17): the command within 10 % of the detector's fps: "
-              f"{'met' if worst >= 0.9 else 'NOT met'} (lowest ratio {worst:.3f})."]
+              f"{'met' if worst >= 0.9 else 'NOT met'} (lowest ratio {worst:.3f}).", "",
+              "The command reads and undistorts the next frames in a second thread while it "
+              "detects (`viewadapt.detect.prefetched`); its CPU time per frame counts both "
+              "threads over its frame loop (`cpu_seconds` of its metadata.json: reading, "
+              "undistorting, detecting, writing), the detector's its detection loop."]
     return "\n".join(lines) + "\n"
 
 

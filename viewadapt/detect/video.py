@@ -11,8 +11,10 @@ from __future__ import annotations
 import contextlib
 import glob
 import os
+import queue
 import re
 import sys
+import threading
 from pathlib import Path
 from typing import Iterator, NamedTuple
 
@@ -20,7 +22,8 @@ import numpy as np
 
 from .calibration import read_frame
 
-__all__ = ["IMAGE_SUFFIXES", "Frame", "FrameStream", "open_frames", "natural_sort_key"]
+__all__ = ["IMAGE_SUFFIXES", "Frame", "FrameStream", "open_frames", "natural_sort_key",
+           "prefetched"]
 
 #: File name suffixes read as still images (anything else is opened as a video).
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".webp", ".ppm", ".pgm",
@@ -275,3 +278,61 @@ def _video_stream(path: Path, sel) -> FrameStream:
         fps = 25.0
     return FrameStream("video", path, video=path, fps=fps, n_total=count if count > 0 else None,
                        **sel)
+
+
+def prefetched(items, depth: int = 4) -> Iterator:
+    """``items`` in order, produced by a background thread at most ``depth`` ahead.
+
+    Reading the next frames (decoding, undistortion: OpenCV calls that release the GIL)
+    then overlaps with detecting on this one. An exception raised while producing an item
+    is raised here, in its place; when the consumer stops early (an error, ``close()``),
+    the thread stops and closes ``items``.
+
+    Parameters
+    ----------
+    items : iterable
+    depth : int
+        Items produced ahead of the consumer (memory: ``depth`` items).
+    """
+    if depth < 1:
+        raise ValueError(f"depth must be at least 1, got {depth}")
+    q: queue.Queue = queue.Queue(maxsize=depth)
+    stop = threading.Event()
+    end = object()
+
+    def put(item) -> bool:
+        while not stop.is_set():
+            try:
+                q.put(item, timeout=0.05)
+                return True
+            except queue.Full:
+                continue
+        return False
+
+    def produce():
+        it = iter(items)
+        try:
+            for x in it:
+                if not put((x, None)):
+                    return
+            put((end, None))
+        except BaseException as exc:            # raised in the consumer, in order
+            put((end, exc))
+        finally:
+            close = getattr(it, "close", None)
+            if close is not None:
+                close()
+
+    worker = threading.Thread(target=produce, name="viewadapt-prefetch", daemon=True)
+    worker.start()
+    try:
+        while True:
+            x, exc = q.get()
+            if x is end:
+                if exc is not None:
+                    raise exc
+                return
+            yield x
+    finally:
+        stop.set()
+        worker.join()
