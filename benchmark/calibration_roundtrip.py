@@ -26,8 +26,9 @@ over the draws, the median and 95th percentile of their magnitudes.
 Detector check (:mod:`benchmark.calibration_lamr`): the adapted HOG detector
 (:class:`viewadapt.detect.FrameDetector`, persons 1.65 and 1.85 m as ``bench frames``) runs
 on every frame with the true camera and with the recovered cameras of the first draw (focal
-known; focal estimated) -- of the first ``--detector-draws`` draws, for their spread -- all
-with the same source model (``--model``, or trained as ``bench frames`` does); each is
+known; focal estimated) -- of the first ``--detector-draws`` draws, for their spread (0:
+no detector check) -- all with the same source model (``--model``, or trained as ``bench
+frames`` does); each is
 evaluated against the same ground truth (:func:`benchmark.frames.evaluate_method`), the
 LAMR differences with a paired bootstrap over frames. Each camera's candidate windows are
 scored at ``--phases`` x ``--phases`` offsets of their ground grid and its LAMR is the mean
@@ -456,8 +457,8 @@ def _check_args(args) -> None:
         raise UserError(f"--noise must be a finite number of pixels >= 0, got {args.noise}")
     if args.draws < 1:
         raise UserError(f"--draws must be at least 1, got {args.draws}")
-    if not 1 <= args.detector_draws <= args.draws:
-        raise UserError(f"--detector-draws must be in 1..--draws ({args.draws}), got "
+    if not 0 <= args.detector_draws <= args.draws:
+        raise UserError(f"--detector-draws must be in 0..--draws ({args.draws}), got "
                         f"{args.detector_draws}")
     if args.bootstrap < 0:
         raise UserError(f"--bootstrap must be >= 0, got {args.bootstrap}")
@@ -480,7 +481,8 @@ def main(argv=None) -> int:
                     help="point and noise draws per camera (default 20)")
     ap.add_argument("--detector-draws", type=int, default=1,
                     help="run the detector with the recovered cameras of this many draws "
-                         "(default 1: the first; the bar is judged on the first)")
+                         "(default 1: the first; the bar is judged on the first; 0: no "
+                         "detector check, calibration only, no model needed)")
     ap.add_argument("--phases", type=int, default=4,
                     help="score each camera's windows at PHASES x PHASES offsets of their "
                          "ground grid and average the LAMR over them (default 4; 1: the "
@@ -513,12 +515,16 @@ def main(argv=None) -> int:
                 choose_ground_points(group[0].camera, args.points, np.random.default_rng(0))
             except ValueError as exc:
                 raise ValueError(f"camera {name}: {exc}") from None
-        models = SourceDetectors.load(args.model) if args.model is not None else None
+        detect = args.detector_draws > 0
+        models = SourceDetectors.load(args.model) if args.model is not None and detect \
+            else None
     except (UserError, ValueError, FileNotFoundError) as exc:
         print(f"{ap.prog}: error: {exc}", file=sys.stderr)
         return 2
     t0 = time.perf_counter()
-    if models is None:
+    if not detect:
+        model_text = None
+    elif models is None:
         from .data import load_dataset
         from .frames import train_source_detectors
 
@@ -541,9 +547,8 @@ def main(argv=None) -> int:
             frames, models, n_points=args.points, noise_px=args.noise, n_draws=args.draws,
             seed=args.seed, points_dir=tmp / "points", cache_dir=cache,
             n_detector_draws=args.detector_draws, n_boot=args.bootstrap,
-            phases=args.phases, n_jobs=args.jobs)
+            phases=args.phases, n_jobs=args.jobs, detect=detect)
         summary = summarize_draws(draws)
-        lamr = summarize_lamr(overall)
         groups = group_cameras(frames)
         pooled = summary[summary["camera"] == "all"].set_index("focal")
         run = run_metadata(
@@ -555,10 +560,10 @@ def main(argv=None) -> int:
             cameras={n: _true_pose(g[0].camera) for n, g in groups.items()},
             bars={"height_pct": HEIGHT_BAR_PCT, "tilt_deg": TILT_BAR_DEG, "lamr": LAMR_BAR},
             calibration={m: dict(pooled.loc[m].drop("camera")) for m in FOCAL_MODES},
-            detector={"true_lamr": float(overall.loc[overall["variant"] == "true",
-                                                     "lamr"].iloc[0]),
-                      **{f"focal {r['focal']}": dict(r.drop("focal"))
-                         for _, r in lamr.iterrows()}},
+            detector=None if overall is None else {
+                "true_lamr": float(overall.loc[overall["variant"] == "true", "lamr"].iloc[0]),
+                **{f"focal {r['focal']}": dict(r.drop("focal"))
+                   for _, r in summarize_lamr(overall).iterrows()}},
             seconds=round(time.perf_counter() - t0, 1))
         text = _markdown(summary, overall, per_camera, run)
         for name, per_draw in calibrations.items():
@@ -569,8 +574,10 @@ def main(argv=None) -> int:
                                                                        args.points))
         draws.to_csv(tmp / "calibration_roundtrip.csv", index=False, float_format="%.6g")
         summary.to_csv(tmp / "calibration_summary.csv", index=False, float_format="%.6g")
-        per_camera.to_csv(tmp / "calibration_detector.csv", index=False, float_format="%.6g")
-        overall.to_csv(tmp / "calibration_lamr.csv", index=False, float_format="%.6g")
+        if overall is not None:
+            per_camera.to_csv(tmp / "calibration_detector.csv", index=False,
+                              float_format="%.6g")
+            overall.to_csv(tmp / "calibration_lamr.csv", index=False, float_format="%.6g")
         (tmp / "calibration_roundtrip.md").write_text(text)
         (tmp / "run.json").write_text(json.dumps(_jsonable(run), indent=2) + "\n")
     print(text)

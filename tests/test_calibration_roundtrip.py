@@ -305,8 +305,24 @@ def test_cli_with_noise_trains_its_own_model(toy, tmp_path, capsys):
     assert len(pd.read_csv(out / "points" / "fscene00" / "draw_02.csv")) == 5
 
 
+def test_cli_without_the_detector_check_needs_no_model(toy, tmp_path, capsys):
+    out = tmp_path / "out"
+    rc, stdout, err = _run(["--data", toy, "--out", out, "--draws", 3, "--detector-draws", 0,
+                            "--model", tmp_path / "never_read.npz"], capsys)
+    assert rc == 0, err
+    assert "training" not in stdout
+    assert len(pd.read_csv(out / "calibration_roundtrip.csv")) == 3 * len(FOCAL_MODES)
+    assert not (out / "calibration_lamr.csv").exists()
+    assert not (out / "calibration_detector.csv").exists()
+    run = json.loads((out / "run.json").read_text())
+    assert run["detector"] is None and run["model"] is None
+    md = (out / "calibration_roundtrip.md").read_text()
+    assert "Detector check" not in md and "## Camera recovery" in md
+
+
 @pytest.mark.parametrize("case", ["no frames", "points", "noise", "noise nan", "draws",
-                                  "detector draws", "phases", "jobs", "model", "option"])
+                                  "detector draws", "detector draws negative", "phases", "jobs",
+                                  "model", "option"])
 def test_bad_input_is_one_line_and_writes_nothing(case, toy, tmp_path, capsys):
     no_frames = tmp_path / "crops_only"
     no_frames.mkdir()
@@ -317,6 +333,7 @@ def test_bad_input_is_one_line_and_writes_nothing(case, toy, tmp_path, capsys):
             "noise nan": ["--data", toy, "--noise", "nan"],
             "draws": ["--data", toy, "--draws", 0],
             "detector draws": ["--data", toy, "--draws", 2, "--detector-draws", 3],
+            "detector draws negative": ["--data", toy, "--detector-draws", -1],
             "phases": ["--data", toy, "--phases", 0],
             "jobs": ["--data", toy, "--jobs", 0],
             "option": ["--data", toy, "--points", "six"],
