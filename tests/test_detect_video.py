@@ -341,6 +341,21 @@ def test_windows_through_the_lens_find_the_same_persons(toy, detect):
     assert len(iou) >= 10 and (iou > 0.5).all() and np.median(iou) > 0.7, iou
     meta = json.loads((out / "metadata.json").read_text())
     assert meta["lens_windows"]["dist"] == DIST and meta["undistortion"] is None
+    # the default (auto) is the lens windows: the same bytes
+    auto = detect("lens_auto", "--annotate", "none", folder, calibration=calib)
+    assert (auto / "detections.csv").read_bytes() == (out / "detections.csv").read_bytes()
+    assert json.loads((auto / "metadata.json").read_text())["lens_windows"]["dist"] == DIST
+
+
+def test_auto_lens_undistorts_for_the_body_model():
+    from viewadapt.detect.command import DEFAULT_LENS, lens_correction
+
+    assert DEFAULT_LENS == "auto"
+    assert lens_correction(None, "auto", "plane") is None
+    assert lens_correction(np.array(DIST), "auto", "plane") == "windows"
+    assert lens_correction(np.array(DIST), "auto", "body") == "undistort"
+    for lens in ("windows", "undistort"):
+        assert lens_correction(np.array(DIST), lens, "body") == lens
 
 
 # ------------------------------------------------------------------ bad input

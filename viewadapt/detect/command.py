@@ -25,22 +25,29 @@ from .models import SourceDetectors, shipped_model_path
 from .outputs import ANNOTATE_CHOICES, DetectionWriter
 from .video import open_frames, prefetched
 
-__all__ = ["register", "cmd_detect", "check_frame_selection", "person_heights", "cache_limit",
-           "add_cache_options"]
+__all__ = ["LENS_CHOICES", "DEFAULT_LENS", "register", "cmd_detect", "check_frame_selection",
+           "person_heights", "cache_limit", "add_cache_options", "lens_correction"]
 
 
-#: How ``detect`` handles a calibration's lens distortion (``--lens``).
-LENS_CHOICES = ("windows", "undistort")
-DEFAULT_LENS = "undistort"
+#: How ``detect`` handles a calibration's lens distortion (``--lens``); ``auto`` maps the
+#: windows through the lens with the plane object model and undistorts the frames with the
+#: body model (whose windows cannot be mapped through a lens).
+LENS_CHOICES = ("auto", "windows", "undistort")
+DEFAULT_LENS = "auto"
 
 
 _CORRECTION_NOTE = {None: "", "undistort": ", undistorted",
                     "windows": ", windows through the lens"}
 
 
-def _lens_correction(dist, args):
-    """How this run handles the lens: None (no ``dist``), "undistort" or "windows"."""
-    return None if dist is None else args.lens
+def lens_correction(dist, lens: str, object_model: str):
+    """How ``detect`` handles a calibration's lens: None (no ``dist``), "undistort" or
+    "windows" (``lens`` one of :data:`LENS_CHOICES`)."""
+    if dist is None:
+        return None
+    if lens == "auto":
+        return "windows" if object_model == "plane" else "undistort"
+    return lens
 
 
 def person_heights(text):
@@ -107,12 +114,12 @@ def _metadata(args, det, stream, writer, dist, annotate, *, operator_seconds,
         input=stream.describe(), frames=writer.n_frames, detections=writer.n_detections,
         annotate=annotate, jobs=args.jobs, model=str(args.model),
         model_training=det.models.training,
-        undistortion=None if _lens_correction(dist, args) != "undistort" else {
+        undistortion=None if lens_correction(dist, args.lens, args.object_model) != "undistort" else {
             "dist": dist.tolist(),
             "method": "every frame remapped (cv2.remap, bilinear) with maps precomputed once "
                       "by cv2.initUndistortRectifyMap, new camera matrix = K: boxes and "
                       "annotations are in the undistorted frame's pixels"},
-        lens_windows=None if _lens_correction(dist, args) != "windows" else {
+        lens_windows=None if lens_correction(dist, args.lens, args.object_model) != "windows" else {
             "dist": dist.tolist(),
             "method": "each candidate window's homography refitted to where the lens puts "
                       "its pixels (viewadapt.detect.windows_through_lens); the frames are "
@@ -139,7 +146,7 @@ def cmd_detect(args) -> int:
     check_frame_selection(args)
     cam = read_calibration(args.calibration)
     dist = read_distortion(args.calibration)
-    correction = _lens_correction(dist, args)
+    correction = lens_correction(dist, args.lens, args.object_model)
     undistort = Undistortion(cam.K, dist, cam.image_size) \
         if correction == "undistort" else None
     stream = open_frames(args.inputs, start=args.start, every=args.every,
@@ -272,9 +279,10 @@ def register(sub, common) -> None:
     p.add_argument("--lens", choices=LENS_CHOICES, default=DEFAULT_LENS,
                    help="with dist in the calibration: windows (map the candidate windows "
                         "through the lens once and read the frames as they are; boxes in "
-                        "their pixels) or undistort (remap every frame first; boxes in the "
-                        f"undistorted frame's pixels). Default {DEFAULT_LENS}: "
-                        "docs/findings.md (lens distortion) has the measurement")
+                        "their pixels), undistort (remap every frame first; boxes in the "
+                        "undistorted frame's pixels) or auto (default: windows, undistort "
+                        "with --object-model body). docs/findings.md (lens distortion) has "
+                        "the measurement")
     p.add_argument("--threshold", type=float, default=0.0, help="score threshold (default 0)")
     p.add_argument("--heights", type=person_heights, default=(PERSON_HEIGHT_M,),
                    help="assumed person heights, metres, comma-separated (default 1.75)")
