@@ -280,9 +280,9 @@ def register(sub, common) -> None:
                    help="with dist in the calibration: windows (map the candidate windows "
                         "through the lens once and read the frames as they are; boxes in "
                         "their pixels), undistort (remap every frame first; boxes in the "
-                        "undistorted frame's pixels) or auto (default: windows, undistort "
-                        "with --object-model body). docs/findings.md (lens distortion) has "
-                        "the measurement")
+                        "undistorted frame's pixels) or auto: windows, undistort with "
+                        "--object-model body (default auto; docs/findings.md, lens "
+                        "distortion, has the measurement)")
     p.add_argument("--threshold", type=float, default=0.0, help="score threshold (default 0)")
     p.add_argument("--heights", type=person_heights, default=(PERSON_HEIGHT_M,),
                    help="assumed person heights, metres, comma-separated (default 1.75)")
