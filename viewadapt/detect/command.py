@@ -107,6 +107,7 @@ def _frame_size_error(frame, stream, cam) -> str:
 def _metadata(args, det, stream, writer, dist, annotate, *, operator_seconds,
               seconds, cpu_seconds) -> dict:
     """metadata.json of a detect run: what ran on what, and how fast."""
+    correction = lens_correction(dist, args.lens, args.object_model)
     return run_metadata(
         args.seed, detector=f"{args.detector}_adapted", rule=args.rule,
         object_model=args.object_model, threshold=args.threshold,
@@ -114,12 +115,12 @@ def _metadata(args, det, stream, writer, dist, annotate, *, operator_seconds,
         input=stream.describe(), frames=writer.n_frames, detections=writer.n_detections,
         annotate=annotate, jobs=args.jobs, model=str(args.model),
         model_training=det.models.training,
-        undistortion=None if lens_correction(dist, args.lens, args.object_model) != "undistort" else {
+        undistortion=None if correction != "undistort" else {
             "dist": dist.tolist(),
             "method": "every frame remapped (cv2.remap, bilinear) with maps precomputed once "
                       "by cv2.initUndistortRectifyMap, new camera matrix = K: boxes and "
                       "annotations are in the undistorted frame's pixels"},
-        lens_windows=None if lens_correction(dist, args.lens, args.object_model) != "windows" else {
+        lens_windows=None if correction != "windows" else {
             "dist": dist.tolist(),
             "method": "each candidate window's homography refitted to where the lens puts "
                       "its pixels (viewadapt.detect.windows_through_lens); the frames are "
