@@ -52,7 +52,7 @@ DISTORTION = (-0.25, 0.08, 0.0, 0.0, 0.0)
 SIZE = (384, 288)
 
 __all__ = ["DISTORTION", "SIZE", "clip_frames", "write_clip", "write_calibration",
-           "run_footage_benchmark", "format_table", "main"]
+           "run_footage_benchmark", "format_table", "write_study", "main"]
 
 
 def clip_frames(data, n_frames: int) -> list:
@@ -206,8 +206,21 @@ def format_table(result) -> str:
     return "\n".join(lines) + "\n"
 
 
+def write_study(out, stem: str, table: str, data, result: dict) -> None:
+    """Print a footage study's ``table`` and, with ``out``, write it atomically as
+    ``out/STEM.md`` beside ``out/STEM.json`` (the run's metadata and ``result``)."""
+    from viewadapt.files import atomic_output_dir, run_metadata
+
+    print(table)
+    if out is not None:
+        with atomic_output_dir(out) as tmp:
+            (tmp / f"{stem}.md").write_text(table)
+            (tmp / f"{stem}.json").write_text(json.dumps(
+                run_metadata(0, data=str(data), **result), indent=2))
+
+
 def main(argv=None) -> int:
-    from viewadapt.files import atomic_output_dir, check_output_dir, run_metadata
+    from viewadapt.files import check_output_dir
 
     ap = argparse.ArgumentParser(prog="python -m benchmark.perf.footage",
                                  description=__doc__.split("\n\n")[0])
@@ -234,13 +247,7 @@ def main(argv=None) -> int:
     except (ValueError, FileNotFoundError) as exc:
         print(f"error: {exc}")
         return 2
-    table = format_table(result)
-    print(table)
-    if args.out is not None:
-        with atomic_output_dir(args.out) as tmp:
-            (tmp / "footage.md").write_text(table)
-            (tmp / "footage.json").write_text(json.dumps(
-                run_metadata(0, data=str(args.data), **result), indent=2))
+    write_study(args.out, "footage", format_table(result), args.data, result)
     return 0
 
 

@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .footage import SIZE, clip_frames, write_calibration, write_clip
+from .footage import SIZE, clip_frames, write_calibration, write_clip, write_study
 
 __all__ = ["FPS", "rss_mb", "run_memory_benchmark", "format_memory", "main"]
 
@@ -103,7 +103,7 @@ def format_memory(result) -> str:
 
 
 def main(argv=None) -> int:
-    from viewadapt.files import atomic_output_dir, check_output_dir, run_metadata
+    from viewadapt.files import check_output_dir
 
     ap = argparse.ArgumentParser(prog="python -m benchmark.perf.footage_memory",
                                  description=__doc__.split("\n\n")[0])
@@ -123,13 +123,7 @@ def main(argv=None) -> int:
     except (ValueError, FileNotFoundError) as exc:
         print(f"error: {exc}")
         return 2
-    table = format_memory(result)
-    print(table)
-    if args.out is not None:
-        with atomic_output_dir(args.out) as tmp:
-            (tmp / "memory.md").write_text(table)
-            (tmp / "memory.json").write_text(json.dumps(
-                run_metadata(0, data=str(args.data), **result), indent=2))
+    write_study(args.out, "memory", format_memory(result), args.data, result)
     return 0 if result["returncode"] == 0 else 1
 
 
