@@ -2,11 +2,12 @@
 
 import json
 
+import numpy as np
 import pytest
 
 from benchmark.data import load_dataset
 from benchmark.frames import train_source_detectors
-from benchmark.perf.footage import format_table, main, run_footage_benchmark
+from benchmark.perf.footage import format_table, main, median_interval, run_footage_benchmark
 from tests.toy_frames import small_toy_frames
 
 
@@ -24,8 +25,10 @@ def test_footage_benchmark_times_every_path(tmp_path):
         assert r["frames"] == 4 and r["fps"] > 0 and r["seconds"] > 0
         assert r["cpu_ms_per_frame"] > 0
     assert res["rows"][0]["ratio_to_detector"] == 1.0
-    assert res["rows"][1]["ratio_to_detector"] == pytest.approx(
-        res["rows"][1]["fps"] / res["rows"][0]["fps"])
+    for r in (res["rows"][1], res["rows"][3], res["rows"][4]):   # the commands' paired ratios
+        assert len(r["ratios"]) == 2
+        assert r["ratio_to_detector"] == pytest.approx(np.median(r["ratios"]), abs=1e-4)
+        assert r["ratio_low"] <= r["ratio_to_detector"] <= r["ratio_high"]
     assert res["windows"] > 1000            # the CAVIAR-like timing camera
     # the distorted clip was undistorted by the command
     meta = json.loads((tmp_path / "w" / "out_clip_dist_undistort" / "metadata.json").read_text())
@@ -34,9 +37,19 @@ def test_footage_benchmark_times_every_path(tmp_path):
     meta = json.loads((tmp_path / "w" / "out_clip_dist_windows" / "metadata.json").read_text())
     assert meta["lens_windows"]["dist"] == res["distortion"] and meta["undistortion"] is None
     assert (tmp_path / "w" / "out_clip_dist_windows_1" / "metadata.json").is_file()  # repeat
-    assert res["rows"][4]["ratio_to_detector"] == pytest.approx(
-        res["rows"][4]["fps"] / res["rows"][2]["fps"])
     assert "Bar (issue 17)" in format_table(res)
+
+
+def test_median_interval_is_the_sign_test_interval():
+    # Conover's table: for n = 15 the 95 % interval of the median is [x_(4), x_(12)],
+    # coverage 1 - 2 P(B <= 3) = 0.9648; for n = 30, [x_(10), x_(21)]
+    low, high, cover = median_interval(np.arange(15, 0, -1.0))
+    assert (low, high) == (4.0, 12.0) and cover == pytest.approx(0.96484375)
+    assert median_interval(np.arange(1, 31.0))[:2] == (10.0, 21.0)
+    # too few values for 95 %: the whole range, at its own lower coverage
+    assert median_interval([3.0, 1.0, 2.0, 5.0, 4.0]) == (1.0, 5.0, pytest.approx(0.9375))
+    with pytest.raises(ValueError):
+        median_interval([])
 
 
 def test_footage_benchmark_bad_input(tmp_path, capsys):
