@@ -20,13 +20,12 @@ import time
 import numpy as np
 import pandas as pd
 
-from viewadapt.detect import FrameDetector, ground_truth_rows, standardize_boxes
-from viewadapt.metrics import accumulate_frames, log_average_miss_rate, match_detections
+from viewadapt.detect import FrameDetector
 
+from .frame_phases import grid_phases, phase_mean_difference
 from .frames import evaluate_method
 
-__all__ = ["LAMR_BAR", "PERSON_HEIGHTS", "FOCAL_MODES", "VARIANTS", "grid_phases",
-           "frame_matches", "matches_lamr", "paired_lamr_difference", "phase_mean_difference",
+__all__ = ["LAMR_BAR", "PERSON_HEIGHTS", "FOCAL_MODES", "VARIANTS",
            "detector_check", "summarize_lamr",
            "detector_markdown", "fmt_number", "met_text"]
 
@@ -42,15 +41,6 @@ FOCAL_MODES = ("known", "estimated")
 VARIANTS = ("true", "focal known", "focal estimated")
 
 
-def grid_phases(n: int) -> list:
-    """The ``n x n`` ground-grid phases ``(i / n, j / n)`` of the candidate windows
-    (:func:`viewadapt.detect.select_candidate_windows`' ``grid_phase``), the default grid's
-    ``(0, 0)`` first."""
-    if n < 1:
-        raise ValueError(f"the number of grid phases per axis must be at least 1, got {n}")
-    return [(i / n, j / n) for i in range(n) for j in range(n)]
-
-
 def _detect_frames(camera, models, group, cache_dir, phase):
     """Adapted HOG detections on the frames of ``group`` with ``camera`` and its windows at
     grid phase ``phase``; windows, times (operators of the default grid only are cached)."""
@@ -61,76 +51,6 @@ def _detect_frames(camera, models, group, cache_dir, phase):
     t1 = time.perf_counter()
     dets = [fd.detect(f.image(), "hog") for f in group]
     return dets, len(fd.windows), t1 - t0, time.perf_counter() - t1
-
-
-def frame_matches(detections, frames) -> list:
-    """Per-frame matches of detections to ground truth, the first stage of
-    :func:`benchmark.frames.evaluate_method` (the same ground-truth rows, ignore flags and
-    box standardisation), so that resampled frames need only be accumulated.
-
-    Parameters
-    ----------
-    detections : list of (D, 5) ndarray
-        Per frame of ``frames``, ``(x, y, w, h, score)``.
-    frames : list of FrameRecord
-
-    Returns
-    -------
-    list of viewadapt.metrics.FrameMatch
-    """
-    out = []
-    for d, f in zip(detections, frames, strict=True):
-        gt = ground_truth_rows(f.gt, f.occlusion, f.camera.image_size)
-        d = np.asarray(d, dtype=np.float64).reshape(-1, 5)
-        out.append(match_detections(standardize_boxes(d[:, :4]), d[:, 4], gt[:, :4],
-                                    gt[:, 4].astype(bool)))
-    return out
-
-
-def matches_lamr(matches) -> float:
-    """The log-average miss rate of per-frame matches (accumulate, summarise)."""
-    fppi, miss_rate, _ = accumulate_frames(matches)
-    return float(log_average_miss_rate(fppi, miss_rate))
-
-
-def paired_lamr_difference(dets, reference, frames, *, n_boot: int, rng) -> tuple:
-    """``LAMR(dets) - LAMR(reference)``, each a list of per-frame ``(D, 5)`` detections of
-    ``frames``, with its 95 % paired bootstrap interval over frames: the one-phase case of
-    :func:`phase_mean_difference` (same parameters and result)."""
-    return phase_mean_difference([dets], [reference], frames, n_boot=n_boot, rng=rng)
-
-
-def phase_mean_difference(dets, reference, frames, *, n_boot: int, rng) -> tuple:
-    """The difference of two mean LAMRs over grid phases and its 95 % paired bootstrap
-    interval over frames (each replicate resamples the frames once, for every phase of
-    both).
-
-    Parameters
-    ----------
-    dets, reference : list of lists of (D, 5) ndarray
-        Per grid phase (any number, not necessarily the same for both), per frame of
-        ``frames``.
-    frames : list of FrameRecord
-    n_boot : int
-        Bootstrap replicates (0: no interval, NaN bounds).
-    rng : numpy.random.Generator
-
-    Returns
-    -------
-    (difference, ci_low, ci_high) : floats
-    """
-    a = [frame_matches(d, frames) for d in dets]
-    b = [frame_matches(d, frames) for d in reference]
-
-    def mean_diff(idx):
-        return (np.mean([matches_lamr([m[i] for i in idx]) for m in a])
-                - np.mean([matches_lamr([m[i] for i in idx]) for m in b]))
-
-    diff = mean_diff(range(len(frames)))
-    if n_boot <= 0:
-        return float(diff), np.nan, np.nan
-    boot = [mean_diff(rng.integers(len(frames), size=len(frames))) for _ in range(n_boot)]
-    return float(diff), float(np.quantile(boot, 0.025)), float(np.quantile(boot, 0.975))
 
 
 def detector_check(groups: dict, recovered: dict, models, *, n_detector_draws: int = 1,

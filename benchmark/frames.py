@@ -45,7 +45,8 @@ from viewadapt.nms import detections_from_scores
 
 __all__ = ["FrameRecord", "load_frames", "train_source_detectors", "dataset_provenance", "NEGATIVE_CHOICES", "FRAME_VIEW_CHOICES",
            "DEFAULT_FRAME_VIEW", "METHODS", "ADAPTED_VARIANTS", "adapted_method", "split_method",
-           "check_method", "FrameMethods", "evaluate_method", "PAPER_FPS", "warp_scores",
+           "check_method", "moves_with_grid", "FrameMethods", "evaluate_method", "PAPER_FPS",
+           "warp_scores",
            "pyramid_scales", "hog_pyramid_detect", "acf_pyramid_detect",
            "acf_pyramid_fast_detect", "ACF_PYRAMID_LAMBDAS", "opencv_detect"]
 
@@ -281,6 +282,15 @@ def split_method(method):
         except ValueError:
             pass
     return None, method, None
+
+
+def moves_with_grid(method) -> bool:
+    """Whether ``method`` scores the candidate windows (the adapted variants, image
+    warping), so that its detections move with the windows' ground grid
+    (``grid_phase``); the pyramids and OpenCV's detector slide their own windows over the
+    frame."""
+    _, how, _ = split_method(check_method(method))
+    return how in ("adapted", "warp")
 
 
 def check_method(method) -> str:

@@ -11,8 +11,8 @@ from pathlib import Path
 import numpy as np
 
 from viewadapt.detect import (
-    CELLS_PER_SOURCE_CELL, DEFAULT_CACHE_LIMIT_GB, DETECTOR_KINDS, FAMILY_COLORS, HOG_TOLERANCE,
-    UPSAMPLE_BELOW, plot_det_figure,
+    CELLS_PER_SOURCE_CELL, DEFAULT_CACHE_LIMIT_GB, HOG_TOLERANCE, UPSAMPLE_BELOW,
+    plot_det_figure,
 )
 from viewadapt.detect.command import add_cache_options, person_heights
 from viewadapt.geometry import PERSON_HEIGHT_M
@@ -22,6 +22,9 @@ from viewadapt.remap import ANGLE_RULES
 from .frames import (
     DEFAULT_FRAME_VIEW, FRAME_VIEW_CHOICES, METHODS, NEGATIVE_CHOICES, adapted_method,
     check_method, split_method,
+)
+from .frames_report import (
+    accuracy_targets, phase_gap_lines, phase_table, plot_seed_figure, seed_summary, summary_table,
 )
 
 __all__ = ["register", "cmd_bench_frames", "cmd_bench_runtime", "plot_det_figure"]
@@ -42,14 +45,16 @@ def _group_by_camera(frames):
 
 
 def _detect_camera(group, models, methods, heights, cache_dir, cache_limit_gb, tolerance,
-                   cells_per_source_cell, upsample_below, progress=None):
-    """Every method on the frames of one camera: (detections, seconds, windows)."""
+                   cells_per_source_cell, upsample_below, grid_phase=(0.0, 0.0),
+                   progress=None):
+    """Every method on the frames of one camera, the candidate windows at ``grid_phase``:
+    (detections, seconds, windows)."""
     from .frames import FrameMethods
 
     fd = FrameMethods(group[0].camera, models, person_heights=heights, cache_dir=cache_dir,
                        cache_limit_gb=cache_limit_gb, tolerance=tolerance,
                        cells_per_source_cell=cells_per_source_cell,
-                       upsample_below=upsample_below)
+                       upsample_below=upsample_below, grid_phase=grid_phase)
     for m in methods:                           # offline precomputation, not timed per frame
         fd.prepare(m)
     dets = {m: [] for m in methods}
@@ -69,23 +74,37 @@ def run_frames_benchmark(data, *, methods, seed=0, quick=False, max_frames=None,
                          heights=(PERSON_HEIGHT_M,), cache_dir=None,
                          cache_limit_gb=DEFAULT_CACHE_LIMIT_GB, models=None, progress=True,
                          tolerance=HOG_TOLERANCE, cells_per_source_cell=CELLS_PER_SOURCE_CELL,
-                         upsample_below=None,
-                         jobs=1, frame_view=DEFAULT_FRAME_VIEW, negatives="elevation0"):
-    """Detect with every method on every frame; return (results dict, models, detections).
+                         upsample_below=None, jobs=1, frame_view=DEFAULT_FRAME_VIEW,
+                         negatives="elevation0", phases=1):
+    """Detect with every method on every frame.
 
     Cameras are processed in parallel with ``jobs`` worker processes (joblib); the
-    seconds per frame are measured inside each worker.
+    seconds per frame are measured inside each worker. With ``phases`` > 1 the methods
+    that score the candidate windows (:func:`benchmark.frames.moves_with_grid`) run again
+    with the windows' ground grid at each of the ``phases x phases`` grid phases
+    (:func:`benchmark.frame_phases.grid_phases`), and their ``lamr`` is the mean over the
+    phases (``lamr_phases``: each phase's, the default grid's first); their curves,
+    detections and seconds are the default grid's. The other methods do not read the
+    windows and run once.
+
+    Returns
+    -------
+    (results, models, detections, frames, info, phase_detections)
+        ``phase_detections``: {method: per phase, per frame detections} of the methods run
+        at every phase (empty with one phase).
     """
     from joblib import Parallel, delayed
     from tqdm.auto import tqdm
 
     from .data import load_dataset
-    from .frames import evaluate_method, load_frames, train_source_detectors
+    from .frame_phases import grid_phases
+    from .frames import evaluate_method, load_frames, moves_with_grid, train_source_detectors
 
     if upsample_below is None:
         upsample_below = UPSAMPLE_BELOW
     if not np.isfinite(upsample_below) or upsample_below < 0:
         raise ValueError(f"--upsample-below must be >= 0, got {upsample_below}")
+    phase_list = grid_phases(phases)
     frames = load_frames(data)
     if max_frames:
         frames = frames[:max_frames]
@@ -100,158 +119,46 @@ def run_frames_benchmark(data, *, methods, seed=0, quick=False, max_frames=None,
             print(f"  trained in {time.perf_counter() - t0:.0f} s", flush=True)
     groups = _group_by_camera(frames)
     order = [f for g in groups for f in g]
-    kw = dict(models=models, methods=methods, heights=heights, cache_dir=cache_dir,
+    moving = [m for m in methods if moves_with_grid(m)] if phases > 1 else []
+    # (group, phase, methods): every method on the default grid, then the moving ones
+    tasks = [(g, phase_list[0], methods) for g in groups] + [
+        (g, ph, moving) for ph in phase_list[1:] for g in groups if moving]
+    kw = dict(models=models, heights=heights, cache_dir=cache_dir,
               cache_limit_gb=cache_limit_gb, tolerance=tolerance,
               cells_per_source_cell=cells_per_source_cell,
               upsample_below=upsample_below)
     n_jobs = 1 if jobs is None else int(jobs)
-    if n_jobs != 1 and len(groups) > 1:
+    if n_jobs != 1 and len(tasks) > 1:
         par = Parallel(n_jobs=n_jobs, return_as="generator")
-        out = list(tqdm(par(delayed(_detect_camera)(g, **kw) for g in groups),
-                        total=len(groups), desc="cameras", unit="camera",
-                        disable=not progress))
+        out = list(tqdm(par(delayed(_detect_camera)(g, methods=ms, grid_phase=ph, **kw)
+                            for g, ph, ms in tasks),
+                        total=len(tasks), desc="cameras" if len(phase_list) == 1 or not moving
+                        else "cameras x grid phases", unit="task", disable=not progress))
     else:
-        with tqdm(total=len(order), desc="frames", unit="frame",
+        with tqdm(total=sum(len(g) for g, _, _ in tasks), desc="frames", unit="frame",
                   disable=not progress) as bar:
-            out = [_detect_camera(g, progress=bar, **kw) for g in groups]
-    dets = {m: [d for o in out for d in o[0][m]] for m in methods}
-    secs = {m: sum(o[1][m] for o in out) for m in methods}
+            out = [_detect_camera(g, methods=ms, grid_phase=ph, progress=bar, **kw)
+                   for g, ph, ms in tasks]
+    first = out[:len(groups)]
+    dets = {m: [d for o in first for d in o[0][m]] for m in methods}
+    secs = {m: sum(o[1][m] for o in first) for m in methods}
+    phase_dets = {m: [[d for (_, p, _), o in zip(tasks, out) if p == ph for d in o[0][m]]
+                      for ph in phase_list] for m in moving}
     results = {}
     for m in methods:
         ev = evaluate_method(dets[m], order)
         results[m] = dict(ev, seconds_per_frame=secs[m] / len(order))
-    info = dict(n_frames=len(order), windows_per_camera=[o[2] for o in out],
-                n_gt=int(sum(len(f.gt) for f in order)))
-    return results, models, dets, order, info
+        if m in phase_dets:
+            lamrs = [ev["lamr"]] + [evaluate_method(d, order)["lamr"]
+                                    for d in phase_dets[m][1:]]
+            results[m].update(lamr=float(np.mean(lamrs)), lamr_phases=lamrs)
+    info = dict(n_frames=len(order), windows_per_camera=[o[2] for o in first],
+                n_gt=int(sum(len(f.gt) for f in order)), grid_phases=phase_list)
+    return results, models, dets, order, info, phase_dets
 
-
-#: the accuracy targets: (baseline, test on (adapted, baseline) LAMR, wording)
-_TARGETS = (("warp", lambda a, b: a <= b + 0.03, "within 0.03 of (or below) image warping"),
-            ("pyramid", lambda a, b: a < b, "below the unadapted pyramid"))
 
 #: methods that train nothing: a seed study runs them once
 UNTRAINED_METHODS = ("opencv", "opencv_native")
-
-
-def _accuracy_targets(results, per_seed=None) -> list:
-    """The issue's accuracy targets, read off this run's log-average miss rates; with
-    ``per_seed`` ({seed: {method: LAMR}}, two seeds or more) judged on the seed means,
-    with how many seeds meet each on their own."""
-    many = per_seed is not None and len(per_seed) > 1
-    lamr = ({m: float(np.mean([r[m] for r in per_seed.values() if m in r]))
-             for m in results} if many else {m: r["lamr"] for m, r in results.items()})
-    out = []
-    for kind in DETECTOR_KINDS:
-        ad = f"{kind}_adapted"
-        if ad not in lamr:
-            continue
-        for base, test, text in _TARGETS:
-            other = f"{kind}_{base}"
-            if other not in lamr:
-                continue
-            ok = test(lamr[ad], lamr[other])
-            line = (f"- {ad} {'mean ' if many else ''}LAMR {lamr[ad]:.3f} {text} "
-                    f"({lamr[other]:.3f}): {'met' if ok else 'NOT met'}")
-            if many:
-                n = sum(test(r[ad], r[other]) for r in per_seed.values())
-                line += f" (met at {n} of {len(per_seed)} seeds on their own)"
-            out.append(line)
-    if not out:
-        return []
-    head = ["", "## Targets", ""]
-    if many:
-        head += [f"Judged on the mean over the {len(per_seed)} training seeds "
-                 f"{', '.join(map(str, per_seed))} (seeds.md).", ""]
-    return head + out
-
-
-def seed_summary(per_seed) -> list:
-    """Markdown lines: each method's LAMR per training seed with mean, standard deviation
-    and range, and each detector's adapted - warping gap per seed. ``per_seed`` is
-    {seed: {method: LAMR}}; a method missing from a seed (one run only) is left out of
-    that seed's column."""
-    seeds = list(per_seed)
-    methods = list(dict.fromkeys(m for r in per_seed.values() for m in r))
-
-    def header(first):
-        return [f"| {first} | " + " | ".join(f"seed {s}" for s in seeds)
-                + " | mean | sd | min - max |", "|---|" + "---|" * (len(seeds) + 3)]
-
-    lines = [f"## Log-average miss rate over {len(seeds)} training seeds", "",
-             *header("method")]
-
-    def stats(vals, sign=""):
-        v = np.asarray(vals, float)
-        sd = f"{v.std(ddof=1):.3f}" if v.size > 1 else "-"
-        return (f"{v.mean():{sign}.3f} | {sd} | {v.min():{sign}.3f} - "
-                f"{v.max():{sign}.3f}")
-
-    for m in methods:
-        vals = [per_seed[s].get(m) for s in seeds]
-        cells = " | ".join("-" if v is None else f"{v:.3f}" for v in vals)
-        lines.append(f"| {m} | {cells} | {stats([v for v in vals if v is not None])} |")
-    gaps = seed_gaps(per_seed)
-    if gaps:
-        lines += ["", "Adapted minus image warping (negative: adapted misses less; the "
-                  "target is at most +0.03):", "", *header("detector")]
-        for kind, g in gaps.items():
-            lines.append(f"| {kind} | " + " | ".join(f"{v:+.3f}" for v in g)
-                         + f" | {stats(g, '+')} |")
-    return lines
-
-
-def seed_gaps(per_seed) -> dict:
-    """{detector: [adapted - warping LAMR per seed]} for the detectors with both."""
-    out = {}
-    for kind in DETECTOR_KINDS:
-        if all(f"{kind}_{b}" in r for r in per_seed.values() for b in ("adapted", "warp")):
-            out[kind] = [r[f"{kind}_adapted"] - r[f"{kind}_warp"] for r in per_seed.values()]
-    return out
-
-
-def plot_seed_figure(per_seed, path_stem):
-    """Left: each method's LAMR at every seed (dots) and their mean (bar); right: the
-    adapted - warping gap per seed against the 0.03 target."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    seeds = list(per_seed)
-    methods = list(dict.fromkeys(m for r in per_seed.values() for m in r))
-    gaps = seed_gaps(per_seed)
-    fig, axes = plt.subplots(1, 2 if gaps else 1, figsize=(9 if gaps else 5.5, 3.8),
-                             squeeze=False, gridspec_kw={"width_ratios": [2, 1]} if gaps
-                             else None)
-    ax = axes[0, 0]
-    for i, m in enumerate(methods):
-        vals = np.array([per_seed[s][m] for s in seeds if m in per_seed[s]])
-        color = FAMILY_COLORS.get(m.split("_")[0], "tab:gray")
-        ax.bar(i, vals.mean(), color=color, alpha=0.3, width=0.7)
-        ax.plot(np.full(vals.size, i) + np.linspace(-0.2, 0.2, vals.size), vals, "o",
-                color=color, ms=4)
-    ax.set_xticks(range(len(methods)), methods, rotation=30, ha="right", fontsize=8)
-    ax.set_ylabel("log-average miss rate")
-    ax.set_ylim(0, 1)
-    ax.set_title(f"{len(seeds)} training seeds: dots, mean: bar", fontsize=9)
-    ax.grid(True, axis="y", alpha=0.3)
-    if gaps:
-        ax = axes[0, 1]
-        for i, (kind, g) in enumerate(gaps.items()):
-            color = FAMILY_COLORS[kind]
-            ax.plot(np.full(len(g), i) + np.linspace(-0.15, 0.15, len(g)), g, "o",
-                    color=color, ms=4)
-            ax.plot([i - 0.3, i + 0.3], [np.mean(g)] * 2, color=color, lw=2)
-        ax.axhline(0.03, color="k", ls="--", lw=1, label="target: +0.03")
-        ax.axhline(0.0, color="gray", lw=0.8)
-        ax.set_xticks(range(len(gaps)), [f"{k} adapted\n- warping" for k in gaps], fontsize=8)
-        ax.set_xlim(-0.6, len(gaps) - 0.4)
-        ax.set_ylabel("LAMR difference")
-        ax.legend(fontsize=8)
-        ax.grid(True, axis="y", alpha=0.3)
-    fig.tight_layout()
-    fig.savefig(f"{path_stem}.png", dpi=150)
-    plt.close(fig)
 
 
 def _earlier_results(out: Path, data: Path) -> dict:
@@ -330,6 +237,11 @@ def cmd_bench_frames(args) -> int:
     if args.seeds > 1 and (args.model or args.keep_other_methods):
         raise ValueError("--seeds trains the detectors once per seed; it does not combine "
                          "with --model or --keep-other-methods")
+    if args.phases < 1:
+        raise ValueError(f"--phases must be at least 1, got {args.phases}")
+    if args.phases > 1 and args.keep_other_methods:
+        raise ValueError("--phases does not combine with --keep-other-methods (an earlier "
+                         "run holds the default grid's detections only)")
     methods = expand_adapted(args.methods or list(METHODS), args.rules, args.object_models)
     earlier = _earlier_results(args.out, args.data) if args.keep_other_methods else {}
     models = SourceDetectors.load(args.model) if args.model else None
@@ -340,10 +252,10 @@ def cmd_bench_frames(args) -> int:
               tolerance=args.tolerance,
               cells_per_source_cell=args.cells_per_source_cell,
               upsample_below=args.upsample_below, jobs=args.jobs, frame_view=args.frame_view,
-              negatives=args.negatives)
+              negatives=args.negatives, phases=args.phases)
     if len(seeds) > 1:
         print(f"seed {seeds[0]} (1 of {len(seeds)})", flush=True)
-    results, models, dets, frames, info = run_frames_benchmark(
+    results, models, dets, frames, info, phase_dets = run_frames_benchmark(
         args.data, methods=methods, seed=seeds[0], models=models, **kw)
     per_seed = {seeds[0]: {m: results[m] for m in methods}}
     seed_models = {}
@@ -365,20 +277,25 @@ def cmd_bench_frames(args) -> int:
         print(f"kept from the earlier run in {args.out}: {', '.join(kept)}")
         methods = list(dict.fromkeys([*earlier, *methods]))     # the earlier run's order
     with atomic_output_dir(args.out) as tmp:
-        which = f", seed {seeds[0]}" if len(seeds) > 1 else ""
-        lines = [f"| method | LAMR{which} (1e-2..1e0 fppi) | s / frame |", "|---|---|---|"]
+        n_phases = len(info["grid_phases"])
+        lines = summary_table(results, methods, n_phases=n_phases,
+                              seed_note=f", seed {seeds[0]}" if len(seeds) > 1 else "")
         csv = []
         for m in methods:
             r = results[m]
-            lines.append(f"| {m} | {r['lamr']:.3f} | {r['seconds_per_frame']:.3f} |")
             _, how, variant = split_method(m)
             rule, model = variant if how == "adapted" else ("", "")
             csv.append(dict(method=m, lamr=r["lamr"],
+                            lamr_default_grid=r.get("lamr_phases", [r["lamr"]])[0],
+                            grid_phases=len(r.get("lamr_phases", [0])),
                             seconds_per_frame=r["seconds_per_frame"],
                             n_frames=info["n_frames"], n_gt=info["n_gt"], rule=rule,
                             object_model=model))
         lamrs = {s: {m: r["lamr"] for m, r in res.items()} for s, res in per_seed.items()}
-        lines += _accuracy_targets(results, lamrs)
+        lines += accuracy_targets(results, lamrs)
+        if phase_dets:
+            lines += phase_gap_lines(phase_dets, frames, seed=args.seed)
+            (tmp / "phases.csv").write_text(phase_table(results, info["grid_phases"]))
         if len(seeds) > 1:
             seed_lines = seed_summary(lamrs)
             lines += ["", *seed_lines]
@@ -391,15 +308,18 @@ def cmd_bench_frames(args) -> int:
         import pandas as pd
 
         pd.DataFrame(csv).to_csv(tmp / "frames_summary.csv", index=False, float_format="%.5f")
+        # the curves are the default grid's, with their own LAMR
+        curves = {m: dict(results[m], lamr=results[m].get("lamr_phases", [results[m]["lamr"]])[0])
+                  for m in methods}
         (tmp / "det_curves.json").write_text(json.dumps(
             {m: dict(zip(("fppi", "miss_rate"), (a.tolist() for a in curve_corners(
-                results[m]["fppi"], results[m]["miss_rate"]))), lamr=results[m]["lamr"])
-             for m in methods}))
+                c["fppi"], c["miss_rate"]))), lamr=c["lamr"]) for m, c in curves.items()}))
         (tmp / "detections.json").write_text(json.dumps(
             {m: {_frame_key(f): d.tolist() for f, d in zip(frames, dets[m])}
              for m in methods}))
-        plot_det_figure(results, tmp / "det_frames",
-                        title=f"{info['n_frames']} frames, {info['n_gt']} persons")
+        plot_det_figure(curves, tmp / "det_frames",
+                        title=f"{info['n_frames']} frames, {info['n_gt']} persons"
+                        + (", default grid" if n_phases > 1 else ""))
         (tmp / "models").mkdir()
         models.save(tmp / "models" / "source_detectors.npz")
         for seed, m in seed_models.items():
@@ -539,6 +459,14 @@ def register(sub, common) -> None:
                         "seeds.png); the accuracy targets are then judged on the seed "
                         "means. The DET figure and detections are the first seed's; "
                         "OpenCV, which trains nothing, runs once (default 1)")
+    p.add_argument("--phases", type=int, default=1,
+                   help="run the methods that score the candidate windows (adapted, "
+                        "warp) with the windows' ground grid at N x N phases (fractions "
+                        "of its stride) and report their mean LAMR, its spread and the "
+                        "adapted - warping gap with a paired bootstrap interval "
+                        "(phases.csv). The LAMR moves with where the grid falls; the "
+                        "pyramids and OpenCV slide their own windows and run once "
+                        "(default 1: the default grid only)")
     p.add_argument("--keep-other-methods", action="store_true",
                    help="run only --methods and keep the other methods' results of the "
                         "earlier run in --out on the same --data (e.g. rerun the adapted "

@@ -13,9 +13,9 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from benchmark.calibration_lamr import (
-    FOCAL_MODES, VARIANTS, frame_matches, grid_phases, matches_lamr, paired_lamr_difference,
-    phase_mean_difference,
+from benchmark.calibration_lamr import FOCAL_MODES, VARIANTS
+from benchmark.frame_phases import (
+    frame_matches, grid_phases, matches_lamr, paired_lamr_difference, phase_mean_difference,
 )
 from benchmark.calibration_roundtrip import (
     calibrate_draws, choose_ground_points, group_cameras, main, summarize_draws,

@@ -28,9 +28,10 @@ frame is reported beside the frame rates:
     memory beforehand -- timed before a command's first run and after each of its
     ``--repeats`` runs. Each run's fps is divided by the mean fps of the two detector
     timings around it, and the median of these paired ratios, with a distribution-free
-    95 % interval (:func:`median_interval`), is the result: this machine's speed drifts
-    by 5-8 % between runs, as much as the margins measured. The detector's own cost depends on the images (non-maximum suppression on what passes the
-    threshold, more on a compressed clip than on the PNGs), so each command is compared
+    95 % interval (:func:`median_interval`), is the result, so that a drift of the
+    machine's speed between runs cancels. The detector's own cost depends on the images
+    (non-maximum suppression on what passes the threshold, more on a compressed clip
+    than on the PNGs), so each command is compared
     with the detector on its own input: the ratio is what decoding, undistortion and
     writing the outputs cost.
 

@@ -1,0 +1,117 @@
+"""bench frames --phases: the methods on the candidate windows at several ground-grid phases."""
+
+import json
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from benchmark.data import load_dataset
+from benchmark.frame_phases import grid_phases
+from benchmark.frames import load_frames, moves_with_grid, train_source_detectors
+from benchmark.frames_cli import run_frames_benchmark
+from benchmark.frames_report import phase_gap_lines, phase_table, summary_table
+from tests.toy_frames import small_toy_frames
+
+
+def _main(argv):
+    from viewadapt.cli import main
+
+    return main(argv)
+
+
+@pytest.fixture(scope="module")
+def toy(tmp_path_factory):
+    root = tmp_path_factory.mktemp("phases")
+    data = small_toy_frames(root / "data")
+    model = train_source_detectors(load_dataset(data), quick=True, frame_view="none").save(
+        root / "model.npz")
+    return data, model
+
+
+def test_which_methods_move_with_the_grid():
+    assert moves_with_grid("hog_adapted") and moves_with_grid("acf_warp")
+    assert moves_with_grid("hog_adapted[body, paper eq.3]")
+    assert not any(map(moves_with_grid, ("hog_pyramid", "acf_pyramid_fast", "opencv",
+                                         "opencv_native")))
+    with pytest.raises(ValueError):
+        moves_with_grid("nonsense")
+
+
+def test_phase_runs_move_the_windows_and_average(toy, tmp_path):
+    data, model_path = toy
+    from viewadapt.detect import SourceDetectors
+
+    models = SourceDetectors.load(model_path)
+    kw = dict(methods=["hog_adapted", "hog_warp", "opencv_native"], models=models,
+              cache_dir=tmp_path / "cache", progress=False, heights=(1.65, 1.85))
+    one, *_, none = run_frames_benchmark(data, **kw)
+    res, _, dets, frames, info, phase_dets = run_frames_benchmark(data, phases=2, **kw)
+    assert none == {} and info["grid_phases"] == grid_phases(2)
+    assert set(phase_dets) == {"hog_adapted", "hog_warp"}           # opencv runs once
+    for m in ("hog_adapted", "hog_warp"):
+        lamrs = res[m]["lamr_phases"]
+        assert len(lamrs) == 4 and res[m]["lamr"] == pytest.approx(np.mean(lamrs))
+        # the default grid is the one-phase run's, detection for detection
+        assert lamrs[0] == one[m]["lamr"]
+        assert all(np.array_equal(a, b) for a, b in zip(phase_dets[m][0], dets[m]))
+        # another phase scores other windows
+        assert any(a.shape != b.shape or not np.allclose(a, b)
+                   for a, b in zip(phase_dets[m][1], phase_dets[m][0]))
+    assert res["opencv_native"]["lamr"] == one["opencv_native"]["lamr"]
+    assert "lamr_phases" not in res["opencv_native"]
+    # the tables
+    md = "\n".join(summary_table(res, list(res), n_phases=4))
+    assert "mean over 4 grid phases" in md and "| opencv_native |" in md
+    csv = phase_table(res, info["grid_phases"]).splitlines()
+    assert csv[0] == "method,phase_forward,phase_left,lamr" and len(csv) == 1 + 8
+    gap = phase_gap_lines(phase_dets, frames, n_boot=20)
+    assert len(gap) == 4 and gap[-1].startswith("- hog_adapted - hog_warp: ")
+
+
+def test_gap_verdicts(toy):
+    data, _ = toy
+    frames = load_frames(data)
+    perfect = [np.c_[f.gt, np.ones(len(f.gt))] for f in frames]
+    empty = [np.zeros((0, 5)) for _ in frames]
+    # adapted perfect, warping finds nothing: the whole interval below +0.03
+    assert phase_gap_lines({"hog_adapted": [perfect] * 2, "hog_warp": [empty] * 2},
+                           frames, n_boot=10)[-1].endswith(": met")
+    assert phase_gap_lines({"hog_adapted": [empty], "hog_warp": [perfect]},
+                           frames, n_boot=10)[-1].endswith(": NOT met")
+    assert phase_gap_lines({"hog_adapted": [empty]}, frames) == []
+
+
+def test_bench_frames_phases_end_to_end(toy, tmp_path):
+    data, model = toy
+    out = tmp_path / "out"
+    assert _main(["bench", "frames", "--data", str(data), "--out", str(out), "--model",
+                  str(model), "--phases", "2", "--heights", "1.65,1.85", "--methods",
+                  "hog_adapted", "hog_warp", "opencv_native"]) == 0
+    summary = pd.read_csv(out / "frames_summary.csv").set_index("method")
+    phases = pd.read_csv(out / "phases.csv")
+    assert sorted(set(phases["method"])) == ["hog_adapted", "hog_warp"]
+    for m in ("hog_adapted", "hog_warp"):
+        rows = phases[phases["method"] == m]
+        assert len(rows) == 4 and summary.loc[m, "grid_phases"] == 4
+        assert summary.loc[m, "lamr"] == pytest.approx(rows["lamr"].mean(), abs=1e-4)
+        default = rows[(rows["phase_forward"] == 0) & (rows["phase_left"] == 0)]["lamr"]
+        assert summary.loc[m, "lamr_default_grid"] == pytest.approx(default.item(), abs=1e-4)
+        # the curve is the default grid's, with its own LAMR
+        curve = json.loads((out / "det_curves.json").read_text())[m]
+        assert curve["lamr"] == pytest.approx(default.item(), abs=1e-4)
+    assert summary.loc["opencv_native", "grid_phases"] == 1
+    md = (out / "frames_summary.md").read_text()
+    assert "mean over 4 grid phases" in md and "hog_adapted - hog_warp: " in md
+    assert json.loads((out / "run.json").read_text())["grid_phases"] == [[0, 0], [0, 0.5],
+                                                                          [0.5, 0], [0.5, 0.5]]
+
+
+@pytest.mark.parametrize("extra", [["--phases", "0"], ["--phases", "2",
+                                                        "--keep-other-methods"]])
+def test_bench_frames_phases_bad_input(toy, tmp_path, capsys, extra):
+    data, model = toy
+    out = tmp_path / "bad"
+    assert _main(["bench", "frames", "--data", str(data), "--out", str(out), "--model",
+                  str(model), "--methods", "hog_adapted", *extra]) == 2
+    assert "--phases" in capsys.readouterr().err and not out.exists()
