@@ -28,6 +28,7 @@ scenes. Methods:
 
 from __future__ import annotations
 
+import json
 from dataclasses import asdict, dataclass, field
 
 import numpy as np
@@ -320,7 +321,16 @@ def prepare(ds: Dataset, cfg: CrossvalConfig, cache: FeatureCache, elevations=No
         instances = {(r["person_id"], r["scene_id"], int(r["instance"]),
                       int(r["elevation_index"])): r for r in p.to_dict("records")}
     return {"index": idx, "meta": meta, "feat": feat, "G": G, "instances": instances,
-            "root": ds.root}
+            "root": ds.root, "prepared_for": _preparation_key(cfg, sources)}
+
+
+def _preparation_key(cfg: CrossvalConfig, sources) -> str:
+    """What :func:`prepare`'s result was made for: the configuration (less ``n_jobs``)
+    and the source elevations."""
+    d = config_dict(cfg)
+    d.pop("n_jobs")
+    d["sources"] = [float(e) for e in sources]
+    return json.dumps(d, sort_keys=True, default=str)
 
 
 def run_crossval(ds: Dataset, cfg: CrossvalConfig, cache: FeatureCache, *,
@@ -338,7 +348,12 @@ def run_crossval(ds: Dataset, cfg: CrossvalConfig, cache: FeatureCache, *,
     rng = np.random.default_rng(cfg.seed)
     p = ds.persons
     folds = make_folds(p["person_id"], p["scene_id"], rng=rng)
-    data = prepare(ds, cfg, cache) if data is None else data
+    if data is None:
+        data = prepare(ds, cfg, cache)
+    elif data.get("root") != ds.root or data.get("prepared_for") != _preparation_key(
+            cfg, cfg.sources):
+        raise ValueError("run_crossval: data was prepared for another dataset or "
+                         "configuration; pass prepare(ds, cfg, cache) for this one")
     # OpenCV's detector was trained on INRIA (level views): its source elevation is 0 only
     tasks = [(det, s, fold) for det in cfg.detectors for s in cfg.sources for fold in folds
              if not (detector_spec(det).pretrained and s != 0.0)]

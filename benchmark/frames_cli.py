@@ -296,6 +296,10 @@ def cmd_bench_frames(args) -> int:
         if phase_dets:
             lines += phase_gap_lines(phase_dets, frames, seed=args.seed)
             (tmp / "phases.csv").write_text(phase_table(results, info["grid_phases"]))
+            plot_seed_figure({f"{a:g}, {b:g}": {m: results[m]["lamr_phases"][i]
+                                                for m in phase_dets}
+                              for i, (a, b) in enumerate(info["grid_phases"])},
+                             tmp / "phases", what="grid phases")
         if len(seeds) > 1:
             seed_lines = seed_summary(lamrs)
             lines += ["", *seed_lines]
@@ -330,7 +334,7 @@ def cmd_bench_frames(args) -> int:
             seconds=round(time.perf_counter() - t0, 1)), indent=2, default=str))
     print("\n".join(lines))
     print(f"\nwrote {args.out}/frames_summary.{{md,csv}}, det_frames.{{png,pdf}}, "
-          "models/source_detectors.npz"
+          "models/source_detectors.npz" + (", phases.{csv,png}" if phase_dets else "")
           + (", seeds.{md,csv,png} (per seed; the rest is seed "
              f"{seeds[0]}'s)" if len(seeds) > 1 else ""))
     return 0

@@ -34,7 +34,7 @@ def frame_bootstrap(detections: dict, frames, *, reference: str, n_boot: int = 1
     reference : str
         A key of ``detections``.
     """
-    from .frames import evaluate_method
+    from .frame_phases import frame_matches, matches_lamr
 
     if reference not in detections:
         raise ValueError(f"reference method {reference!r} is not among {list(detections)}")
@@ -45,10 +45,10 @@ def frame_bootstrap(detections: dict, frames, *, reference: str, n_boot: int = 1
             raise ValueError(f"{m} has detections for {len(d)} frames, the data {len(frames)}")
     rng = np.random.default_rng(seed)
     draws = rng.integers(len(frames), size=(n_boot, len(frames)))
+    matches = {m: frame_matches(d, frames) for m, d in detections.items()}   # once per frame
 
     def lamr(m, idx):
-        return evaluate_method([detections[m][i] for i in idx],
-                               [frames[i] for i in idx])["lamr"]
+        return matches_lamr([matches[m][i] for i in idx])
 
     boot = {m: np.array([lamr(m, idx) for idx in draws]) for m in detections}
     rows = []

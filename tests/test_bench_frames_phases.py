@@ -103,6 +103,7 @@ def test_bench_frames_phases_end_to_end(toy, tmp_path):
     assert summary.loc["opencv_native", "grid_phases"] == 1
     md = (out / "frames_summary.md").read_text()
     assert "mean over 4 grid phases" in md and "hog_adapted - hog_warp: " in md
+    assert (out / "phases.png").stat().st_size > 0
     assert json.loads((out / "run.json").read_text())["grid_phases"] == [[0, 0], [0, 0.5],
                                                                           [0.5, 0], [0.5, 0.5]]
 

@@ -190,3 +190,26 @@ def test_sweep_in_two_processes_and_with_the_crossval_models_equals_one(toy, tmp
     assert len(runs[0]) > 0 and runs[0]["estimate"].nunique() > 3
     for other in runs[1:]:
         pd.testing.assert_frame_equal(runs[0], other, check_exact=True)
+
+
+def test_crossval_takes_prepared_data_only_for_its_own_configuration(toy, tmp_path):
+    from dataclasses import replace
+
+    from benchmark.crossval import CrossvalConfig, prepare, run_crossval
+    from benchmark.features import FeatureCache
+
+    ds = load_dataset(toy)
+    cache = FeatureCache(ds, tmp_path / "cache", progress=False)
+    cfg = CrossvalConfig(acf_estimators=8, acf_stages=(8,), detectors=("hog",),
+                         ablations=False, synthesised=False, upper_bound=False,
+                         sources=(0.0,))
+    data = prepare(ds, cfg, cache)
+    scores, _ = run_crossval(ds, cfg, cache, progress=False, data=data)
+    again, _ = run_crossval(ds, cfg, cache, progress=False)
+    pd.testing.assert_frame_equal(scores, again, check_exact=True)
+    # the number of processes does not change what is prepared
+    run_crossval(ds, replace(cfg, n_jobs=2), cache, progress=False, data=data)
+    for other in (replace(cfg, target_cell_size=8), replace(cfg, sources=(0.0, np.pi / 8)),
+                  replace(cfg, detectors=("hog", "acf"))):
+        with pytest.raises(ValueError, match="prepared for another"):
+            run_crossval(ds, other, cache, progress=False, data=data)
