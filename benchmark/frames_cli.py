@@ -277,7 +277,7 @@ def cmd_bench_frames(args) -> int:
         print(f"kept from the earlier run in {args.out}: {', '.join(kept)}")
         methods = list(dict.fromkeys([*earlier, *methods]))     # the earlier run's order
     with atomic_output_dir(args.out) as tmp:
-        n_phases = len(info["grid_phases"])
+        n_phases = len(info["grid_phases"]) if phase_dets else 1    # none moved: one grid
         lines = summary_table(results, methods, n_phases=n_phases,
                               seed_note=f", seed {seeds[0]}" if len(seeds) > 1 else "")
         csv = []

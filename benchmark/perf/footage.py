@@ -114,6 +114,7 @@ def median_interval(values, level: float = 0.95) -> tuple[float, float, float]:
     n = len(x)
     if n == 0:
         raise ValueError("no values")
+
     def coverage(k):                # of [x_(k), x_(n+1-k)]: 1 - 2 P(B < k)
         return 1 - 2 * sum(math.comb(n, i) for i in range(k)) / 2.0 ** n
 
