@@ -118,23 +118,24 @@ def detector_check(groups: dict, recovered: dict, models, *, n_detector_draws: i
                 cam = None if r is None else r.camera
             row = {"camera": name, "variant": variant, "draw": k, "n_frames": len(group),
                    "n_gt": int(sum(len(f.gt) for f in group))}
+            # one row per phase, in this order; a run fills its row when it is done
+            for a, b in grid:
+                rows.append(row | {"phase_forward": a, "phase_left": b, "lamr": np.nan})
+                if cam is not None:
+                    tasks.append((len(rows) - 1, cam, group,
+                                  cache_dir if variant == "true" else None, (a, b)))
             if cam is None:
                 failed.add((variant, k))
-                rows += [row | {"phase_forward": a, "phase_left": b, "lamr": np.nan}
-                         for a, b in grid]
-                continue
-            cache = cache_dir if variant == "true" else None
-            tasks += [(row | {"phase_forward": a, "phase_left": b}, cam, group, cache, (a, b))
-                      for a, b in grid]
     dets = {(v, k, p): [] for v, k in keys for p in grid}
     run = Parallel(n_jobs=n_jobs, return_as="generator")(
         delayed(_detect_frames)(cam, models, group, cache, p)
         for _, cam, group, cache, p in tasks)
-    for (row, _, group, _, p), (d, n_windows, build, detect) in zip(tasks, run):
+    for (i, _, group, _, p), (d, n_windows, build, detect) in zip(tasks, run):
+        row = rows[i]
         dets[(row["variant"], row["draw"], p)] += d
-        rows.append(row | {"n_windows": n_windows, "n_detections": int(sum(len(x) for x in d)),
-                           "lamr": float(evaluate_method(d, group)["lamr"]),
-                           "build_seconds": build, "detect_seconds": detect})
+        row |= {"n_windows": n_windows, "n_detections": int(sum(len(x) for x in d)),
+                "lamr": float(evaluate_method(d, group)["lamr"]),
+                "build_seconds": build, "detect_seconds": detect}
         if progress:
             k = row["draw"]
             print(f"  {row['camera']} [{row['variant']}{'' if k < 0 else f', draw {k}'}, grid "
@@ -166,13 +167,7 @@ def detector_check(groups: dict, recovered: dict, models, *, n_detector_draws: i
         out.append(row)
     cols = ["camera", "variant", "draw", "phase_forward", "phase_left", "n_frames", "n_gt",
             "n_windows", "n_detections", "lamr", "build_seconds", "detect_seconds"]
-    per_camera = pd.DataFrame(rows).reindex(columns=cols)
-    order = {key: i for i, key in enumerate(keys)}
-    per_camera["_o"] = [order[(v, k)] for v, k in zip(per_camera["variant"], per_camera["draw"])]
-    per_camera = per_camera.sort_values(["camera", "_o", "phase_forward", "phase_left"],
-                                        kind="stable", key=lambda c: c.map(list(groups).index)
-                                        if c.name == "camera" else c)
-    return pd.DataFrame(out), per_camera.drop(columns="_o").reset_index(drop=True)
+    return pd.DataFrame(out), pd.DataFrame(rows).reindex(columns=cols)
 
 
 def summarize_lamr(overall: pd.DataFrame) -> pd.DataFrame:

@@ -104,10 +104,10 @@ def _frame_size_error(frame, stream, cam) -> str:
             f"{cam.image_size[1]}")
 
 
-def _metadata(args, det, stream, writer, dist, annotate, *, operator_seconds,
+def _metadata(args, det, stream, writer, dist, correction, annotate, *, operator_seconds,
               seconds, cpu_seconds) -> dict:
-    """metadata.json of a detect run: what ran on what, and how fast."""
-    correction = lens_correction(dist, args.lens, args.object_model)
+    """metadata.json of a detect run: what ran on what, and how fast (``correction``:
+    :func:`lens_correction`'s)."""
     return run_metadata(
         args.seed, detector=f"{args.detector}_adapted", rule=args.rule,
         object_model=args.object_model, threshold=args.threshold,
@@ -218,7 +218,7 @@ def cmd_detect(args) -> int:
             plot_det_figure({f"{args.detector}_adapted": ev}, tmp / "det",
                             title=f"{len(names)} frames, {evaluation['n_gt']} persons")
         (tmp / "metadata.json").write_text(json.dumps(_metadata(
-            args, det, stream, writer, dist, annotate, operator_seconds=t_operator,
+            args, det, stream, writer, dist, correction, annotate, operator_seconds=t_operator,
             seconds=seconds, cpu_seconds=cpu_seconds), indent=2))
     wrote = ["detections.csv", "detections_coco.json", "det.txt"] + {
         "video": ["annotated.mp4"], "frames": ["annotated/"], "none": []}[annotate]
