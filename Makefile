@@ -26,7 +26,7 @@ demo: $(STAMP)
 	$(BIN)/viewadapt demo --out demo-output
 
 bench: $(STAMP)
-	$(BIN)/python -m benchmark.perf.core
+	$(BIN)/python -m benchmark.studies.core_speed
 	$(BIN)/python -m generator.bench
 
 clean:

@@ -10,10 +10,10 @@ import numpy as np
 import pytest
 
 from benchmark.data import load_dataset
-from benchmark.frames import (
+from benchmark.frames.methods import (
     METHODS, FrameMethods, check_method, load_frames, split_method, train_source_detectors,
 )
-from benchmark.pyramids import (
+from benchmark.frames.pyramids import (
     ACF_PYRAMID_LAMBDAS, acf_fast_pyramid_levels, acf_pyramid_fast_detect, acf_pyramid_levels,
     dense_cascade_scores, dense_cascade_scores_reference,
 )
@@ -135,7 +135,7 @@ def test_bench_frames_accepts_the_method(toy, models, tmp_path):
     parser = cli.build_parser()
     sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
     if "detect" not in sub.choices:
-        from benchmark.frames_cli import register
+        from benchmark.frames.command import register
 
         register(sub, cli.common_parser())
     model = tmp_path / "models.npz"

@@ -7,10 +7,10 @@ import pandas as pd
 import pytest
 
 from benchmark.data import load_dataset
-from benchmark.frame_phases import grid_phases
-from benchmark.frames import load_frames, moves_with_grid, train_source_detectors
-from benchmark.frames_cli import run_frames_benchmark
-from benchmark.frames_report import phase_gap_lines, phase_table, summary_table
+from benchmark.frames.command import run_frames_benchmark
+from benchmark.frames.methods import load_frames, moves_with_grid, train_source_detectors
+from benchmark.frames.phases import grid_phases
+from benchmark.frames.report import phase_gap_lines, phase_table, summary_table
 from tests.toy_frames import small_toy_frames
 
 

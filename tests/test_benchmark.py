@@ -6,9 +6,9 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from benchmark.crops.folds import make_folds
+from benchmark.crops.summarize import operating_threshold
 from benchmark.data import DatasetError, load_dataset, read_image
-from benchmark.folds import make_folds
-from benchmark.summarize import operating_threshold
 from benchmark.toydata import make_toy_dataset
 from viewadapt.cli import main
 from viewadapt.metrics import miss_rate_at_fppw
@@ -171,9 +171,9 @@ def test_sweep_in_two_processes_and_with_the_crossval_models_equals_one(toy, tmp
     # the estimates are scored by worker processes in any order; the rows come back in the
     # order of one process, with the same scores bit for bit; the cross-validation's source
     # models are the ones the sweep trains
-    from benchmark.crossval import CrossvalConfig, run_crossval
-    from benchmark.features import FeatureCache
-    from benchmark.sweep import run_sweep
+    from benchmark.crops.crossval import CrossvalConfig, run_crossval
+    from benchmark.crops.features import FeatureCache
+    from benchmark.crops.sweep import run_sweep
 
     ds = load_dataset(toy)
     cache = FeatureCache(ds, tmp_path / "cache", progress=False)
@@ -195,8 +195,8 @@ def test_sweep_in_two_processes_and_with_the_crossval_models_equals_one(toy, tmp
 def test_crossval_takes_prepared_data_only_for_its_own_configuration(toy, tmp_path):
     from dataclasses import replace
 
-    from benchmark.crossval import CrossvalConfig, prepare, run_crossval
-    from benchmark.features import FeatureCache
+    from benchmark.crops.crossval import CrossvalConfig, prepare, run_crossval
+    from benchmark.crops.features import FeatureCache
 
     ds = load_dataset(toy)
     cache = FeatureCache(ds, tmp_path / "cache", progress=False)

@@ -1,4 +1,4 @@
-"""benchmark.calibration_roundtrip (and its detector check, benchmark.calibration_lamr):
+"""benchmark.studies.calibration_roundtrip (and its detector check, benchmark.studies.calibration_lamr):
 `viewadapt calibrate` on a dataset's own frame cameras.
 
 On the toy frames (no Blender): exact points give the camera back, noisy ones small finite
@@ -13,16 +13,16 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from benchmark.calibration_lamr import FOCAL_MODES, VARIANTS
-from benchmark.frame_phases import (
+from benchmark.studies.calibration_lamr import FOCAL_MODES, VARIANTS
+from benchmark.frames.phases import (
     frame_matches, grid_phases, matches_lamr, paired_lamr_difference, phase_mean_difference,
 )
-from benchmark.calibration_roundtrip import (
+from benchmark.studies.calibration_roundtrip import (
     calibrate_draws, choose_ground_points, group_cameras, main, summarize_draws,
     write_correspondences,
 )
 from benchmark.data import load_dataset
-from benchmark.frames import evaluate_method, load_frames, train_source_detectors
+from benchmark.frames.methods import evaluate_method, load_frames, train_source_detectors
 from viewadapt.cli import main as viewadapt_main
 from viewadapt.detect import read_calibration
 from viewadapt.detect.calibrate_command import read_correspondences

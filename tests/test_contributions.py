@@ -1,18 +1,18 @@
-"""benchmark.contributions on the planar toy dataset: contributions add up to the scores."""
+"""benchmark.studies.contributions on the planar toy dataset: contributions add up to the scores."""
 
 import numpy as np
 import pandas as pd
 import pytest
 
-from benchmark.contributions import (
+from benchmark.studies.contributions import (
     CELL_REPS, CELL_SHAPE, VARIANTS, bin_energy, check_request, descriptor_cell_matrix, main,
     model_inputs, run_contributions, score_contributions,
 )
-from benchmark.crossval import CrossvalConfig, fold_masks, task_seed, variant_remap, view_maps
+from benchmark.crops.crossval import CrossvalConfig, fold_masks, task_seed, variant_remap, view_maps
+from benchmark.crops.detectors import detector_spec
+from benchmark.crops.features import FeatureCache, background_windows, person_windows
+from benchmark.crops.folds import make_folds
 from benchmark.data import load_dataset
-from benchmark.detectors import detector_spec
-from benchmark.features import FeatureCache, background_windows, person_windows
-from benchmark.folds import make_folds
 from benchmark.toydata import make_toy_dataset
 from viewadapt.adapt import cells_to_descriptor
 

@@ -1,9 +1,9 @@
-"""``benchmark.perf.crossval_cost``'s comparison of two runs' summaries: any changed digit,
+"""``benchmark.studies.crossval_cost``'s comparison of two runs' summaries: any changed digit,
 or a missing table, is reported."""
 
 import pandas as pd
 
-from benchmark.perf.crossval_cost import compare_summaries
+from benchmark.studies.crossval_cost import compare_summaries
 
 
 def test_identical_tables_compare_equal_and_a_changed_digit_does_not(tmp_path):

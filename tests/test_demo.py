@@ -8,7 +8,7 @@ import math
 import pandas as pd
 import pytest
 
-from benchmark.report import closing_summary
+from benchmark.crops.report import closing_summary
 from generator.sampling import preset_config
 
 Q = math.pi / 4

@@ -13,7 +13,7 @@ import pandas as pd
 import pytest
 
 from benchmark.data import load_dataset
-from benchmark.frames import load_frames, train_source_detectors
+from benchmark.frames.methods import load_frames, train_source_detectors
 from viewadapt.cli import main
 from viewadapt.detect import (
     DetectorSpec, SourceDetectors, detect_on_ground, detect_stream, distort_image,
@@ -325,7 +325,7 @@ def test_distorted_frames_are_undistorted(toy, detect):
 def test_windows_through_the_lens_find_the_same_persons(toy, detect):
     """--lens windows reads the distorted frames as they are: its boxes, undistorted, are
     those of the pinhole frames' detections."""
-    from benchmark.distortion_study import undistorted_boxes
+    from benchmark.studies.distortion_study import undistorted_boxes
     from viewadapt.detect import Undistortion
 
     folder = toy.root / "distorted"           # written by the test above

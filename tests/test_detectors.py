@@ -10,7 +10,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from benchmark.detectors import BUILTIN_DETECTORS, detector_spec
+from benchmark.crops.detectors import BUILTIN_DETECTORS, detector_spec
 from benchmark.toydata import make_toy_dataset
 from viewadapt.cli import main
 

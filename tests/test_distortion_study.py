@@ -1,4 +1,4 @@
-"""`python -m benchmark.distortion_study`: per-frame undistortion against the pinhole frames.
+"""`python -m benchmark.studies.distortion_study`: per-frame undistortion against the pinhole frames.
 
 Zero distortion must leave the undistorted condition identical to the original frames, the
 valid region must follow the lens (barrel: only the edge ring; pincushion: empty corners),
@@ -13,12 +13,12 @@ import pandas as pd
 import pytest
 
 from benchmark.data import load_dataset
-from benchmark.distortion_report import study_verdict, summarize_distortion_study
-from benchmark.distortion_study import (
+from benchmark.studies.distortion_report import study_verdict, summarize_distortion_study
+from benchmark.studies.distortion_study import (
     DEFAULT_DISTORTIONS, distortion_label, group_by_scene, invalid_box_fractions, main,
     parse_distortion, resample_half_pixel, run_distortion_study, valid_region,
 )
-from benchmark.frames import load_frames, train_source_detectors
+from benchmark.frames.methods import load_frames, train_source_detectors
 from tests.toy_frames import TOY_FRAME_SIZE, small_toy_frames
 
 SIZE = TOY_FRAME_SIZE

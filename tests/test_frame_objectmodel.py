@@ -88,8 +88,10 @@ def test_frame_detector_options(camera):
 
 
 def test_frames_variant_names():
-    from benchmark.frames import ADAPTED_VARIANTS, adapted_method, check_method, split_method
-    from benchmark.frames_cli import expand_adapted
+    from benchmark.frames.methods import (
+        ADAPTED_VARIANTS, adapted_method, check_method, split_method,
+    )
+    from benchmark.frames.command import expand_adapted
 
     for variant, (rule, model) in ADAPTED_VARIANTS.items():
         name = adapted_method("acf", rule, model)

@@ -1,10 +1,10 @@
-"""Bootstrap intervals over frames for a `bench frames` run (benchmark.frames_intervals)."""
+"""Bootstrap intervals over frames for a `bench frames` run (benchmark.studies.frames_intervals)."""
 
 import numpy as np
 import pytest
 
-from benchmark.frames import FrameRecord
-from benchmark.frames_intervals import frame_bootstrap
+from benchmark.frames.methods import FrameRecord
+from benchmark.studies.frames_intervals import frame_bootstrap
 from viewadapt.geometry import camera_from_pose
 
 

@@ -1,4 +1,4 @@
-"""benchmark.frames_vs_crops: person elevations, window labels, and the study end to end on
+"""benchmark.studies.frames_vs_crops: person elevations, window labels, and the study end to end on
 toy frames (its frame LAMRs must be those of the detector it stands for)."""
 
 import json
@@ -7,8 +7,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from benchmark.frames import evaluate_method, load_frames, train_source_detectors
-from benchmark.frames_vs_crops import (
+from benchmark.frames.methods import evaluate_method, load_frames, train_source_detectors
+from benchmark.studies.frames_vs_crops import (
     ELEVATION_EDGES, FPPW_LEVELS, crop_tables, label_windows, main, person_elevations,
 )
 from benchmark.data import load_dataset

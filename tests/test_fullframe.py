@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from tests.tolerances import EXACT, FLOAT32
-from benchmark.perf.scoring_forms import linear_scores, trees_scores
+from benchmark.frames.scoring_forms import linear_scores, trees_scores
 from viewadapt.detect import (
     ACF_SHRINK, HOG_CELL, HOG_CHANNELS, TemplateGroup, acf_frame_remap, block_normalize_cells,
     build_adapted_linear_operator,

@@ -7,7 +7,7 @@ import json
 import numpy as np
 import pytest
 
-from benchmark.frames import FrameRecord, evaluate_method, load_frames
+from benchmark.frames.methods import FrameRecord, evaluate_method, load_frames
 from viewadapt.detect import read_calibration, standardize_boxes
 from viewadapt.geometry import camera_from_pose
 from viewadapt.metrics import log_average_miss_rate
@@ -21,7 +21,7 @@ def _main(argv):
     parser = cli.build_parser()
     sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
     if "detect" not in sub.choices:
-        from benchmark.frames_cli import register
+        from benchmark.frames.command import register
 
         register(sub, cli.common_parser())
     args = parser.parse_args(argv)
@@ -85,7 +85,7 @@ def test_bench_frames_outputs(bench):
 
 
 def test_curve_corners_keep_every_miss_rate():
-    from benchmark.frames_cli import curve_corners
+    from benchmark.frames.command import curve_corners
     from viewadapt.metrics import miss_rate_at
 
     rng = np.random.default_rng(0)
@@ -288,7 +288,7 @@ def test_json_calibration_and_bad_cameras(tmp_path):
 def test_runtime_table_end_to_end(toy, tmp_path):
     """`bench runtime`'s table on the toy set (timings are not checked, only that every
     method is timed with the operator forms the library ships)."""
-    from benchmark.perf.runtime import format_table, run_runtime
+    from benchmark.frames.runtime import format_table, run_runtime
 
     rows, info = run_runtime(toy, n_frames=1, warp_windows=8, jobs=1, quick=True,
                              cache_dir=tmp_path / "cache")
@@ -324,9 +324,9 @@ def test_runtime_table_end_to_end(toy, tmp_path):
 
 def test_frame_view_copies_change_the_svm_and_the_separation_script_runs(toy, bench, capsys):
     from benchmark.data import load_dataset
-    from benchmark.frames import train_source_detectors
+    from benchmark.frames.methods import train_source_detectors
     from viewadapt.detect import SourceDetectors
-    from benchmark.perf.frameview_separation import main as separation_main
+    from benchmark.studies.frameview_separation import main as separation_main
 
     crops_only = train_source_detectors(load_dataset(toy), quick=True, frame_view="none")
     with_copies = SourceDetectors.load(bench / "models" / "source_detectors.npz")
@@ -352,7 +352,7 @@ def test_frame_view_copies_change_the_svm_and_the_separation_script_runs(toy, be
 def test_seed_study(toy, tmp_path):
     """--seeds N: one training per seed, per-seed rates, the targets on the seed means."""
     from benchmark.data import load_dataset
-    from benchmark.frames import train_source_detectors
+    from benchmark.frames.methods import train_source_detectors
     from viewadapt.detect import SourceDetectors
 
     out = tmp_path / "seeds"
@@ -387,7 +387,7 @@ def test_seed_study(toy, tmp_path):
 
 
 def test_seed_tables_and_targets():
-    from benchmark.frames_report import accuracy_targets, seed_gaps, seed_summary
+    from benchmark.frames.report import accuracy_targets, seed_gaps, seed_summary
 
     per_seed = {3: {"hog_adapted": 0.62, "hog_warp": 0.60, "opencv": 0.8},
                 4: {"hog_adapted": 0.66, "hog_warp": 0.60}}
@@ -462,7 +462,7 @@ def test_detect_takes_the_rule_and_the_object_model(toy, bench, tmp_path):
 
 def test_rotated_negatives_change_the_training_and_are_recorded(toy):
     from benchmark.data import load_dataset
-    from benchmark.frames import train_source_detectors
+    from benchmark.frames.methods import train_source_detectors
 
     ds = load_dataset(toy)
     plain = train_source_detectors(ds, quick=True, frame_view="none")

@@ -195,7 +195,7 @@ def test_presets_and_fold_units():
     assert paper.frames >= 1 and tiny.frames >= 1 and preset_config("small").frames >= 1
     # >= 10,000 negative 64x128 windows per elevation (paper scale) at the stride the
     # cross-validation cuts them with
-    from benchmark.crossval import CrossvalConfig
+    from benchmark.crops.crossval import CrossvalConfig
 
     stride = CrossvalConfig().bg_stride
     bw, bh = paper.background_size

@@ -1,4 +1,4 @@
-"""benchmark.negatives: the rotated negatives, the paired gap statistics and the study's CLI."""
+"""benchmark.studies.negatives: the rotated negatives, the paired gap statistics and the study's CLI."""
 
 from __future__ import annotations
 
@@ -6,8 +6,9 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from benchmark.negatives import gap_changes, main, rotation_about_centre, rotated_windows
-from benchmark.features import WindowSet
+from benchmark.crops.features import rotated_windows, rotation_about_centre
+from benchmark.crops.features import WindowSet
+from benchmark.studies.negatives import gap_changes, main
 from benchmark.toydata import make_toy_dataset
 from viewadapt.geometry import apply_homography
 from viewadapt.warp import translation

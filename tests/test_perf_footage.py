@@ -1,4 +1,4 @@
-"""benchmark.perf.footage: the detect command and the bare detector timed on one clip."""
+"""benchmark.studies.footage_speed: the detect command and the bare detector timed on one clip."""
 
 import json
 
@@ -6,8 +6,10 @@ import numpy as np
 import pytest
 
 from benchmark.data import load_dataset
-from benchmark.frames import train_source_detectors
-from benchmark.perf.footage import format_table, main, median_interval, run_footage_benchmark
+from benchmark.frames.methods import train_source_detectors
+from benchmark.studies.footage_speed import (
+    format_table, main, median_interval, run_footage_benchmark,
+)
 from tests.toy_frames import small_toy_frames
 
 
@@ -61,7 +63,7 @@ def test_footage_benchmark_bad_input(tmp_path, capsys):
 
 
 def test_memory_benchmark_samples_the_detect_process(tmp_path):
-    from benchmark.perf.footage_memory import format_memory, main as memory_main, \
+    from benchmark.studies.footage_memory import format_memory, main as memory_main, \
         run_memory_benchmark
 
     data = small_toy_frames(tmp_path / "data")

@@ -17,7 +17,7 @@ import pytest
 pytest.importorskip("bpy", reason="needs the generator extra: pip install -e '.[generator]'")
 pytest.importorskip("anny", reason="needs the generator extra: pip install -e '.[generator]'")
 
-from benchmark.frames import load_frames  # noqa: E402
+from benchmark.frames.methods import load_frames  # noqa: E402
 from generator import pipeline  # noqa: E402
 from generator.manifest import read_manifest  # noqa: E402
 from generator.sampling import preset_config  # noqa: E402

@@ -248,7 +248,7 @@ def test_elevation_divided_by_zero_is_a_one_line_error(tmp_path, capsys):
 
 
 def test_crossval_target_is_one_elevation(tmp_path, capsys):
-    from benchmark.cli import _config
+    from benchmark.crops.command import _config
     from viewadapt.cli import build_parser
 
     args = build_parser().parse_args(["bench", "crossval", "--data", str(tmp_path), "--out",
@@ -335,7 +335,7 @@ def test_a_killed_worker_is_a_one_line_error_and_the_resume_is_byte_identical(mi
 
 def test_a_failed_crossval_says_what_it_kept_on_a_line_of_its_own(toy, tmp_path, capsys,
                                                                  monkeypatch):
-    import benchmark.crossval as crossval
+    import benchmark.crops.crossval as crossval
     from tqdm.auto import tqdm
 
     def fails_after_caching(ds, cfg, cache):

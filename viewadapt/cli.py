@@ -44,10 +44,10 @@ def common_parser(*, jobs: int = 1) -> argparse.ArgumentParser:
 
 
 def _cmd_fidelity(args) -> int:
-    from benchmark.fidelity import (
+    from benchmark.crops.fidelity import (
         remap_fidelity, sample_images, summarize_fidelity, synthetic_images,
     )
-    from benchmark.figures import plot_fidelity, plot_remap_illustration, save_figure
+    from benchmark.crops.figures import plot_fidelity, plot_remap_illustration, save_figure
     from viewadapt.geometry import elevation_homography
 
     check_output_dir(args.out, overwrite=args.overwrite)
@@ -121,7 +121,7 @@ def _cmd_demo(args) -> int:
     """demo dataset -> cross-validation -> full frames, end to end, then a short summary."""
     import importlib.util
 
-    from benchmark.report import closing_summary
+    from benchmark.crops.report import closing_summary
 
     overwrite = getattr(args, "overwrite", False)
     claim_output_dir(args.out, overwrite=overwrite)
@@ -161,7 +161,7 @@ def _cmd_demo(args) -> int:
         if renderer == "cycles":
             print("viewadapt demo: pyrender is not installed, so the demo renders with "
                   "Blender Cycles, about 3x slower (pip install -e '.[raster]')")
-        from benchmark.report import elevation_label
+        from benchmark.crops.report import elevation_label
         from generator.sampling import preset_config
 
         c = preset_config("demo")
@@ -200,7 +200,7 @@ def _demo_frames(data: Path, out: Path, extra: list) -> int:
     time, and the image-warping baselines take 10-20 s a frame) on the dataset's frames,
     then ``detect`` on one camera's frames through a calibration file written in the
     documented format, as a user would."""
-    from benchmark.frames import load_frames
+    from benchmark.frames.methods import load_frames
 
     frames = load_frames(data)
     rc = main(["bench", "frames", "--data", str(data), "--out", str(out / "frames"), "--quick",
@@ -289,13 +289,13 @@ def build_parser() -> argparse.ArgumentParser:
     register_detect(sub, common)
     register_calibrate(sub, common)
     try:
-        from benchmark.cli import register as register_bench
+        from benchmark.crops.command import register as register_bench
     except ImportError:  # pragma: no cover - benchmark ships with the distribution
         register_bench = None
     if register_bench is not None:
         register_bench(sub, common)
     try:
-        from benchmark.frames_cli import register as register_frames
+        from benchmark.frames.command import register as register_frames
     except ImportError:  # pragma: no cover
         register_frames = None
     if register_frames is not None:

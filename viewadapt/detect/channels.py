@@ -63,7 +63,7 @@ ACF_WEIGHT_SHAPE = (N_ACF_CHANNELS, WINDOW_HEIGHT // ACF_SHRINK, WINDOW_WIDTH //
 #: ``s ** -lambda`` times those of the same window warped to the canonical size, so the
 #: adapted operator multiplies the remapped magnitude and orientation channels by
 #: ``s ** lambda``. Estimated without labels on candidate windows of rendered frames
-#: (``python -m benchmark.perf.acf_scaling``; docs/findings.md).
+#: (``python -m benchmark.studies.acf_scaling``; docs/findings.md).
 ACF_GRADIENT_LAMBDA = 0.365
 
 
@@ -120,7 +120,7 @@ def fast_orientation_channels(image, *, n_bins: int = 9, gamma: bool = False) ->
         img = cv2.sqrt(img)
     mag, ang = _gradient_polar(img)
     # OpenCV element-wise calls on contiguous planes throughout: several times faster than
-    # numpy on strided channel views (measured in benchmark/perf/runtime.py's feature time)
+    # numpy on strided channel views (measured in benchmark/frames/runtime.py's feature time)
     t = cv2.subtract(cv2.multiply(ang, n_bins / np.pi), 0.5)      # in [-0.5, 2 n_bins)
     for _ in range(2):                                            # t mod n_bins
         cv2.add(t, float(n_bins), t, mask=cv2.compare(t, 0.0, cv2.CMP_LT))

@@ -1,7 +1,7 @@
 """Bootstrap intervals for a ``bench frames`` run: each method's log-average miss rate and
 its paired difference from a reference method, resampling frames.
 
-``python -m benchmark.frames_intervals RESULTS --data DATA [--reference hog_adapted]``
+``python -m benchmark.studies.frames_intervals RESULTS --data DATA [--reference hog_adapted]``
 reads ``RESULTS/detections.json`` (the detections of every method on every frame) and the
 frames' ground truth from ``DATA``, draws frames with replacement (the same draw for every
 method, so the differences are paired) and writes ``RESULTS/frames_intervals.csv`` and
@@ -30,11 +30,11 @@ def frame_bootstrap(detections: dict, frames, *, reference: str, n_boot: int = 1
     Parameters
     ----------
     detections : dict method -> list of (D, 5) arrays, one per frame of ``frames``
-    frames : list of :class:`benchmark.frames.FrameRecord`
+    frames : list of :class:`benchmark.frames.methods.FrameRecord`
     reference : str
         A key of ``detections``.
     """
-    from .frame_phases import frame_matches, matches_lamr
+    from benchmark.frames.phases import frame_matches, matches_lamr
 
     if reference not in detections:
         raise ValueError(f"reference method {reference!r} is not among {list(detections)}")
@@ -65,7 +65,7 @@ def frame_bootstrap(detections: dict, frames, *, reference: str, n_boot: int = 1
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m benchmark.frames_intervals",
+    ap = argparse.ArgumentParser(prog="python -m benchmark.studies.frames_intervals",
                                  description=__doc__,
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("results", type=Path, help="a `viewadapt bench frames` output directory")
@@ -75,7 +75,7 @@ def main(argv=None) -> int:
     ap.add_argument("--boot", type=int, default=1000, help="resamples (default 1000)")
     ap.add_argument("--seed", type=int, default=0)
     args = ap.parse_args(argv)
-    from .frames import load_frames
+    from benchmark.frames.methods import load_frames
 
     try:
         path = args.results / "detections.json"

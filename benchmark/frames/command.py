@@ -19,11 +19,11 @@ from viewadapt.geometry import PERSON_HEIGHT_M
 from viewadapt.objectmodel import OBJECT_MODELS
 from viewadapt.remap import ANGLE_RULES
 
-from .frames import (
+from benchmark.frames.methods import (
     DEFAULT_FRAME_VIEW, FRAME_VIEW_CHOICES, METHODS, NEGATIVE_CHOICES, adapted_method,
     check_method, split_method,
 )
-from .frames_report import (
+from benchmark.frames.report import (
     accuracy_targets, phase_gap_lines, phase_table, plot_seed_figure, seed_summary, summary_table,
 )
 
@@ -49,7 +49,7 @@ def _detect_camera(group, models, methods, heights, cache_dir, cache_limit_gb, t
                    progress=None):
     """Every method on the frames of one camera, the candidate windows at ``grid_phase``:
     (detections, seconds, windows)."""
-    from .frames import FrameMethods
+    from benchmark.frames.methods import FrameMethods
 
     fd = FrameMethods(group[0].camera, models, person_heights=heights, cache_dir=cache_dir,
                        cache_limit_gb=cache_limit_gb, tolerance=tolerance,
@@ -80,9 +80,9 @@ def run_frames_benchmark(data, *, methods, seed=0, quick=False, max_frames=None,
 
     Cameras are processed in parallel with ``jobs`` worker processes (joblib); the
     seconds per frame are measured inside each worker. With ``phases`` > 1 the methods
-    that score the candidate windows (:func:`benchmark.frames.moves_with_grid`) run again
+    that score the candidate windows (:func:`benchmark.frames.methods.moves_with_grid`) run again
     with the windows' ground grid at each of the ``phases x phases`` grid phases
-    (:func:`benchmark.frame_phases.grid_phases`), and their ``lamr`` is the mean over the
+    (:func:`benchmark.frames.phases.grid_phases`), and their ``lamr`` is the mean over the
     phases (``lamr_phases``: each phase's, the default grid's first); their curves,
     detections and seconds are the default grid's. The other methods do not read the
     windows and run once.
@@ -96,9 +96,11 @@ def run_frames_benchmark(data, *, methods, seed=0, quick=False, max_frames=None,
     from joblib import Parallel, delayed
     from tqdm.auto import tqdm
 
-    from .data import load_dataset
-    from .frame_phases import grid_phases
-    from .frames import evaluate_method, load_frames, moves_with_grid, train_source_detectors
+    from benchmark.data import load_dataset
+    from benchmark.frames.phases import grid_phases
+    from benchmark.frames.methods import (
+        evaluate_method, load_frames, moves_with_grid, train_source_detectors,
+    )
 
     if upsample_below is None:
         upsample_below = UPSAMPLE_BELOW
@@ -163,7 +165,7 @@ UNTRAINED_METHODS = ("opencv", "opencv_native")
 
 def _earlier_results(out: Path, data: Path) -> dict:
     """``out``'s earlier run on ``data``: method -> (frame key -> detections, s / frame)."""
-    from .data import read_json
+    from benchmark.data import read_json
 
     run, det = out / "run.json", out / "detections.json"
     if not (run.is_file() and det.is_file() and (out / "frames_summary.csv").is_file()):
@@ -209,7 +211,7 @@ def _method_arg(text):
 
 def expand_adapted(methods, rules=None, object_models=None) -> list:
     """``methods`` with each adapted method replaced by one per rule and object model
-    (:func:`benchmark.frames.adapted_method`); unchanged when both are None."""
+    (:func:`benchmark.frames.methods.adapted_method`); unchanged when both are None."""
     if not rules and not object_models:
         return list(methods)
     out = []
@@ -229,7 +231,7 @@ def cmd_bench_frames(args) -> int:
 
     from viewadapt.detect import SourceDetectors
 
-    from .frames import evaluate_method
+    from benchmark.frames.methods import evaluate_method
 
     check_output_dir(args.out, overwrite=args.overwrite)
     if args.seeds < 1:
@@ -346,7 +348,7 @@ def cmd_bench_frames(args) -> int:
 def cmd_bench_runtime(args) -> int:
     from viewadapt.files import atomic_output_dir, check_output_dir, run_metadata
 
-    from .perf.runtime import format_table, run_runtime
+    from benchmark.frames.runtime import format_table, run_runtime
 
     check_output_dir(args.out, overwrite=args.overwrite)
     t0 = time.perf_counter()

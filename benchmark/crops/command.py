@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import importlib
 import json
 import time
 from pathlib import Path
@@ -53,7 +54,7 @@ def _incomplete(ds, args):
     """The incomplete-dataset warning (printed loudly) or None; refuses without the flag."""
     import sys
 
-    from .crossval import require_complete
+    from benchmark.crops.crossval import require_complete
 
     msg = require_complete(ds, allow_incomplete=getattr(args, "allow_incomplete", False))
     if msg:
@@ -82,7 +83,7 @@ def _elevation(text: str) -> float:
 
 
 def _config(args, ds):
-    from .crossval import CrossvalConfig
+    from benchmark.crops.crossval import CrossvalConfig
 
     cfg = CrossvalConfig(seed=args.seed, n_jobs=args.jobs,
                          distance=float(ds.config.get("distance", 10.0)),
@@ -92,7 +93,7 @@ def _config(args, ds):
     if getattr(args, "target", None) is not None:
         cfg.target = args.target
     if getattr(args, "detectors", None):
-        from .detectors import detector_spec
+        from benchmark.crops.detectors import detector_spec
 
         for d in args.detectors:               # every name resolves, before any work
             detector_spec(d)
@@ -138,13 +139,13 @@ def cmd_crossval(args) -> int:
 
     from viewadapt.files import atomic_output_dir, check_output_dir
 
-    from .crossval import config_dict, run_crossval
-    from .data import load_dataset
-    from .detectors import detector_spec
-    from .features import FeatureCache
-    from .figures import save_figure
-    from .report import plot_det, plot_score_shift, write_report
-    from .summarize import paired_differences, summarize
+    from benchmark.crops.crossval import config_dict, run_crossval
+    from benchmark.data import load_dataset
+    from benchmark.crops.detectors import detector_spec
+    from benchmark.crops.features import FeatureCache
+    from benchmark.crops.figures import save_figure
+    from benchmark.crops.report import plot_det, plot_score_shift, write_report
+    from benchmark.crops.summarize import paired_differences, summarize
 
     check_output_dir(args.out, overwrite=args.overwrite)
     ds = load_dataset(args.data)
@@ -193,8 +194,8 @@ def _remap_figure(tmp, ds, cfg):
 
     from viewadapt.geometry import elevation_homography
 
-    from .data import read_image
-    from .figures import plot_remap_illustration, save_figure
+    from benchmark.data import read_image
+    from benchmark.crops.figures import plot_remap_illustration, save_figure
 
     p = ds.persons
     row = p[p["elevation_index"] == ds.elevation_index(cfg.target)].iloc[0]
@@ -209,7 +210,7 @@ def _remap_figure(tmp, ds, cfg):
 
 
 def _markdown(summary) -> str:
-    from .report import elevation_label
+    from benchmark.crops.report import elevation_label
 
     cols = ["detector", "pair", "method", "mr_at_fppw_0.01", "ci", "fold mean±std", "lamr", "n_pos"]
     lines = ["| " + " | ".join(cols) + " |", "|" + "---|" * len(cols)]
@@ -227,18 +228,18 @@ def cmd_sweep(args) -> int:
 
     from viewadapt.files import atomic_output_dir, check_output_dir
 
-    from .data import load_dataset
-    from .features import FeatureCache
-    from .figures import save_figure
-    from .report import plot_sweep, write_report
-    from .sweep import run_sweep, sweep_summary
+    from benchmark.data import load_dataset
+    from benchmark.crops.features import FeatureCache
+    from benchmark.crops.figures import save_figure
+    from benchmark.crops.report import plot_sweep, write_report
+    from benchmark.crops.sweep import run_sweep, sweep_summary
 
     check_output_dir(args.out, overwrite=args.overwrite)
     ds = load_dataset(args.data)
     check_results_dir(args.out, ds.fingerprint)
     cfg = _config(args, ds)
     incomplete = _incomplete(ds, args)
-    from .detectors import detector_spec
+    from benchmark.crops.detectors import detector_spec
 
     detector_spec(args.detector)                 # resolves, before any work
     if not 0 < args.step <= np.pi / 36 + 1e-12:
@@ -268,7 +269,7 @@ def cmd_sweep(args) -> int:
 
 
 def cmd_report(args) -> int:
-    from .report import write_report
+    from benchmark.crops.report import write_report
 
     out = Path(args.results)
     if not out.is_dir() or not (out / "run.json").is_file():
@@ -303,14 +304,14 @@ def register(sub, common) -> None:
 
     p = bsub.add_parser("crossval", parents=[common, data_opts],
                         help="nine-fold cross-validation (Fig. 5 and beyond)",
-                        description=__import__("benchmark.crossval").crossval.__doc__,
+                        description=importlib.import_module("benchmark.crops.crossval").__doc__,
                         formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--sources", type=_elevations, default=None,
                    help="source elevations (default 0,pi/8,pi/4)")
     p.add_argument("--detectors", nargs="+", default=None, metavar="DETECTOR",
                    help="detectors: built-in hog, hog_local, acf, opencv (default all four) "
                         "and/or your own as package.module:Object implementing the detector "
-                        "protocol (benchmark.detectors; docs/detectors.md)")
+                        "protocol (benchmark.crops.detectors; docs/detectors.md)")
     p.add_argument("--no-upper-bound", action="store_true",
                    help="skip the exact-geometry rows (each test positive adapted through its "
                         "own rendered correspondences; HOG detectors, needs depth maps)")
@@ -318,7 +319,7 @@ def register(sub, common) -> None:
 
     p = bsub.add_parser("sweep", parents=[common, data_opts],
                         help="robustness to a wrong elevation estimate (Fig. 6)",
-                        description=__import__("benchmark.sweep").sweep.__doc__,
+                        description=importlib.import_module("benchmark.crops.sweep").__doc__,
                         formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--detector", default="hog", metavar="DETECTOR",
                    help="hog (default), hog_local, acf, opencv or package.module:Object "

@@ -4,12 +4,12 @@ as the true one?
 The adapted HOG detector (:class:`viewadapt.detect.FrameDetector`, persons
 :data:`PERSON_HEIGHTS` m as ``bench frames``) runs on every frame with the true camera and
 with the cameras ``viewadapt calibrate`` recovered
-(:func:`benchmark.calibration_roundtrip.calibrate_draws`, focal length known and
+(:func:`benchmark.studies.calibration_roundtrip.calibrate_draws`, focal length known and
 estimated); each is evaluated against the same ground truth
-(:func:`benchmark.frames.evaluate_method`), and the LAMR differences to the true camera get
+(:func:`benchmark.frames.methods.evaluate_method`), and the LAMR differences to the true camera get
 a paired bootstrap interval over frames. The bar (issue 17): within :data:`LAMR_BAR`.
 
-Used by ``python -m benchmark.calibration_roundtrip`` (:mod:`benchmark.calibration_roundtrip`),
+Used by ``python -m benchmark.studies.calibration_roundtrip`` (:mod:`benchmark.studies.calibration_roundtrip`),
 which holds the calibration draws, the report and the command line.
 """
 
@@ -22,8 +22,8 @@ import pandas as pd
 
 from viewadapt.detect import FrameDetector
 
-from .frame_phases import grid_phases, phase_mean_difference
-from .frames import evaluate_method
+from benchmark.frames.methods import evaluate_method
+from benchmark.frames.phases import grid_phases, phase_mean_difference
 
 __all__ = ["LAMR_BAR", "PERSON_HEIGHTS", "FOCAL_MODES", "VARIANTS",
            "detector_check", "summarize_lamr",
@@ -34,7 +34,7 @@ __all__ = ["LAMR_BAR", "PERSON_HEIGHTS", "FOCAL_MODES", "VARIANTS",
 LAMR_BAR = 0.02
 #: assumed person heights of the detector check, metres (``bench frames``' default)
 PERSON_HEIGHTS = (1.65, 1.85)
-#: focal modes of the calibration (:func:`benchmark.calibration_roundtrip.calibrate_draws`):
+#: focal modes of the calibration (:func:`benchmark.studies.calibration_roundtrip.calibrate_draws`):
 #: the true focal length given, or estimated
 FOCAL_MODES = ("known", "estimated")
 #: cameras of the detector check: the true one and the first draw's recovered ones
@@ -68,10 +68,10 @@ def detector_check(groups: dict, recovered: dict, models, *, n_detector_draws: i
     ----------
     groups : dict
         ``camera name -> list of FrameRecord``
-        (:func:`benchmark.calibration_roundtrip.group_cameras`).
+        (:func:`benchmark.studies.calibration_roundtrip.group_cameras`).
     recovered : dict
         ``camera name -> list over draws of {focal mode: GroundCalibration or None}``
-        (:func:`benchmark.calibration_roundtrip.calibrate_draws`); the first
+        (:func:`benchmark.studies.calibration_roundtrip.calibrate_draws`); the first
         ``n_detector_draws`` draws are scored (a failed calibration leaves its draw and
         mode unscored).
     models : SourceDetectors

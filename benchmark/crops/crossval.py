@@ -37,10 +37,12 @@ import pandas as pd
 from viewadapt.geometry import elevation_homography
 from viewadapt.objectmodel import correspondence_mapping, crop_view_mapping, object_model
 
-from .data import Dataset, DatasetError, manifest_camera, missing_planned_images, read_depth_map
-from .detectors import detector_spec, feature_key
-from .features import FeatureCache, background_windows, person_windows
-from .folds import Fold, make_folds
+from benchmark.data import (
+    Dataset, DatasetError, manifest_camera, missing_planned_images, read_depth_map,
+)
+from benchmark.crops.detectors import detector_spec, feature_key
+from benchmark.crops.features import FeatureCache, background_windows, person_windows
+from benchmark.crops.folds import Fold, make_folds
 
 __all__ = ["CrossvalConfig", "ADAPT_VARIANTS", "EXACT_VARIANTS", "run_crossval",
            "require_complete"]
@@ -104,7 +106,7 @@ class CrossvalConfig:
     acf_estimators: int = 256
     acf_stages: tuple = (32, 128, 256)
     # speed over the toolbox's defaults (256 bins, all features per tree): 64 quantile bins
-    # and a random 1/8 of the features per tree train ~4x faster (benchmark/perf/core.py)
+    # and a random 1/8 of the features per tree train ~4x faster (benchmark/studies/core_speed.py)
     acf_max_bins: int = 64
     acf_max_features: float = 0.125
     bg_stride: int = 16
@@ -340,7 +342,7 @@ def run_crossval(ds: Dataset, cfg: CrossvalConfig, cache: FeatureCache, *,
 
     ``data``: :func:`prepare`'s result for ``cfg`` if the caller has it (else prepared
     here). ``models``: a dict to receive the source model of every (detector, source,
-    fold name) trained -- e.g. for :func:`benchmark.sweep.run_sweep`, which trains the same
+    fold name) trained -- e.g. for :func:`benchmark.crops.sweep.run_sweep`, which trains the same
     models (same seeds, same windows)."""
     from joblib import Parallel, delayed
     from tqdm.auto import tqdm

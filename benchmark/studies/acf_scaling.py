@@ -1,6 +1,6 @@
 """Power-law scaling of the ACF gradient channels between frame and canonical resolution.
 
-    python -m benchmark.perf.acf_scaling --data DIR [--windows 40] [--seed 0]
+    python -m benchmark.studies.acf_scaling --data DIR [--windows 40] [--seed 0]
 
 The adapted ACF operator reads channels computed on the frame at its native resolution,
 where a window's person is ``s`` frame pixels per canonical pixel (``s < 1`` for all but
@@ -24,7 +24,7 @@ import numpy as np
 
 def measure(data, *, windows_per_frame: int = 40, seed: int = 0, heights=(1.75,)):
     """Returns (scales, ratios) over random candidate windows of the dataset's frames."""
-    from benchmark.frames import load_frames
+    from benchmark.frames.methods import load_frames
     from viewadapt.detect import (
         ACF_SHRINK, CELLS_PER_SOURCE_CELL, FRAME_CELL_SIZES, TemplateGroup, acf_frame_features,
         acf_frame_remap, acf_window_features, choose_cell_sizes, select_candidate_windows,

@@ -26,7 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmark.frames import DEFAULT_FRAME_VIEW
+from benchmark.frames.methods import DEFAULT_FRAME_VIEW
 from viewadapt.detect import DEFAULT_CACHE_LIMIT_GB, DETECTOR_KINDS
 
 __all__ = ["timing_camera", "single_thread", "stage_bytes", "copy_floor_ms", "run_runtime",
@@ -113,7 +113,7 @@ def copy_floor_ms(nbytes, repeat=25):
 def _worker(cache_dir, cache_limit_gb, model_path, heights, method, frames, seconds):
     """Detect frames in a loop for ``seconds``; return the number done and the time."""
     single_thread()
-    from benchmark.frames import FrameMethods
+    from benchmark.frames.methods import FrameMethods
     from viewadapt.detect import SourceDetectors
 
     models = SourceDetectors.load(model_path)
@@ -131,7 +131,7 @@ def _worker(cache_dir, cache_limit_gb, model_path, heights, method, frames, seco
 
 
 def _pyramid_pixels(size, upsample, step, per_level=lambda w, h: w * h):
-    from benchmark.frames import pyramid_scales
+    from benchmark.frames.methods import pyramid_scales
 
     w, h = size
     return int(sum(per_level(round(w * s), round(h * s))
@@ -147,7 +147,7 @@ def run_runtime(data, *, n_frames=3, warp_windows=1000, heights=(1.65, 1.85), jo
     from joblib import Parallel, delayed
 
     from benchmark.data import load_dataset
-    from benchmark.frames import (
+    from benchmark.frames.methods import (
         ACF_PYRAMID_LAMBDAS, PAPER_FPS, PAPER_WINDOWS, FrameMethods, acf_pyramid_detect,
         acf_pyramid_fast_detect, hog_pyramid_detect, load_frames, opencv_detect,
         train_source_detectors, warp_scores,
@@ -155,7 +155,7 @@ def run_runtime(data, *, n_frames=3, warp_windows=1000, heights=(1.65, 1.85), jo
     from viewadapt.detect import OperatorCache
     from viewadapt.nms import detections_from_scores
 
-    from .scoring_forms import linear_scores, trees_scores
+    from benchmark.frames.scoring_forms import linear_scores, trees_scores
 
     size = (384, 288)
     ds = load_dataset(data)
@@ -224,7 +224,7 @@ def run_runtime(data, *, n_frames=3, warp_windows=1000, heights=(1.65, 1.85), jo
                         total_s=tt, stages=stages)
 
         # the operators' scoring loops against other forms of the same operator
-        # (benchmark.perf.scoring_forms)
+        # (benchmark.frames.scoring_forms)
         f0 = hog.frame_features(frames[0])
         forms = {"runs: compiled loop over distinct positions (default)":
                  _best(lambda: hog.scores(f0), R)[0],

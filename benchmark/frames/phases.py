@@ -5,8 +5,8 @@ Where the ground grid of candidate windows falls is arbitrary (``grid_phase`` of
 window moves by a fraction of a pixel, and which windows land on a person changes. A
 comparison of detectors on the candidate windows is therefore made on the mean over
 several phases, with a paired bootstrap over frames that resamples every phase of both
-sides together. Used by ``bench frames --phases`` (:mod:`benchmark.frames_cli`) and the
-calibration round trip's detector check (:mod:`benchmark.calibration_lamr`).
+sides together. Used by ``bench frames --phases`` (:mod:`benchmark.frames.command`) and the
+calibration round trip's detector check (:mod:`benchmark.studies.calibration_lamr`).
 """
 
 from __future__ import annotations
@@ -31,7 +31,7 @@ def grid_phases(n: int) -> list:
 
 def frame_matches(detections, frames) -> list:
     """Per-frame matches of detections to ground truth, the first stage of
-    :func:`benchmark.frames.evaluate_method` (the same ground-truth rows, ignore flags and
+    :func:`benchmark.frames.methods.evaluate_method` (the same ground-truth rows, ignore flags and
     box standardisation), so that resampled frames need only be accumulated.
 
     Parameters

@@ -19,7 +19,7 @@ Methods (Wang et al. 2017, Sec. 5.2 and Table 1), all on the same frames:
 ``acf_pyramid_fast``
     the ACF pyramid as Dollár's toolbox computes it: channels exact at one level per
     octave, power-law approximated in between (Dollár et al. 2014, "Fast Feature Pyramids
-    for Object Detection"); :mod:`benchmark.pyramids` holds the pyramid code;
+    for Object Detection"); :mod:`benchmark.frames.pyramids` holds the pyramid code;
 ``opencv``
     ``cv2.HOGDescriptor.detectMultiScale`` with OpenCV's default people detector on the
     4x-upsampled frame (``opencv_native``: on the frame as it is).
@@ -32,7 +32,7 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmark.pyramids import (
+from benchmark.frames.pyramids import (
     ACF_PYRAMID_LAMBDAS, acf_pyramid_detect, acf_pyramid_fast_detect, hog_pyramid_detect,
     pyramid_scales,
 )
@@ -82,7 +82,7 @@ class FrameRecord:
     ground: np.ndarray | None = None
 
     def image(self) -> np.ndarray:
-        from .data import read_image
+        from benchmark.data import read_image
 
         return read_image(self.path)
 
@@ -116,7 +116,7 @@ def load_frames(root) -> list:
     if not path.is_file():
         raise FileNotFoundError(f"{root} has no frames_coco.json: it holds no surveillance "
                                 "frames (generate a preset with frames, or the toy set)")
-    from .data import read_json
+    from benchmark.data import read_json
 
     coco = read_json(path)
     by_image = {}
@@ -172,14 +172,14 @@ def train_source_detectors(ds, *, seed: int = 0, quick: bool = False, source_ind
 
     ``negatives``: ``"elevation0"`` (default) the background windows of the source
     elevation; ``"rotated"`` adds the same windows turned by +-30 and +-60 degrees about
-    their centres (:func:`benchmark.negatives.rotated_windows`), orientation-enriched
+    their centres (:func:`benchmark.crops.features.rotated_windows`), orientation-enriched
     negatives with no target-view data.
     """
     from viewadapt.boosting import AdaBoostTrees
     from viewadapt.classifiers import LinearSVMDetector
     from viewadapt.detect import HOG_WEIGHT_SHAPE, UPSAMPLE_BELOW, frame_view_copies
 
-    from .features import background_windows, person_windows
+    from benchmark.crops.features import background_windows, person_windows
 
     if frame_view not in FRAME_VIEW_CHOICES:
         raise ValueError(f"frame_view must be one of {FRAME_VIEW_CHOICES}, got {frame_view!r}")
@@ -189,7 +189,7 @@ def train_source_detectors(ds, *, seed: int = 0, quick: bool = False, source_ind
     bg = background_windows(ds, source_index, stride=16)
     neg = list(bg.images(ds.root))
     if negatives == "rotated":
-        from .negatives import ROTATIONS_DEG, rotated_windows
+        from benchmark.crops.features import ROTATIONS_DEG, rotated_windows
 
         for a in ROTATIONS_DEG:
             neg += list(rotated_windows(bg, a).images(ds.root))
@@ -244,7 +244,7 @@ def _nms(boxes, scores, threshold, kind):
 
 
 #: the adapted detector's variants on frames -> (angle rule, object model): the
-#: cross-validation's names (:data:`benchmark.crossval.ADAPT_VARIANTS`, per-cell ``A``)
+#: cross-validation's names (:data:`benchmark.crops.crossval.ADAPT_VARIANTS`, per-cell ``A``)
 ADAPTED_VARIANTS = {"adapted": ("covariant", "plane"),
                     "adapted[S only]": ("none", "plane"),
                     "adapted[paper eq.3]": ("paper", "plane"),

@@ -10,7 +10,7 @@ import pandas as pd
 
 from viewadapt.metrics import det_curve_windows
 
-from .summarize import PAPER_MISS_RATES
+from benchmark.crops.summarize import PAPER_MISS_RATES
 
 __all__ = ["plot_det", "plot_sweep", "sweep_table", "plot_score_shift", "write_report",
            "elevation_label", "closing_summary"]

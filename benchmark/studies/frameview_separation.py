@@ -1,6 +1,6 @@
 """How well persons and backgrounds separate when a crop is read through a frame.
 
-    python -m benchmark.perf.frameview_separation --data DIR --model A.npz [--model B.npz ...]
+    python -m benchmark.studies.frameview_separation --data DIR --model A.npz [--model B.npz ...]
         [--scales 0.3,0.45,0.7,1.0] [--seed 0]
 
 A pure-scale test: no perspective, only the resolution and the frame's cell grid. Each
@@ -29,7 +29,7 @@ import numpy as np
 def separation(data, models: dict, scales, *, seed: int = 0) -> list:
     """Rows ``(scale, model name, "adapted" | "warped", d')``."""
     from benchmark.data import load_dataset
-    from benchmark.features import background_windows, person_windows
+    from benchmark.crops.features import background_windows, person_windows
     from viewadapt.detect import frame_view, frame_view_features
     from viewadapt.detect import hog_window_features
     from viewadapt.warp import warp_to_source_view

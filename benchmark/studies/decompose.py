@@ -1,6 +1,6 @@
 """Where the planar model's prediction fails on rendered 3-D people: measured, label-free.
 
-``python -m benchmark.decompose --data DIR --out RES`` reads the crops and their depth maps
+``python -m benchmark.studies.decompose --data DIR --out RES`` reads the crops and their depth maps
 (pairs of views of the same instance) and writes, beside a Markdown summary:
 
 * **silhouette** (``silhouette.csv``): per elevation, the rendered body's height, top and
@@ -32,7 +32,7 @@ from viewadapt.objectmodel import crop_view_mapping, object_model
 from viewadapt.remap import map_angles
 from viewadapt.surface import surface_depth, view_correspondence
 
-from .data import load_dataset, manifest_camera, read_depth_map, read_image
+from benchmark.data import load_dataset, manifest_camera, read_depth_map, read_image
 
 __all__ = ["silhouette_table", "orientation_table", "score_shift_table", "main"]
 
@@ -175,7 +175,7 @@ def score_shift_table(scores: pd.DataFrame, detector="hog", source=0.0) -> pd.Da
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m benchmark.decompose", description=__doc__,
+    ap = argparse.ArgumentParser(prog="python -m benchmark.studies.decompose", description=__doc__,
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--data", type=Path, required=True, help="dataset with depth maps")
     ap.add_argument("--out", type=Path, required=True, help="output directory")

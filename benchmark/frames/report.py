@@ -49,10 +49,10 @@ def phase_table(results, phases) -> str:
 def phase_gap_lines(phase_detections, frames, *, n_boot: int = 1000, seed: int = 0) -> list:
     """Markdown lines: each detector's adapted - image warping LAMR, both the mean over the
     grid phases, with its 95 % paired bootstrap interval over frames
-    (:func:`benchmark.frame_phases.phase_mean_difference`) against :data:`WARP_MARGIN`: met
+    (:func:`benchmark.frames.phases.phase_mean_difference`) against :data:`WARP_MARGIN`: met
     when the whole interval lies at or below it, not met when it lies above, else not
     resolved."""
-    from .frame_phases import phase_mean_difference
+    from benchmark.frames.phases import phase_mean_difference
 
     out = []
     for kind in DETECTOR_KINDS:

@@ -1,6 +1,6 @@
 """Fault injection: kill ``generate`` and ``bench crossval`` at random points, rerun, compare.
 
-``python -m benchmark.faults --preset tiny`` (not part of the test suite; ~30-60 min on two
+``python -m benchmark.studies.faults --preset tiny`` (not part of the test suite; ~30-60 min on two
 cores with Cycles):
 
 1. renders the preset once, uninterrupted (the reference), and runs ``bench crossval
@@ -150,7 +150,7 @@ def _sizes(n: int, scenes: int) -> int:
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m benchmark.faults", description=__doc__,
+    ap = argparse.ArgumentParser(prog="python -m benchmark.studies.faults", description=__doc__,
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--preset", default="tiny", choices=("tiny", "demo", "small"))
     ap.add_argument("--renderer", default="cycles", choices=("cycles", "pyrender"))

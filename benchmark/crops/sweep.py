@@ -15,14 +15,14 @@ from sklearn import config_context
 
 from viewadapt.geometry import elevation_homography
 
-from .crossval import (
+from benchmark.crops.crossval import (
     ADAPT_VARIANTS, CrossvalConfig, fold_masks, prepare, task_seed, variant_remap, view_maps,
 )
-from .data import Dataset
-from .detectors import detector_spec, feature_key
-from .features import FeatureCache
-from .folds import make_folds
-from .summarize import operating_threshold
+from benchmark.crops.detectors import detector_spec, feature_key
+from benchmark.crops.features import FeatureCache
+from benchmark.crops.folds import make_folds
+from benchmark.crops.summarize import operating_threshold
+from benchmark.data import Dataset
 
 __all__ = ["run_sweep", "averaged_remap", "sweep_summary", "SWEEP_VARIANTS"]
 
@@ -57,19 +57,19 @@ def run_sweep(ds: Dataset, cfg: CrossvalConfig, cache: FeatureCache, *, detector
               progress=True, models=None) -> pd.DataFrame:
     """Per fold, method and estimate: the test windows' scores.
 
-    Every variant of ``variants`` (names of :data:`benchmark.crossval.ADAPT_VARIANTS`: an
+    Every variant of ``variants`` (names of :data:`benchmark.crops.crossval.ADAPT_VARIANTS`: an
     angle rule and an object model; those whose model is not in ``cfg.object_models`` are
     left out) is adapted to each estimate and scored by the same fold models, so the
     curves differ only in the rule and model. The prior-averaged curve uses ``adapted``.
     ``models`` (optional): source models by ``(detector, source, fold name)`` from
-    :func:`benchmark.crossval.run_crossval` with the same seed and windows, used instead of
+    :func:`benchmark.crops.crossval.run_crossval` with the same seed and windows, used instead of
     training them again (the same models: the seeds derive from the same ids).
 
     Returns
     -------
     DataFrame with columns ``fold, method, estimate, label, score, person_id`` (the
     unadapted rows have ``estimate = NaN``); :func:`sweep_summary` pools the folds the way
-    :func:`benchmark.summarize.summarize` does, so the levels match the cross-validation.
+    :func:`benchmark.crops.summarize.summarize` does, so the levels match the cross-validation.
     """
     from tqdm.auto import tqdm
 

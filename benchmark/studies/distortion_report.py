@@ -1,15 +1,15 @@
-"""Reporting of the lens-distortion study (``python -m benchmark.distortion_study``): the
+"""Reporting of the lens-distortion study (``python -m benchmark.studies.distortion_study``): the
 summary table, the verdict and the markdown report.
 
 :func:`summarize_distortion_study` turns the detections and timings of
-:func:`benchmark.distortion_study.run_distortion_study` into one row per condition and
+:func:`benchmark.studies.distortion_study.run_distortion_study` into one row per condition and
 coefficient set (log-average miss rates with 95 % frame-bootstrap intervals, paired
 differences, per-frame times, the share of persons touching the render's invalid edge);
 :func:`study_verdict` applies the rule of issue 17 to that table, and
 :func:`study_markdown` writes ``distortion_study.md``. The condition labels of the controls
 (:data:`ORIGINAL`, :data:`ONCE`, :data:`TWICE`) and the thresholds the report quotes
 (:data:`MAX_REMAP_FRACTION`, :data:`VALID_WEIGHT`) are defined here, and
-:mod:`benchmark.distortion_study` (the measurement and the command line) imports them; this
+:mod:`benchmark.studies.distortion_study` (the measurement and the command line) imports them; this
 module does not import it.
 """
 
@@ -18,7 +18,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from .frames_intervals import frame_bootstrap
+from benchmark.studies.frames_intervals import frame_bootstrap
 
 __all__ = ["ORIGINAL", "ONCE", "TWICE", "MAX_REMAP_FRACTION", "VALID_WEIGHT",
            "summarize_distortion_study", "study_verdict", "study_markdown"]
@@ -48,8 +48,8 @@ def summarize_distortion_study(study: dict, frames, *, n_boot: int = 1000,
     Parameters
     ----------
     study : dict
-        :func:`benchmark.distortion_study.run_distortion_study`'s result.
-    frames : list of :class:`benchmark.frames.FrameRecord`
+        :func:`benchmark.studies.distortion_study.run_distortion_study`'s result.
+    frames : list of :class:`benchmark.frames.methods.FrameRecord`
     n_boot, seed : int
         Frame resamples and their seed (the same draws for every method).
 

@@ -1,6 +1,6 @@
 """Speed of the core pieces, as ratios against OpenCV measured in the same run.
 
-    python -m benchmark.perf.core [--windows 300] [--repeat 5]
+    python -m benchmark.studies.core_speed [--windows 300] [--repeat 5]
 
 Prints per-call times (best of ``--repeat``) and each one's ratio to
 ``cv2.HOGDescriptor().compute`` on one 64x128 window. Absolute times depend on the

@@ -1,6 +1,6 @@
 """Cost of a full cross-validation and sweep on an existing dataset, stage by stage.
 
-    python -m benchmark.perf.crossval_cost --data DIR [--out RES] [--jobs N] [--compare RES2]
+    python -m benchmark.studies.crossval_cost --data DIR [--out RES] [--jobs N] [--compare RES2]
 
 Runs feature extraction (all window sets and representations the runs need), the nine-fold
 cross-validation of every detector, source and method, the summaries, and the elevation
@@ -36,11 +36,11 @@ def main(argv=None):
     p.add_argument("--seed", type=int, default=0, help="cross-validation seed (default 0)")
     a = p.parse_args(argv)
 
-    from benchmark.crossval import CrossvalConfig, prepare, run_crossval
+    from benchmark.crops.crossval import CrossvalConfig, prepare, run_crossval
     from benchmark.data import load_dataset
-    from benchmark.features import FeatureCache
-    from benchmark.summarize import paired_differences, summarize
-    from benchmark.sweep import run_sweep, sweep_summary
+    from benchmark.crops.features import FeatureCache
+    from benchmark.crops.summarize import paired_differences, summarize
+    from benchmark.crops.sweep import run_sweep, sweep_summary
 
     out = a.out or Path(tempfile.mkdtemp(prefix="viewadapt-cost-"))
     times = {}

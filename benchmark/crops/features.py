@@ -21,12 +21,13 @@ from viewadapt.files import atomic_path
 from viewadapt.geometry import WINDOW_HEIGHT, WINDOW_WIDTH
 from viewadapt.warp import translation, warp_to_source_view
 
-from .data import Dataset, read_image
-from .detectors import feature_key
+from benchmark.crops.detectors import feature_key
+from benchmark.data import Dataset, read_image
 
 __all__ = ["REPRESENTATIONS", "compute_representation", "compute_representations",
            "WindowSet", "person_windows",
-           "background_windows", "FeatureCache"]
+           "background_windows", "FeatureCache", "ROTATIONS_DEG", "rotation_about_centre",
+           "rotated_windows"]
 
 
 #: representation -> (family, options); every representation of one family shares the
@@ -74,7 +75,7 @@ def compute_representations(windows, reps) -> dict:
     """``{key: (n, d) float32}`` for an iterable of windows, one pass over the windows.
 
     ``reps`` are built-in representation names (:data:`REPRESENTATIONS`) or feature objects
-    of a detector spec (:mod:`benchmark.detectors`: a ``key`` and a call on one window);
+    of a detector spec (:mod:`benchmark.crops.detectors`: a ``key`` and a call on one window);
     the result is keyed by the name or the ``key``.
     """
     builtin = [r for r in reps if isinstance(r, str)]
@@ -130,7 +131,7 @@ class WindowSet:
         """The same windows resampled through a dense map: ``out(p) = win(field[p])``.
 
         ``field`` is (64 x 128 x 2) target-window coordinates per source pixel (e.g. from an
-        object model, :func:`benchmark.crossval.warp_field`); each window is cut out first
+        object model, :func:`benchmark.crops.crossval.warp_field`); each window is cut out first
         and resampled on its own, borders replicated, as :meth:`warped` with ``crop_first``.
         """
         F = np.ascontiguousarray(field, dtype=np.float32)
@@ -288,3 +289,22 @@ def _chunk_features(items, root, reps, worker: bool = False) -> dict:
         cv2.setNumThreads(1)
     return compute_representations(list(WindowSet("", items, pd.DataFrame()).images(root)),
                                    reps)
+
+
+#: the rotations (degrees) of the rotated negative pool
+ROTATIONS_DEG = (-60.0, -30.0, 30.0, 60.0)
+
+
+def rotation_about_centre(degrees: float, size=(WINDOW_WIDTH, WINDOW_HEIGHT)) -> np.ndarray:
+    """3x3 ``H`` with ``out(p) = win(H p)``: the window turned by ``degrees`` (image
+    coordinates, y down) about its centre pixel ``((w - 1) / 2, (h - 1) / 2)``."""
+    a = np.radians(float(degrees))
+    c, s = np.cos(a), np.sin(a)
+    cx, cy = (size[0] - 1) / 2, (size[1] - 1) / 2
+    R = np.array([[c, -s, 0], [s, c, 0], [0, 0, 1.0]])
+    return translation(cx, cy) @ R @ translation(-cx, -cy)
+
+
+def rotated_windows(ws: WindowSet, degrees: float) -> WindowSet:
+    """The windows of ``ws`` rotated about their centres, read from the whole image."""
+    return ws.warped(rotation_about_centre(degrees), f"rot{degrees:+.0f}", crop_first=False)

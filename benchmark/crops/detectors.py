@@ -14,7 +14,7 @@ The protocol (attributes and methods; :class:`CropDetector` supplies the optiona
     the detector's label in the results.
 ``source_features``, ``target_features``
     features of a window: a built-in representation's name
-    (:data:`benchmark.features.REPRESENTATIONS`) or an object with a ``key`` (a string that
+    (:data:`benchmark.crops.features.REPRESENTATIONS`) or an object with a ``key`` (a string that
     names it in the feature cache; change it when the features change) that is called
     with one (128, 64, 3) uint8 window and returns a 1-D float array. The classifier
     reads ``source_features``; ``G`` maps ``target_features`` (often the same features on
@@ -36,7 +36,7 @@ optional: ``pretrained`` (no training: source elevation 0 only, no synthesised r
     ``ablations`` (run the angle-rule and single-``A`` ablation rows), ``exact_geometry``
     (run the exact-correspondence upper-bound rows).
 
-``config`` is the run's :class:`benchmark.crossval.CrossvalConfig` (``C``,
+``config`` is the run's :class:`benchmark.crops.crossval.CrossvalConfig` (``C``,
 ``mining_rounds``, ``initial_negatives``, ``acf_*`` ... and ``target_cell_size``).
 """
 
@@ -277,7 +277,7 @@ def detector_spec(name: str):
     missing = [a for a in _REQUIRED if not hasattr(spec, a)]
     if missing:
         raise ValueError(f"detector {name!r} lacks {', '.join(missing)} of the detector "
-                         "protocol (benchmark.detectors, docs/detectors.md)")
+                         "protocol (benchmark.crops.detectors, docs/detectors.md)")
     if not re.fullmatch(r"[A-Za-z0-9_.-]+", str(spec.name)) or spec.name in BUILTIN_DETECTORS:
         raise ValueError(f"detector {name!r}: its name {spec.name!r} must be letters, digits, "
                          "'_', '.' or '-' and not a built-in detector's")

@@ -16,7 +16,7 @@ Both ACF pyramids score every window of every level with the same compiled soft 
 (:func:`dense_cascade_scores`, the toolbox's ``acfDetect1`` loop), so they differ only in
 how the channels are obtained.
 
-Re-exported by :mod:`benchmark.frames`.
+Re-exported by :mod:`benchmark.frames.methods`.
 """
 
 from __future__ import annotations
@@ -43,7 +43,7 @@ __all__ = ["pyramid_scales", "level_boxes", "hog_pyramid_detect", "dense_cascade
 #: 2014, eq. (4)): colour (LUV) 0 -- intensive, scale-invariant --, normalised gradient
 #: magnitude and orientation channels :data:`viewadapt.detect.ACF_GRADIENT_LAMBDA`, the
 #: exponent the project measured on rendered frames (``python -m
-#: benchmark.perf.acf_scaling``: one fit over the magnitude and orientation channels
+#: benchmark.studies.acf_scaling``: one fit over the magnitude and orientation channels
 #: together, so both types share it).
 ACF_PYRAMID_LAMBDAS = (0.0, ACF_GRADIENT_LAMBDA, ACF_GRADIENT_LAMBDA)
 #: channel slices of the ACF layout per channel type (LUV, magnitude, orientations)

@@ -1,8 +1,8 @@
 """Why do the angle rules order differently on crops and on full frames?
 
-``python -m benchmark.frames_vs_crops --data DIR --out DIR [--model M] [--crossval RES]``
+``python -m benchmark.studies.frames_vs_crops --data DIR --out DIR [--model M] [--crossval RES]``
 
-On rendered crops (:mod:`benchmark.crossval`, target pi/4) the source HOG/SVM adapted with
+On rendered crops (:mod:`benchmark.crops.crossval`, target pi/4) the source HOG/SVM adapted with
 the literal eq. (3) of Wang et al. 2017 misses far fewer persons than with the covariant
 rule; on the rendered full frames (``bench frames``) the covariant rule is ahead. The two
 measurements differ in more than the setting: the crops are scored at 1e-2 false positives
@@ -25,7 +25,7 @@ Caltech evaluation):
   scale: negatives the crops never have) are marked.
 
 Then, per rule and with paired differences from the covariant rule (bootstrap over
-persons, :func:`benchmark.summarize.paired_differences`):
+persons, :func:`benchmark.crops.summarize.paired_differences`):
 
 1. the frames' LAMR from the same scores after NMS (reproduces ``bench frames``);
 2. the window-level miss rate at 1e-2, 1e-3 and 1e-4 false positives per window -- the
@@ -63,9 +63,11 @@ from viewadapt.files import atomic_output_dir, check_output_dir, run_metadata
 from viewadapt.geometry import PERSON_HEIGHT_M
 from viewadapt.nms import detections_from_scores
 
-from .data import load_dataset
-from .frames import ADAPTED_VARIANTS, evaluate_method, load_frames, train_source_detectors
-from .summarize import operating_threshold, paired_differences, summarize
+from benchmark.data import load_dataset
+from benchmark.frames.methods import (
+    ADAPTED_VARIANTS, evaluate_method, load_frames, train_source_detectors,
+)
+from benchmark.crops.summarize import operating_threshold, paired_differences, summarize
 
 __all__ = ["person_elevations", "label_windows", "score_frames", "window_tables",
            "crop_tables", "FPPW_LEVELS", "ELEVATION_EDGES", "HEIGHT_EDGES", "main"]
@@ -218,7 +220,7 @@ def score_frames(frames, models, *, rules=RULES, heights=(1.65, 1.85), cache_dir
 
 def _scores_frame(persons, background, rules, label) -> pd.DataFrame:
     """The window-level scores in the cross-validation's long form (one row per person's
-    best window and per background window), for :func:`benchmark.summarize.summarize`."""
+    best window and per background window), for :func:`benchmark.crops.summarize.summarize`."""
     parts = []
     for rule in rules:
         pos = persons[f"score[{rule}]"].to_numpy()
@@ -273,7 +275,7 @@ def _top_share(neg, mask, fppw=FPPW_LEVELS[-1]) -> float:
 def _rates_at_levels(scores, label, pairs, rates, diffs, *, n_boot, seed, extra=None):
     """Append to ``rates`` each method's miss rate (95 % interval over persons) and score
     margins at every :data:`FPPW_LEVELS`, and to ``diffs`` the paired differences of
-    ``pairs``, of one long score table (:func:`benchmark.summarize.summarize`'s input);
+    ``pairs``, of one long score table (:func:`benchmark.crops.summarize.summarize`'s input);
     ``extra``: method -> dict of columns added to its rows."""
     for fppw in FPPW_LEVELS:
         s = summarize(scores, fppw=fppw, n_boot=n_boot, rng=np.random.default_rng(seed))
@@ -422,7 +424,7 @@ def _plot(rates, path):
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m benchmark.frames_vs_crops",
+    ap = argparse.ArgumentParser(prog="python -m benchmark.studies.frames_vs_crops",
                                  description=__doc__.split("\n\n")[0])
     ap.add_argument("--data", type=Path, required=True, help="dataset directory with frames")
     ap.add_argument("--out", type=Path, required=True, help="output directory")

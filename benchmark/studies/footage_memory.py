@@ -1,10 +1,10 @@
 """Memory of ``viewadapt detect`` over a long clip: does it stay flat?
 
-    python -m benchmark.perf.footage_memory --data DIR [--minutes 10] [--out DIR]
+    python -m benchmark.studies.footage_memory --data DIR [--minutes 10] [--out DIR]
 
 Issue 17 asks that a 10-minute 384x288 clip run in flat memory (frames streamed, never all
 held). This writes a clip of ``--minutes`` at 25 frames per second from the dataset's
-frames (resized to 384x288 and repeated in order, as :mod:`benchmark.perf.footage`), runs
+frames (resized to 384x288 and repeated in order, as :mod:`benchmark.studies.footage_speed`), runs
 ``viewadapt detect`` on it in a child process with the shipped HOG model and an annotated
 video, and samples the child's resident memory (``VmRSS`` of ``/proc/PID/status``) every
 half second. The report gives the resident memory at each tenth of the run and the growth
@@ -23,7 +23,9 @@ from pathlib import Path
 
 import numpy as np
 
-from .footage import SIZE, clip_frames, write_calibration, write_clip, write_study
+from benchmark.studies.footage_speed import (
+    SIZE, clip_frames, write_calibration, write_clip, write_study,
+)
 
 __all__ = ["FPS", "rss_mb", "run_memory_benchmark", "format_memory", "main"]
 
@@ -49,7 +51,7 @@ def run_memory_benchmark(data, *, minutes: float = 10.0, workdir=None,
     Returns a dict with the clip's frame count, the samples ``(seconds, MB)``, the command's
     metadata (frames, frames per second) and its exit code.
     """
-    from benchmark.perf.runtime import timing_camera
+    from benchmark.frames.runtime import timing_camera
 
     n_frames = max(2, int(round(minutes * 60 * FPS)))
     work = Path(workdir) if workdir else Path(tempfile.mkdtemp(prefix="viewadapt-memory-"))
@@ -105,7 +107,7 @@ def format_memory(result) -> str:
 def main(argv=None) -> int:
     from viewadapt.files import check_output_dir
 
-    ap = argparse.ArgumentParser(prog="python -m benchmark.perf.footage_memory",
+    ap = argparse.ArgumentParser(prog="python -m benchmark.studies.footage_memory",
                                  description=__doc__.split("\n\n")[0])
     ap.add_argument("--data", type=Path, required=True, help="dataset directory with frames")
     ap.add_argument("--minutes", type=float, default=10.0,

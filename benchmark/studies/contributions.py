@@ -1,21 +1,21 @@
 """Where the scores of adapted HOG detectors come from: per-cell and per-bin contributions.
 
-``python -m benchmark.contributions --data DIR --out DIR [--folds N] [--quick]``
+``python -m benchmark.studies.contributions --data DIR --out DIR [--folds N] [--quick]``
 
 Viewpoint adaptation (Wang et al. 2017, "Viewpoint Adaptation for Rigid Object Detection",
 Sec. 4) scores a target-view window with a source-view detector through ``G = S (x) A``:
 ``S`` resamples the cells through the view mapping (the person plane's homography or the
 mean-body model, :mod:`viewadapt.objectmodel`) and ``A`` remaps the orientation bins by an
 angle rule (``covariant``, the literal eq. (3) ``paper``, or ``none`` = S only). This module
-measures, for the HOG/SVM crop detectors of :mod:`benchmark.detectors` (``hog``: a linear
+measures, for the HOG/SVM crop detectors of :mod:`benchmark.crops.detectors` (``hog``: a linear
 SVM on the block-normalised descriptor ``phi = N(G x)``; ``hog_local``: a linear SVM on
 locally normalised cells, ``phi = G x``), trained at elevation 0 exactly as in
-:mod:`benchmark.crossval` (same folds, seeds and configuration) and tested at pi/4:
+:mod:`benchmark.crops.crossval` (same folds, seeds and configuration) and tested at pi/4:
 
 * per variant (angle rule x object model) and target cell size (4 or 8 px): the test
   persons' mean score, the mean of the top 1 % of background scores (pooled over folds, as
-  :mod:`benchmark.decompose`), their margin, and the miss rate at 1e-2 false positives per
-  window with a 95 % bootstrap interval over persons (:func:`benchmark.summarize.summarize`);
+  :mod:`benchmark.studies.decompose`), their margin, and the miss rate at 1e-2 false positives per
+  window with a 95 % bootstrap interval over persons (:func:`benchmark.crops.summarize.summarize`);
   reference rows: ``unadapted`` (the source model on the pi/4 8-px cells), ``oracle`` (a
   model trained on pi/4 training crops) and ``source view`` (the source model on the same
   test persons and scenes at elevation 0);
@@ -51,27 +51,27 @@ import scipy.sparse as sp
 
 from viewadapt.adapt import cells_to_descriptor, remap_features
 
-from .crossval import (
+from benchmark.crops.crossval import (
     ADAPT_VARIANTS, CrossvalConfig, fold_masks, task_seed, variant_remap, view_maps,
 )
-from .data import load_dataset
-from .detectors import detector_spec
-from .features import FeatureCache, background_windows, person_windows
-from .folds import make_folds
-from .summarize import summarize
+from benchmark.crops.detectors import detector_spec
+from benchmark.crops.features import FeatureCache, background_windows, person_windows
+from benchmark.crops.folds import make_folds
+from benchmark.crops.summarize import summarize
+from benchmark.data import load_dataset
 
 __all__ = ["VARIANTS", "REFERENCES", "CELL_REPS", "CELL_SHAPE", "VERTICAL_EDGE_BINS",
            "check_request", "descriptor_cell_matrix", "model_inputs", "score_contributions",
            "run_contributions", "bin_energy", "main"]
 
 CELL_SHAPE = (16, 8, 9)
-#: variant -> the method of :data:`benchmark.crossval.ADAPT_VARIANTS` it reproduces
+#: variant -> the method of :data:`benchmark.crops.crossval.ADAPT_VARIANTS` it reproduces
 VARIANTS = {"covariant, plane": "adapted", "paper eq.3, plane": "adapted[paper eq.3]",
             "S only, plane": "adapted[S only]", "covariant, body": "adapted[body]",
             "paper eq.3, body": "adapted[body, paper eq.3]",
             "S only, body": "adapted[body, S only]"}
 REFERENCES = ("unadapted", "oracle", "source view")
-#: detector -> target cell size -> feature representation (benchmark.features)
+#: detector -> target cell size -> feature representation (benchmark.crops.features)
 CELL_REPS = {"hog": {4: "cells4", 8: "cells8"}, "hog_local": {4: "local4", 8: "local8"}}
 #: gradient within 20 degrees of horizontal = vertical edges (bin centres 10 and 170 deg)
 VERTICAL_EDGE_BINS = (0, 8)
@@ -531,7 +531,7 @@ def _markdown(res, det) -> str:
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m benchmark.contributions", description=__doc__,
+    ap = argparse.ArgumentParser(prog="python -m benchmark.studies.contributions", description=__doc__,
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--data", type=Path, required=True, help="dataset directory")
     ap.add_argument("--out", type=Path, required=True, help="output directory")
@@ -564,7 +564,7 @@ def main(argv=None) -> int:
         res[name].to_csv(out / f"{name}.csv", index=False, float_format="%.6g")
     md = ["# Score contributions of adapted HOG detectors, 0 → π/4", "",
           f"Data `{ds.root}` (fingerprint {ds.fingerprint}); produced by "
-          f"`python -m benchmark.contributions` (module docstring: definitions). Miss rates "
+          f"`python -m benchmark.studies.contributions` (module docstring: definitions). Miss rates "
           f"pool the folds' scores; intervals: {200 if args.quick else 1000} bootstrap "
           "resamples of test persons. Reference rows read the π/4 8-px cells unremapped "
           "(`source view`: the same test persons and scenes at elevation 0).", ""]

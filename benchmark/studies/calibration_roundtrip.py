@@ -1,6 +1,6 @@
 """Does ``viewadapt calibrate`` recover a frame camera well enough to detect with?
 
-``python -m benchmark.calibration_roundtrip --data DIR --out DIR [--points 6] [--noise 0.5]
+``python -m benchmark.studies.calibration_roundtrip --data DIR --out DIR [--points 6] [--noise 0.5]
 [--draws 20] [--phases 4] [--model M] [--seed S] [--jobs N]``
 
 Issue 17, item 4's acceptance measurement on a dataset's own calibrated frames. For every
@@ -23,13 +23,13 @@ recovered camera height's error (%), the tilt's (degrees), the estimated focal l
 (%), the camera centre's distance from the true one (m) and the RMS reprojection error;
 over the draws, the median and 95th percentile of their magnitudes.
 
-Detector check (:mod:`benchmark.calibration_lamr`): the adapted HOG detector
+Detector check (:mod:`benchmark.studies.calibration_lamr`): the adapted HOG detector
 (:class:`viewadapt.detect.FrameDetector`, persons 1.65 and 1.85 m as ``bench frames``) runs
 on every frame with the true camera and with the recovered cameras of the first draw (focal
 known; focal estimated) -- of the first ``--detector-draws`` draws, for their spread (0:
 no detector check) -- all with the same source model (``--model``, or trained as ``bench
 frames`` does); each is
-evaluated against the same ground truth (:func:`benchmark.frames.evaluate_method`), the
+evaluated against the same ground truth (:func:`benchmark.frames.methods.evaluate_method`), the
 LAMR differences with a paired bootstrap over frames. Each camera's candidate windows are
 scored at ``--phases`` x ``--phases`` offsets of their ground grid and its LAMR is the mean
 over them: where a grid falls on the ground is arbitrary, and on a few dozen frames it
@@ -38,7 +38,7 @@ moves a LAMR by several hundredths, as much as a small calibration error does.
 The bars (issue 17): height within :data:`HEIGHT_BAR_PCT` %, tilt within
 :data:`TILT_BAR_DEG` degrees -- judged on the 95th percentile over all cameras and draws,
 with no failed calibration -- and the first draw's LAMR within
-:data:`benchmark.calibration_lamr.LAMR_BAR` of the true camera's.
+:data:`benchmark.studies.calibration_lamr.LAMR_BAR` of the true camera's.
 
 Outputs (``--out``): ``calibration_roundtrip.csv`` (every camera, draw and focal mode),
 ``calibration_summary.csv`` (medians and 95th percentiles), ``calibration_lamr.csv`` (LAMR
@@ -70,11 +70,11 @@ from viewadapt.files import (
 )
 from viewadapt.geometry import Camera
 
-from .calibration_lamr import (
+from benchmark.studies.calibration_lamr import (
     FOCAL_MODES, LAMR_BAR, PERSON_HEIGHTS, detector_check, detector_markdown, fmt_number,
     met_text, summarize_lamr,
 )
-from .frames import load_frames
+from benchmark.frames.methods import load_frames
 
 __all__ = ["HEIGHT_BAR_PCT", "TILT_BAR_DEG", "MIN_DEPRESSION_DEG", "group_cameras",
            "choose_ground_points", "write_correspondences", "calibrate_draws",
@@ -343,7 +343,7 @@ def run_calibration_roundtrip(frames, models, *, n_points: int = 6, noise_px: fl
 
     The draws of camera ``i`` (in :func:`group_cameras` order) use
     ``numpy.random.default_rng([seed, i])``. ``phases`` and ``n_jobs`` are those of
-    :func:`benchmark.calibration_lamr.detector_check`.
+    :func:`benchmark.studies.calibration_lamr.detector_check`.
 
     Returns
     -------
@@ -469,7 +469,7 @@ def _check_args(args) -> None:
 
 
 def main(argv=None) -> int:
-    ap = _Parser(prog="python -m benchmark.calibration_roundtrip",
+    ap = _Parser(prog="python -m benchmark.studies.calibration_roundtrip",
                  description=__doc__.split("\n\n")[0])
     ap.add_argument("--data", type=Path, required=True, help="dataset directory with frames")
     ap.add_argument("--out", type=Path, required=True, help="output directory")
@@ -525,8 +525,8 @@ def main(argv=None) -> int:
     if not detect:
         model_text = None
     elif models is None:
-        from .data import load_dataset
-        from .frames import train_source_detectors
+        from benchmark.data import load_dataset
+        from benchmark.frames.methods import train_source_detectors
 
         print("training HOG/SVM and ACF on the dataset's elevation-0 crops ...", flush=True)
         try:
@@ -540,9 +540,9 @@ def main(argv=None) -> int:
     else:
         model_text = f"`{args.model}`"
     claim_output_dir(args.out, overwrite=args.overwrite,
-                     command="benchmark.calibration_roundtrip")
+                     command="benchmark.studies.calibration_roundtrip")
     cache = args.cache or (args.out / "cache")
-    with atomic_output_dir(args.out, command="benchmark.calibration_roundtrip") as tmp:
+    with atomic_output_dir(args.out, command="benchmark.studies.calibration_roundtrip") as tmp:
         draws, calibrations, overall, per_camera = run_calibration_roundtrip(
             frames, models, n_points=args.points, noise_px=args.noise, n_draws=args.draws,
             seed=args.seed, points_dir=tmp / "points", cache_dir=cache,

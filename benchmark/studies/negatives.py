@@ -1,13 +1,13 @@
 """Does the angle rule's ranking depend on what the source detector saw as negatives?
 
-``python -m benchmark.negatives --data DIR --out DIR [--folds N] [--quick]``
+``python -m benchmark.studies.negatives --data DIR --out DIR [--folds N] [--quick]``
 
 Viewpoint adaptation (Wang et al. 2017) scores a target-view window ``x`` with a source
 detector through ``G = S (x) A``; the angle rule of ``A`` (``covariant``, the literal eq. (3)
 ``paper``, or ``none`` = S only) decides where target gradients land in the source model's
 orientation bins. A source HOG/SVM trained on elevation-0 negatives learns which bins
 backgrounds leave empty; ``G`` is applied to target backgrounds as well as to persons. This
-study retrains the cross-validation's source HOG/SVM (:mod:`benchmark.crossval`: the same
+study retrains the cross-validation's source HOG/SVM (:mod:`benchmark.crops.crossval`: the same
 folds, seeds and configuration) on the same elevation-0 training persons and one of these
 negative pools, all from the training scenes of the fold:
 
@@ -54,44 +54,30 @@ import pandas as pd
 
 from viewadapt.adapt import remap_features
 from viewadapt.files import atomic_output_dir, check_output_dir, run_metadata
-from viewadapt.geometry import WINDOW_HEIGHT, WINDOW_WIDTH
 from viewadapt.warp import translation
 
-from .contributions import CELL_SHAPE, bin_energy
-from .crossval import ADAPT_VARIANTS, CrossvalConfig, fold_masks, task_seed, variant_remap, view_maps
-from .data import load_dataset
-from .detectors import detector_spec
-from .features import FeatureCache, WindowSet, background_windows, person_windows
-from .folds import make_folds
-from .summarize import operating_threshold, summarize
+from benchmark.studies.contributions import CELL_SHAPE, bin_energy
+from benchmark.crops.crossval import (
+    ADAPT_VARIANTS, CrossvalConfig, fold_masks, task_seed, variant_remap, view_maps,
+)
+from benchmark.crops.detectors import detector_spec
+from benchmark.data import load_dataset
+from benchmark.crops.features import (
+    ROTATIONS_DEG, FeatureCache, background_windows, person_windows, rotated_windows,
+)
+from benchmark.crops.folds import make_folds
+from benchmark.crops.summarize import operating_threshold, summarize
 
-__all__ = ["POOLS", "RULES", "ROTATIONS_DEG", "SHIFTS_PX", "rotation_about_centre", "rotated_windows",
-           "gap_changes", "run_negatives", "main"]
+__all__ = ["POOLS", "RULES", "SHIFTS_PX", "gap_changes", "run_negatives", "main"]
 
 #: rule label -> the cross-validation's adapted method (object model: plane unless named)
 RULES = {"covariant": "adapted", "paper eq.3": "adapted[paper eq.3]",
          "S only": "adapted[S only]", "covariant, body": "adapted[body]"}
 POOLS = ("elevation 0", "+ rotated", "+ shifted (control)", "+ pi/4 backgrounds",
          "+ pi/4 through G")
-ROTATIONS_DEG = (-60.0, -30.0, 30.0, 60.0)
 #: the control's shifts (px): as many copies as rotations, half the background stride
 SHIFTS_PX = ((-8, -8), (-8, 8), (8, -8), (8, 8))
 DETECTOR = "hog"
-
-
-def rotation_about_centre(degrees: float, size=(WINDOW_WIDTH, WINDOW_HEIGHT)) -> np.ndarray:
-    """3x3 ``H`` with ``out(p) = win(H p)``: the window turned by ``degrees`` (image
-    coordinates, y down) about its centre pixel ``((w - 1) / 2, (h - 1) / 2)``."""
-    a = np.radians(float(degrees))
-    c, s = np.cos(a), np.sin(a)
-    cx, cy = (size[0] - 1) / 2, (size[1] - 1) / 2
-    R = np.array([[c, -s, 0], [s, c, 0], [0, 0, 1.0]])
-    return translation(cx, cy) @ R @ translation(-cx, -cy)
-
-
-def rotated_windows(ws: WindowSet, degrees: float) -> WindowSet:
-    """The windows of ``ws`` rotated about their centres, read from the whole image."""
-    return ws.warped(rotation_about_centre(degrees), f"rot{degrees:+.0f}", crop_first=False)
 
 
 def _per_person(pid, det):
@@ -106,7 +92,7 @@ def gap_changes(scores: pd.DataFrame, *, a: str, b: str, reference_pool: str,
 
     ``scores`` has columns pool, rule, score, label, person_id (the same test windows in
     every (pool, rule)). Thresholds are set on each row's negatives, as in
-    :func:`benchmark.summarize.paired_differences`.
+    :func:`benchmark.crops.summarize.paired_differences`.
     """
     per, persons = {}, None
     for (pool, rule), g in scores.groupby(["pool", "rule"], sort=False):
@@ -159,7 +145,7 @@ def _config(ds, seed=0, quick=False) -> CrossvalConfig:
 def run_negatives(ds, cfg: CrossvalConfig, cache: FeatureCache, *, n_folds: int = 9,
                   progress: bool = True) -> tuple[pd.DataFrame, pd.DataFrame]:
     """Scores of every (pool, rule) on every fold's test windows, and the mean orientation
-    histogram (energy share per bin, :func:`benchmark.contributions.bin_energy`) of each
+    histogram (energy share per bin, :func:`benchmark.studies.contributions.bin_energy`) of each
     set of added negatives over all scenes."""
     spec = detector_spec(DETECTOR)
     src, fine = spec.source_features, spec.target_features
@@ -282,7 +268,7 @@ def _markdown(summary, gaps, run, shares) -> str:
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m benchmark.negatives",
+    ap = argparse.ArgumentParser(prog="python -m benchmark.studies.negatives",
                                  description=__doc__.split("\n\n")[0])
     ap.add_argument("--data", type=Path, required=True, help="dataset directory")
     ap.add_argument("--out", type=Path, required=True, help="output directory")

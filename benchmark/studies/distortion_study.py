@@ -1,7 +1,7 @@
 """Lens distortion: undistort every frame, or map the windows through the lens? Which
 detects as well as on pinhole frames, and at what cost?
 
-``python -m benchmark.distortion_study --data DIR --out DIR [--model M]
+``python -m benchmark.studies.distortion_study --data DIR --out DIR [--model M]
 [--dist k1,k2,p1,p2,k3 ...] [--seed S]``
 
 ``viewadapt detect`` corrects a distorted camera by undistorting each frame with maps
@@ -44,22 +44,22 @@ detector (:class:`viewadapt.detect.FrameDetector`, person heights 1.65 and 1.85 
 
 All three are scored against the frames' ground truth as it is (undistortion returns to
 the pinhole frame; for (c) the unchanged boxes measure the harm of ignoring the lens) with
-:func:`benchmark.frames.evaluate_method`; log-average miss rates get 95 % intervals and the
+:func:`benchmark.frames.methods.evaluate_method`; log-average miss rates get 95 % intervals and the
 paired differences ``(b) - (a)``, ``(c) - (a)`` intervals over the same frame resamples
-(:func:`benchmark.frames_intervals.frame_bootstrap`). Per frame, the median milliseconds of
+(:func:`benchmark.studies.frames_intervals.frame_bootstrap`). Per frame, the median milliseconds of
 the undistortion and of the detection on the same frames (``time.perf_counter``, one
 process) give ``remap / detect``: the most the window-mapping alternative could save. The
 share of ground-truth persons whose box (within the frame) has pixels the undistorted
 frame has no full data for (border fill of the remap) says what the correction loses at
 the frame's edges.
 
-The conclusion (:func:`~benchmark.distortion_report.study_verdict`): keep undistortion if,
+The conclusion (:func:`~benchmark.studies.distortion_report.study_verdict`): keep undistortion if,
 on every coefficient set, the paired interval of ``(b) - (a)`` holds 0 and the remap costs
-at most :data:`~benchmark.distortion_report.MAX_REMAP_FRACTION` of the detection; or,
+at most :data:`~benchmark.studies.distortion_report.MAX_REMAP_FRACTION` of the detection; or,
 failing the first, if ``(b) - (r2)`` holds 0 on every set and ``(r1) - (a)`` holds 0 (the
 loss is that of the synthetic render's two resamplings, and one resampling costs nothing
 the frames resolve). The summary table, the verdict and the markdown are
-:mod:`benchmark.distortion_report`'s; this module measures and runs the command.
+:mod:`benchmark.studies.distortion_report`'s; this module measures and runs the command.
 
 Outputs (``--out``): ``distortion_study.csv`` (one row per condition and coefficient set),
 ``distortion_study.md`` (the table and its conclusion), ``run.json`` (and the operator
@@ -83,11 +83,11 @@ from viewadapt.detect import (
 )
 from viewadapt.files import UserError, atomic_output_dir, check_output_dir, run_metadata
 
-from .distortion_report import (
+from benchmark.studies.distortion_report import (
     MAX_REMAP_FRACTION, ONCE, ORIGINAL, TWICE, VALID_WEIGHT, study_markdown, study_verdict,
     summarize_distortion_study,
 )
-from .frames import load_frames
+from benchmark.frames.methods import load_frames
 
 __all__ = ["DEFAULT_DISTORTIONS", "STUDY_HEIGHTS", "MAX_REMAP_FRACTION", "VALID_WEIGHT",
            "REMAP_REPEATS", "parse_distortion", "distortion_label", "valid_region",
@@ -177,7 +177,7 @@ def valid_region(K, dist, image_size) -> np.ndarray:
 
     A frame of ones is distorted (:func:`~viewadapt.detect.distort_image`, border 0) and
     undistorted (:class:`~viewadapt.detect.Undistortion`, border 0); a pixel is valid when
-    its value is at least :data:`~benchmark.distortion_report.VALID_WEIGHT`, i.e. neither
+    its value is at least :data:`~benchmark.studies.distortion_report.VALID_WEIGHT`, i.e. neither
     remap mixed in border fill.
 
     Parameters
@@ -279,7 +279,7 @@ def run_distortion_study(frames, models, distortions, *, cache_dir=None,
 
     Parameters
     ----------
-    frames : list of :class:`benchmark.frames.FrameRecord`
+    frames : list of :class:`benchmark.frames.methods.FrameRecord`
     models : :class:`viewadapt.detect.SourceDetectors`
     distortions : list of (D,) ndarray
         OpenCV coefficient sets, each relative to the frames' ``K``.
@@ -403,7 +403,7 @@ def _split_dist_values(argv) -> list:
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m benchmark.distortion_study",
+    ap = argparse.ArgumentParser(prog="python -m benchmark.studies.distortion_study",
                                  description=__doc__.split("\n\n")[0])
     ap.add_argument("--data", type=Path, required=True,
                     help="dataset directory with frames_coco.json")

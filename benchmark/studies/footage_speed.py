@@ -1,6 +1,6 @@
 """Speed of ``viewadapt detect`` on a video against the bare adapted detector.
 
-    python -m benchmark.perf.footage --data DIR [--frames 150] [--model M] [--out DIR]
+    python -m benchmark.studies.footage_speed --data DIR [--frames 150] [--model M] [--out DIR]
 
 Issue 17's bar: on a 384x288 clip, ``viewadapt detect`` with the shipped HOG model runs
 within 10 % of the adapted detector's own frame rate (``bench runtime``'s adapted fps),
@@ -36,7 +36,7 @@ frame is reported beside the frame rates:
     writing the outputs cost.
 
 The frames are the dataset's, resized to 384x288 and seen by ``bench runtime``'s timing
-camera (:func:`benchmark.perf.runtime.timing_camera`). Ratios against the bare detector,
+camera (:func:`benchmark.frames.runtime.timing_camera`). Ratios against the bare detector,
 measured in the same run, are the result; nothing here asserts a time.
 """
 
@@ -63,7 +63,7 @@ def clip_frames(data, n_frames: int) -> list:
     """``n_frames`` RGB frames of 384x288: the dataset's frames resized, repeated in order."""
     import cv2
 
-    from benchmark.frames import load_frames
+    from benchmark.frames.methods import load_frames
 
     base = []
     for f in load_frames(data):
@@ -148,7 +148,7 @@ def run_footage_benchmark(data, *, n_frames: int = 150, model=None, heights=(1.6
         shipped_model_path,
     )
 
-    from .runtime import single_thread, timing_camera
+    from benchmark.frames.runtime import single_thread, timing_camera
 
     model = Path(model) if model else shipped_model_path()
     work = Path(workdir) if workdir else Path(tempfile.mkdtemp(prefix="viewadapt-footage-"))
@@ -272,7 +272,7 @@ def write_study(out, stem: str, table: str, data, result: dict) -> None:
 def main(argv=None) -> int:
     from viewadapt.files import check_output_dir
 
-    ap = argparse.ArgumentParser(prog="python -m benchmark.perf.footage",
+    ap = argparse.ArgumentParser(prog="python -m benchmark.studies.footage_speed",
                                  description=__doc__.split("\n\n")[0])
     ap.add_argument("--data", type=Path, required=True, help="dataset directory with frames")
     ap.add_argument("--frames", type=int, default=150, help="frames in the clip (default 150)")
