@@ -18,7 +18,7 @@ import sys as _sys
 
 import numpy as np
 
-from viewadapt.files import atomic_path
+from viewadapt.io.files import atomic_path
 
 from .png import strip_png_metadata
 
@@ -563,7 +563,7 @@ class BlenderRenderer:
         self._size = (width, height, supersample)
 
     def render(self, path, *, samples: int, seed: int, transparent: bool = False) -> None:
-        """Render to ``path`` (PNG) atomically (:func:`viewadapt.files.atomic_path`)."""
+        """Render to ``path`` (PNG) atomically (:func:`viewadapt.io.files.atomic_path`)."""
         sc = self.scene
         sc.cycles.samples = int(samples)
         sc.cycles.seed = int(seed) % (2 ** 31 - 1)

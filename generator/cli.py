@@ -84,7 +84,7 @@ def cmd_verify(args) -> int:
                          check_hash=args.hash)
     print(rep.summary())
     if args.json:
-        from viewadapt.files import atomic_write_text
+        from viewadapt.io.files import atomic_write_text
 
         atomic_write_text(args.json, json.dumps({"ok": rep.ok, "n_rows": rep.n_rows,
                                                  "n_ok": rep.n_ok, "problems": rep.problems},

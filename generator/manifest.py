@@ -14,7 +14,7 @@ Layout of a dataset directory ``DIR``::
                                  mesh and the recorded camera (viewadapt.surface)
     DIR/.parts/<unit>.json       per work unit: its manifest rows (written after its images)
 
-Every file is written atomically (:mod:`viewadapt.files`: a temporary name beside it, moved
+Every file is written atomically (:mod:`viewadapt.io.files`: a temporary name beside it, moved
 in with ``os.replace``), so a killed run leaves only complete files. The manifest is rebuilt
 from the part files at the end of every run, in plan order, so a resumed or sharded run
 gives the same manifest as an uninterrupted one. :mod:`generator.verify` checks a dataset
@@ -30,7 +30,7 @@ from pathlib import Path
 
 import numpy as np
 
-from viewadapt.files import atomic_write_bytes, atomic_write_text
+from viewadapt.io.files import atomic_write_bytes, atomic_write_text
 
 __all__ = ["MANIFEST_COLUMNS", "INT_COLUMNS", "FLOAT_COLUMNS", "part_path", "read_part",
            "write_part", "png_is_complete", "assemble_manifest", "read_manifest",

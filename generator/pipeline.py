@@ -31,8 +31,8 @@ from pathlib import Path
 
 import numpy as np
 
-from viewadapt.files import UserError, atomic_write_text, check_output_dir, write_marker
 from viewadapt.geometry import Camera, window_to_image_homography, window_to_plane
+from viewadapt.io.files import UserError, atomic_write_text, check_output_dir, write_marker
 from viewadapt.surface import surface_depth
 
 from .contents import (

@@ -19,7 +19,7 @@ import struct
 import zlib
 from pathlib import Path
 
-from viewadapt.files import atomic_write_bytes
+from viewadapt.io.files import atomic_write_bytes
 
 __all__ = ["PNG_SIGNATURE", "METADATA_CHUNKS", "png_problem", "strip_png_metadata",
            "normalize_png"]

@@ -15,7 +15,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from viewadapt.files import atomic_write_bytes
+from viewadapt.io.files import atomic_write_bytes
 
 from .manifest import read_manifest
 

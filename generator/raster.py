@@ -21,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-from viewadapt.files import atomic_write_bytes
+from viewadapt.io.files import atomic_write_bytes
 
 os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
 try:

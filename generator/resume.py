@@ -12,7 +12,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from viewadapt.files import RunError, UserError
+from viewadapt.io.files import RunError, UserError
 
 from .contents import unit_depth_paths, unit_paths
 from .manifest import depth_is_complete, read_part

@@ -40,7 +40,7 @@ def test_which_methods_move_with_the_grid():
 
 def test_phase_runs_move_the_windows_and_average(toy, tmp_path):
     data, model_path = toy
-    from viewadapt.detect import SourceDetectors
+    from viewadapt.io import SourceDetectors
 
     models = SourceDetectors.load(model_path)
     kw = dict(methods=["hog_adapted", "hog_warp", "opencv_native"], models=models,

@@ -148,11 +148,11 @@ def test_cli_reports_dataset_errors_without_traceback(tmp_path, capsys):
 def test_reproduce_runs_every_stage_in_order(tmp_path, monkeypatch):
     import argparse
 
-    import viewadapt.cli as cli
+    import benchmark.pipelines as cli
 
     calls = []
     monkeypatch.setattr(cli, "main", lambda argv: calls.append(argv) or 0)
-    monkeypatch.setattr(cli, "_blender_available", lambda: True)
+    monkeypatch.setattr(cli, "blender_available", lambda: True)
     args = argparse.Namespace(out=tmp_path / "repro", seed=3, jobs=2, framing="silhouette")
     assert cli._cmd_reproduce(args) == 0
     assert [c[:2] for c in calls] == [["generate", "--preset"], ["bench", "crossval"],

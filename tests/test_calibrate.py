@@ -14,12 +14,13 @@ import numpy as np
 import pytest
 
 from viewadapt.cli import main
-from viewadapt.detect import (
+from viewadapt.camera import (
     calibrate_from_ground_points, decompose_ground_homography, estimate_focal_from_homography,
-    find_ground_homography, read_calibration, read_distortion,
+    find_ground_homography,
 )
-from viewadapt.detect.calibrate_command import read_correspondences
+from viewadapt.io.calibration import read_correspondences
 from viewadapt.geometry import Camera, camera_from_pose
+from viewadapt.io import read_calibration, read_distortion
 
 SIZE = (384, 288)
 CENTRE = ((SIZE[0] - 1) / 2, (SIZE[1] - 1) / 2)

@@ -24,9 +24,9 @@ from benchmark.studies.calibration_roundtrip import (
 from benchmark.data import load_dataset
 from benchmark.frames.methods import evaluate_method, load_frames, train_source_detectors
 from viewadapt.cli import main as viewadapt_main
-from viewadapt.detect import read_calibration
-from viewadapt.detect.calibrate_command import read_correspondences
+from viewadapt.io.calibration import read_correspondences
 from viewadapt.geometry import Camera, camera_from_pose
+from viewadapt.io import read_calibration
 from tests.toy_frames import small_toy_frames
 
 OUTPUTS = ("calibration_roundtrip.csv", "calibration_summary.csv", "calibration_detector.csv",

@@ -76,7 +76,7 @@ def test_demo_preset_has_the_headline_elevations_and_enough_positives():
 
 
 def test_demo_runs_its_stages_and_ends_with_the_summary(tmp_path, monkeypatch, capsys):
-    import viewadapt.cli as cli
+    import benchmark.pipelines as cli
 
     calls = []
 
@@ -87,8 +87,8 @@ def test_demo_runs_its_stages_and_ends_with_the_summary(tmp_path, monkeypatch, c
         return 0
 
     monkeypatch.setattr(cli, "main", fake_main)
-    monkeypatch.setattr(cli, "_blender_available", lambda: True)
-    monkeypatch.setattr(cli, "_demo_frames", lambda data, out, extra: calls.append(
+    monkeypatch.setattr(cli, "blender_available", lambda: True)
+    monkeypatch.setattr(cli, "demo_frames", lambda data, out, extra: calls.append(
         ["frames", str(data)] + extra) or 0)
     args = argparse.Namespace(out=tmp_path / "demo", seed=3, jobs=2, toy=False)
     assert cli._cmd_demo(args) == 0

@@ -14,10 +14,11 @@ import pytest
 
 from benchmark.data import load_dataset
 from benchmark.frames.methods import load_frames, train_source_detectors
+from viewadapt.camera import distort_image
 from viewadapt.cli import main
-from viewadapt.detect import (
-    DetectorSpec, SourceDetectors, detect_on_ground, detect_stream, distort_image,
-    natural_sort_key, open_frames, prefetched, read_calibration, shipped_model_path,
+from viewadapt.detect import detect_on_ground, detect_stream, DetectorSpec
+from viewadapt.io import (
+    natural_sort_key, open_frames, prefetched, read_calibration, shipped_model_path, SourceDetectors,
 )
 from tests.toy_frames import TOY_FRAME_SIZE, small_toy_frames
 
@@ -326,7 +327,7 @@ def test_windows_through_the_lens_find_the_same_persons(toy, detect):
     """--lens windows reads the distorted frames as they are: its boxes, undistorted, are
     those of the pinhole frames' detections."""
     from benchmark.studies.distortion_study import undistorted_boxes
-    from viewadapt.detect import Undistortion
+    from viewadapt.camera import Undistortion
 
     folder = toy.root / "distorted"           # written by the test above
     calib = _write_calibration(toy.root / "cam_dist.json", toy.cam, dist=DIST)
@@ -348,7 +349,7 @@ def test_windows_through_the_lens_find_the_same_persons(toy, detect):
 
 
 def test_auto_lens_undistorts_for_the_body_model():
-    from viewadapt.detect.command import DEFAULT_LENS, lens_correction
+    from viewadapt.commands.detect import DEFAULT_LENS, lens_correction
 
     assert DEFAULT_LENS == "auto"
     assert lens_correction(None, "auto", "plane") is None

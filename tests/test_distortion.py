@@ -10,10 +10,9 @@ import cv2
 import numpy as np
 import pytest
 
-from viewadapt.detect import (
-    Undistortion, check_distortion, distort_image, read_calibration, read_distortion,
-)
+from viewadapt.camera import check_distortion, distort_image, Undistortion
 from viewadapt.geometry import camera_from_pose
+from viewadapt.io import read_calibration, read_distortion
 
 SIZE = (384, 288)
 K = np.array([[340.0, 0.0, 191.5], [0.0, 340.0, 143.5], [0.0, 0.0, 1.0]])
@@ -213,7 +212,8 @@ def test_windows_through_the_lens_follow_it_to_a_fraction_of_a_pixel():
 
 
 def test_frame_detector_through_a_lens(tmp_path):
-    from viewadapt.detect import FrameDetector, SourceDetectors, shipped_model_path
+    from viewadapt.detect import FrameDetector
+    from viewadapt.io import shipped_model_path, SourceDetectors
 
     cam = _lens_camera()
     models = SourceDetectors.load(shipped_model_path())

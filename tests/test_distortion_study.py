@@ -45,7 +45,7 @@ def cache(tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def study(toy, model, cache):
-    from viewadapt.detect import SourceDetectors
+    from viewadapt.io import SourceDetectors
 
     frames = load_frames(toy)
     return frames, run_distortion_study(frames, SourceDetectors.load(model),

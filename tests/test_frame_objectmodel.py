@@ -75,7 +75,7 @@ def test_body_operator_differs_from_the_plane_but_agrees_in_the_large(windows):
 
 
 def test_frame_detector_options(camera):
-    from viewadapt.detect import SourceDetectors
+    from viewadapt.io import SourceDetectors
 
     models = SourceDetectors(np.zeros((16, 8, 13)), 0.0, None)
     with pytest.raises(ValueError, match="object_model"):

@@ -411,7 +411,7 @@ def test_operator_cache_invalidates_on_calibration_change(tmp_path, frame):
 def test_operator_cache_keeps_to_its_size_limit(tmp_path, windows):
     import os
 
-    from viewadapt.detect import OperatorCache
+    from viewadapt.io import OperatorCache
 
     w = np.random.default_rng(0).normal(size=(16, 8, HOG_CHANNELS))
     op = build_adapted_linear_operator(windows.subset(np.arange(40)), w, 0.0)

@@ -8,8 +8,9 @@ import numpy as np
 import pytest
 
 from benchmark.frames.methods import FrameRecord, evaluate_method, load_frames
-from viewadapt.detect import read_calibration, standardize_boxes
+from viewadapt.detect import standardize_boxes
 from viewadapt.geometry import camera_from_pose
+from viewadapt.io import read_calibration
 from viewadapt.metrics import log_average_miss_rate
 from tests.toy_frames import small_toy_frames
 
@@ -325,7 +326,7 @@ def test_runtime_table_end_to_end(toy, tmp_path):
 def test_frame_view_copies_change_the_svm_and_the_separation_script_runs(toy, bench, capsys):
     from benchmark.data import load_dataset
     from benchmark.frames.methods import train_source_detectors
-    from viewadapt.detect import SourceDetectors
+    from viewadapt.io import SourceDetectors
     from benchmark.studies.frameview_separation import main as separation_main
 
     crops_only = train_source_detectors(load_dataset(toy), quick=True, frame_view="none")
@@ -353,7 +354,7 @@ def test_seed_study(toy, tmp_path):
     """--seeds N: one training per seed, per-seed rates, the targets on the seed means."""
     from benchmark.data import load_dataset
     from benchmark.frames.methods import train_source_detectors
-    from viewadapt.detect import SourceDetectors
+    from viewadapt.io import SourceDetectors
 
     out = tmp_path / "seeds"
     assert _main(["bench", "frames", "--data", str(toy), "--out", str(out), "--quick",
@@ -406,9 +407,9 @@ def test_seed_tables_and_targets():
 def test_demo_frames_stage(toy, tmp_path):
     """The demo's last stage: bench frames, then detect through a calibration file written
     in the documented format, on every frame of the first frame's camera."""
-    from viewadapt.cli import _demo_frames
+    from benchmark.pipelines import demo_frames
 
-    assert _demo_frames(toy, tmp_path, ["--seed", "0"]) == 0
+    assert demo_frames(toy, tmp_path, ["--seed", "0"]) == 0
     assert (tmp_path / "frames" / "det_frames.png").is_file()
     frames = load_frames(toy)
     cam = read_calibration(tmp_path / "frames" / "camera.json")

@@ -1,5 +1,6 @@
 """The project's module structure: no import circles, the library below the benchmark and
-the generator, no module importing another's private names.
+the generator, the benchmark's product below its studies, files opened only in
+``viewadapt.io``, no module importing another's private names.
 
 Every import counts, at module level or inside a function (a lazy import still ties the
 two modules together). ``from package import name`` is an edge to ``package.name`` when
@@ -15,8 +16,12 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 PACKAGES = ("viewadapt", "benchmark", "generator")
-#: the command line sits above the library, the benchmark and the generator
-COMMAND_LINE = {"viewadapt.cli"}
+#: calls that read, write or remove a file (method or function names), and numpy's
+FILE_CALLS = {"open", "read_text", "write_text", "read_bytes", "write_bytes", "imread",
+              "imwrite", "VideoCapture", "VideoWriter", "to_csv", "to_parquet", "read_csv",
+              "read_parquet", "savefig", "mkdir", "unlink", "rmdir", "rmtree", "savez",
+              "savez_compressed", "loadtxt", "savetxt"}
+NUMPY_FILE_CALLS = {"load", "save"}
 
 
 def _module_name(path: Path) -> str:
@@ -121,9 +126,59 @@ def test_no_import_circles():
 def test_the_library_never_imports_the_benchmark_or_the_generator(above):
     graph, _ = import_graph()
     bad = sorted((m, t) for m, ts in graph.items() for t in ts
-                 if m.split(".")[0] == "viewadapt" and m not in COMMAND_LINE
-                 and t.split(".")[0] == above)
+                 if m.split(".")[0] == "viewadapt" and t.split(".")[0] == above)
     assert not bad, f"viewadapt modules importing {above}: {bad}"
+
+
+def test_the_benchmark_never_imports_its_studies():
+    graph, _ = import_graph()
+    studies = "benchmark.studies"
+    bad = sorted((m, t) for m, ts in graph.items() for t in ts
+                 if m.startswith("benchmark") and not m.startswith(studies)
+                 and t.startswith(studies + "."))
+    assert not bad, f"benchmark modules importing a study: {bad}"
+
+
+@pytest.mark.parametrize("below, above", [
+    ("viewadapt.detect", "viewadapt.commands"), ("viewadapt.camera", "viewadapt.commands"),
+    ("viewadapt.io", "viewadapt.commands"), ("viewadapt.commands", "viewadapt.cli"),
+    ("viewadapt.camera", "viewadapt.detect")])
+def test_the_library_layers(below, above):
+    """Algorithms below the files (io) and the commands; the commands below the CLI."""
+    graph, _ = import_graph()
+    bad = sorted((m, t) for m, ts in graph.items() for t in ts
+                 if (m == below or m.startswith(below + "."))
+                 and (t == above or t.startswith(above + ".")))
+    assert not bad, f"{below} importing {above}: {bad}"
+
+
+def file_calls(path: Path) -> list:
+    """(line, call) of every call in the module that reads, writes or removes a file."""
+    out = []
+    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+        if not isinstance(node, ast.Call):
+            continue
+        f = node.func
+        name = f.id if isinstance(f, ast.Name) else getattr(f, "attr", None)
+        owner = f.value.id if isinstance(f, ast.Attribute) and isinstance(f.value, ast.Name) \
+            else None
+        if name in FILE_CALLS or (name in NUMPY_FILE_CALLS and owner in ("np", "numpy")):
+            out.append((node.lineno, name))
+    return out
+
+
+def test_the_file_check_finds_file_calls(tmp_path):
+    f = tmp_path / "m.py"
+    f.write_text("import numpy as np\nnp.load(p)\nopen(p)\nx.write_text('a')\n"
+                 "d.load(p)\nx.exists()\n")
+    assert file_calls(f) == [(2, "load"), (3, "open"), (4, "write_text")]
+
+
+def test_only_viewadapt_io_opens_files():
+    bad = [f"{m}:{line} {call}" for m, p in project_modules().items()
+           if m.split(".")[0] == "viewadapt" and not m.startswith("viewadapt.io")
+           for line, call in file_calls(p)]
+    assert not bad, "file access outside viewadapt.io:\n" + "\n".join(bad)
 
 
 def test_no_module_imports_another_modules_private_names():

@@ -25,7 +25,7 @@ import pytest
 
 from benchmark.toydata import make_toy_dataset
 from viewadapt.cli import build_parser, main
-from viewadapt.files import (
+from viewadapt.io.files import (
     MARKER, UserError, atomic_output_dir, atomic_write_text, check_output_dir, read_marker,
 )
 

@@ -20,7 +20,7 @@ Modules (public names are re-exported here):
   -- linear SVM, boosted trees.
 * :mod:`viewadapt.metrics` (matching: :mod:`viewadapt.matching`), :mod:`viewadapt.nms`,
   :mod:`viewadapt.boxes` -- evaluation.
-* :mod:`viewadapt.files` -- atomic files and output folders, run metadata.
+* :mod:`viewadapt.io.files` -- atomic files and output folders, run metadata.
 * :mod:`viewadapt.detect` (a subpackage) -- full-frame detection on a calibrated camera:
   world-space candidate windows, the per-position adapted detectors applied as one
   operator, and :class:`viewadapt.detect.FrameDetector`.

@@ -19,9 +19,7 @@ projected; points the model hides in the target view are undefined.
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass
-from importlib import resources
 
 import numpy as np
 
@@ -74,8 +72,9 @@ class SurfaceOfRevolution:
     @classmethod
     def mean_body(cls) -> "SurfaceOfRevolution":
         """The shipped mean-body profile (``viewadapt/data/mean_body.json``)."""
-        doc = json.loads(resources.files("viewadapt").joinpath("data/mean_body.json")
-                         .read_text())
+        from .io.packaged import read_packaged_json   # here: viewadapt.io sits above
+
+        doc = read_packaged_json("mean_body.json")
         return cls(tuple(doc["height_fraction"]), tuple(doc["radius_fraction"]), "body")
 
     def mesh(self, person_height: float = PERSON_HEIGHT_M, segments: int = 48):

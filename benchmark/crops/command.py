@@ -121,7 +121,7 @@ def _scheduler(args):
         raise ValueError("--scheduler needs dask.distributed: pip install 'viewadapt[scale]'") from None
     import joblib
 
-    from viewadapt.files import UserError
+    from viewadapt.io.files import UserError
 
     try:
         client = Client(args.scheduler, timeout=f"{SCHEDULER_TIMEOUT_S}s")
@@ -137,7 +137,7 @@ def _scheduler(args):
 def cmd_crossval(args) -> int:
     import matplotlib.pyplot as plt
 
-    from viewadapt.files import atomic_output_dir, check_output_dir
+    from viewadapt.io.files import atomic_output_dir, check_output_dir
 
     from benchmark.crops.crossval import config_dict, run_crossval
     from benchmark.data import load_dataset
@@ -226,7 +226,7 @@ def _markdown(summary) -> str:
 def cmd_sweep(args) -> int:
     import matplotlib.pyplot as plt
 
-    from viewadapt.files import atomic_output_dir, check_output_dir
+    from viewadapt.io.files import atomic_output_dir, check_output_dir
 
     from benchmark.data import load_dataset
     from benchmark.crops.features import FeatureCache

@@ -17,8 +17,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from viewadapt.files import atomic_path
 from viewadapt.geometry import WINDOW_HEIGHT, WINDOW_WIDTH
+from viewadapt.io.files import atomic_path
 from viewadapt.warp import translation, warp_to_source_view
 
 from benchmark.crops.detectors import feature_key

@@ -10,12 +10,10 @@ from pathlib import Path
 
 import numpy as np
 
-from viewadapt.detect import (
-    CELLS_PER_SOURCE_CELL, DEFAULT_CACHE_LIMIT_GB, HOG_TOLERANCE, UPSAMPLE_BELOW,
-    plot_det_figure,
-)
-from viewadapt.detect.command import add_cache_options, person_heights
+from viewadapt.commands.detect import add_cache_options, person_heights
+from viewadapt.detect import CELLS_PER_SOURCE_CELL, HOG_TOLERANCE, UPSAMPLE_BELOW
 from viewadapt.geometry import PERSON_HEIGHT_M
+from viewadapt.io import DEFAULT_CACHE_LIMIT_GB, plot_det_figure
 from viewadapt.objectmodel import OBJECT_MODELS
 from viewadapt.remap import ANGLE_RULES
 
@@ -227,9 +225,9 @@ def expand_adapted(methods, rules=None, object_models=None) -> list:
 
 
 def cmd_bench_frames(args) -> int:
-    from viewadapt.files import atomic_output_dir, check_output_dir, run_metadata
+    from viewadapt.io.files import atomic_output_dir, check_output_dir, run_metadata
 
-    from viewadapt.detect import SourceDetectors
+    from viewadapt.io import SourceDetectors
 
     from benchmark.frames.methods import evaluate_method
 
@@ -346,7 +344,7 @@ def cmd_bench_frames(args) -> int:
 
 
 def cmd_bench_runtime(args) -> int:
-    from viewadapt.files import atomic_output_dir, check_output_dir, run_metadata
+    from viewadapt.io.files import atomic_output_dir, check_output_dir, run_metadata
 
     from benchmark.frames.runtime import format_table, run_runtime
 

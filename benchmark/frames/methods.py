@@ -37,10 +37,11 @@ from benchmark.frames.pyramids import (
     pyramid_scales,
 )
 from viewadapt.detect import (
-    ACF_DETECTOR, HOG_DETECTOR, PERSON_BOX_WINDOW, FrameDetector, SourceDetectors, check_frame,
-    detector_kind, person_boxes,
+    ACF_DETECTOR, check_frame, detector_kind, FrameDetector, HOG_DETECTOR, PERSON_BOX_WINDOW,
+    person_boxes,
 )
 from viewadapt.geometry import WINDOW_HEIGHT, Camera
+from viewadapt.io import SourceDetectors
 from viewadapt.nms import detections_from_scores
 
 __all__ = ["FrameRecord", "load_frames", "train_source_detectors", "dataset_provenance", "NEGATIVE_CHOICES", "FRAME_VIEW_CHOICES",

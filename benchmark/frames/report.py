@@ -6,7 +6,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from viewadapt.detect import DETECTOR_KINDS, FAMILY_COLORS
+from viewadapt.detect import DETECTOR_KINDS
+from viewadapt.io import FAMILY_COLORS
 
 #: the accuracy target's margin: adapted LAMR at most this above image warping's
 WARP_MARGIN = 0.03

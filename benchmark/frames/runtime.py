@@ -27,7 +27,8 @@ from pathlib import Path
 import numpy as np
 
 from benchmark.frames.methods import DEFAULT_FRAME_VIEW
-from viewadapt.detect import DEFAULT_CACHE_LIMIT_GB, DETECTOR_KINDS
+from viewadapt.detect import DETECTOR_KINDS
+from viewadapt.io import DEFAULT_CACHE_LIMIT_GB
 
 __all__ = ["timing_camera", "single_thread", "stage_bytes", "copy_floor_ms", "run_runtime",
            "format_table"]
@@ -114,7 +115,7 @@ def _worker(cache_dir, cache_limit_gb, model_path, heights, method, frames, seco
     """Detect frames in a loop for ``seconds``; return the number done and the time."""
     single_thread()
     from benchmark.frames.methods import FrameMethods
-    from viewadapt.detect import SourceDetectors
+    from viewadapt.io import SourceDetectors
 
     models = SourceDetectors.load(model_path)
     det = FrameMethods(timing_camera(), models, person_heights=heights, cache_dir=cache_dir,
@@ -152,7 +153,7 @@ def run_runtime(data, *, n_frames=3, warp_windows=1000, heights=(1.65, 1.85), jo
         acf_pyramid_fast_detect, hog_pyramid_detect, load_frames, opencv_detect,
         train_source_detectors, warp_scores,
     )
-    from viewadapt.detect import OperatorCache
+    from viewadapt.io import OperatorCache
     from viewadapt.nms import detections_from_scores
 
     from benchmark.frames.scoring_forms import linear_scores, trees_scores

@@ -61,10 +61,12 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from viewadapt.detect import SourceDetectors, calibrate_from_ground_points
-from viewadapt.detect.calibrate import camera_height_and_tilt
-from viewadapt.detect.calibrate_command import calibration_text, read_correspondences
-from viewadapt.files import (
+from viewadapt.camera import calibrate_from_ground_points
+from viewadapt.camera.calibrate import camera_height_and_tilt
+from viewadapt.commands.calibrate import calibration_text
+from viewadapt.io.calibration import read_correspondences
+from viewadapt.io import SourceDetectors
+from viewadapt.io.files import (
     UserError, atomic_output_dir, atomic_write_text, check_output_dir, claim_output_dir,
     run_metadata,
 )

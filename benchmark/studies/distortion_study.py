@@ -77,11 +77,10 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from viewadapt.detect import (
-    FrameDetector, SourceDetectors, Undistortion, check_distortion, distort_image,
-    shipped_model_path,
-)
-from viewadapt.files import UserError, atomic_output_dir, check_output_dir, run_metadata
+from viewadapt.camera import check_distortion, distort_image, Undistortion
+from viewadapt.detect import FrameDetector
+from viewadapt.io import shipped_model_path, SourceDetectors
+from viewadapt.io.files import UserError, atomic_output_dir, check_output_dir, run_metadata
 
 from benchmark.studies.distortion_report import (
     MAX_REMAP_FRACTION, ONCE, ORIGINAL, TWICE, VALID_WEIGHT, study_markdown, study_verdict,

@@ -105,7 +105,7 @@ def format_memory(result) -> str:
 
 
 def main(argv=None) -> int:
-    from viewadapt.files import check_output_dir
+    from viewadapt.io.files import check_output_dir
 
     ap = argparse.ArgumentParser(prog="python -m benchmark.studies.footage_memory",
                                  description=__doc__.split("\n\n")[0])

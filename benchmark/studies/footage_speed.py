@@ -143,10 +143,9 @@ def run_footage_benchmark(data, *, n_frames: int = 150, model=None, heights=(1.6
     if repeats < 1:
         raise ValueError(f"repeats must be at least 1, got {repeats}")
     from viewadapt.cli import main as viewadapt_main
-    from viewadapt.detect import (
-        FrameDetector, SourceDetectors, Undistortion, distort_image, open_frames,
-        shipped_model_path,
-    )
+    from viewadapt.camera import distort_image, Undistortion
+    from viewadapt.detect import FrameDetector
+    from viewadapt.io import open_frames, shipped_model_path, SourceDetectors
 
     from benchmark.frames.runtime import single_thread, timing_camera
 
@@ -259,7 +258,7 @@ def format_table(result) -> str:
 def write_study(out, stem: str, table: str, data, result: dict) -> None:
     """Print a footage study's ``table`` and, with ``out``, write it atomically as
     ``out/STEM.md`` beside ``out/STEM.json`` (the run's metadata and ``result``)."""
-    from viewadapt.files import atomic_output_dir, run_metadata
+    from viewadapt.io.files import atomic_output_dir, run_metadata
 
     print(table)
     if out is not None:
@@ -270,7 +269,7 @@ def write_study(out, stem: str, table: str, data, result: dict) -> None:
 
 
 def main(argv=None) -> int:
-    from viewadapt.files import check_output_dir
+    from viewadapt.io.files import check_output_dir
 
     ap = argparse.ArgumentParser(prog="python -m benchmark.studies.footage_speed",
                                  description=__doc__.split("\n\n")[0])

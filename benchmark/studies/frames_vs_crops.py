@@ -57,10 +57,11 @@ import numpy as np
 import pandas as pd
 
 from viewadapt.boxes import box_intersections, safe_ratio
-from viewadapt.detect import UPSAMPLE_BELOW, FrameDetector, SourceDetectors, ground_truth_rows
+from viewadapt.detect import FrameDetector, ground_truth_rows, UPSAMPLE_BELOW
 from viewadapt.detect.evaluation import standardize_boxes
-from viewadapt.files import atomic_output_dir, check_output_dir, run_metadata
 from viewadapt.geometry import PERSON_HEIGHT_M
+from viewadapt.io import SourceDetectors
+from viewadapt.io.files import atomic_output_dir, check_output_dir, run_metadata
 from viewadapt.nms import detections_from_scores
 
 from benchmark.data import load_dataset

@@ -67,7 +67,7 @@ def main(argv=None) -> int:
                    help="frame px per canonical px, comma-separated (default 0.3,0.45,0.7,1.0)")
     p.add_argument("--seed", type=int, default=0)
     args = p.parse_args(argv)
-    from viewadapt.detect import SourceDetectors
+    from viewadapt.io import SourceDetectors
 
     try:
         scales = [float(v) for v in args.scales.split(",")]

@@ -53,7 +53,7 @@ import numpy as np
 import pandas as pd
 
 from viewadapt.adapt import remap_features
-from viewadapt.files import atomic_output_dir, check_output_dir, run_metadata
+from viewadapt.io.files import atomic_output_dir, check_output_dir, run_metadata
 from viewadapt.warp import translation
 
 from benchmark.studies.contributions import CELL_SHAPE, bin_energy

@@ -2,9 +2,11 @@
 
 The detector searches the ground plane, not the image: every world-space candidate window
 sees the person through its own homography and so gets its own adapted detector, all
-precomputed once per camera and applied as one operator per frame.
+precomputed once per camera and applied as one operator per frame. Arrays in, arrays out:
+the files around it (models, operator cache, calibrations, videos, outputs) are
+:mod:`viewadapt.io`, camera estimation is :mod:`viewadapt.camera`.
 
-Modules (public names are re-exported here):
+Modules:
 
 * :mod:`~viewadapt.detect.windows` -- candidate windows over the ground plane (Sec. 5.1).
 * :mod:`~viewadapt.detect.channels` -- frame features: per-pixel channels once, cell maps
@@ -16,65 +18,72 @@ Modules (public names are re-exported here):
 * :mod:`~viewadapt.detect.layers` -- small persons' windows on an upsampled frame band.
 * :mod:`~viewadapt.detect.frameview` -- training crops as the operators read them.
 * :mod:`~viewadapt.detect.kinds` -- one spec per adapted detector (HOG/SVM, ACF).
-* :mod:`~viewadapt.detect.detector` -- :class:`FrameDetector`, the detector a user calls;
-  :mod:`~viewadapt.detect.models`, :mod:`~viewadapt.detect.cache`,
-  :mod:`~viewadapt.detect.calibration`, :mod:`~viewadapt.detect.evaluation` -- its models,
-  operator cache, input files and evaluation; :mod:`~viewadapt.detect.arrayfile` -- the
-  on-disk format of models and cached operators (npz + JSON, never a pickle).
-* :mod:`~viewadapt.detect.calibrate` -- a camera from image <-> ground-plane points (Zhang
-  2000); :mod:`~viewadapt.detect.distortion` -- lens undistortion of its frames.
-* :mod:`~viewadapt.detect.video` -- a camera's frames streamed from a video, a folder, a
-  glob pattern or image files; :mod:`~viewadapt.detect.footage` -- detections with their
-  ground positions over a stream, in one process or several;
-  :mod:`~viewadapt.detect.outputs` -- the files ``viewadapt detect`` writes (CSV, COCO
-  results, MOTChallenge ``det.txt``, annotated video or frames).
+* :mod:`~viewadapt.detect.detector` -- :class:`FrameDetector`, the detector a user calls.
+* :mod:`~viewadapt.detect.stream` -- detections with their ground positions over a stream
+  of frames, in one process or several.
+* :mod:`~viewadapt.detect.evaluation` -- miss rate against false positives per image.
 
 Example
 -------
->>> from viewadapt.detect import FrameDetector, SourceDetectors, read_calibration
+>>> from viewadapt.detect import FrameDetector
+>>> from viewadapt.io import SourceDetectors, read_calibration
 >>> detector = FrameDetector(read_calibration("camera.yaml"),
 ...                          SourceDetectors.load("source_detectors.npz"))  # doctest: +SKIP
 >>> boxes = detector.detect(frame, "hog")       # (D, 5): x, y, w, h, score  # doctest: +SKIP
 """
 
-from .cache import *  # noqa: F401,F403
-from .cache import __all__ as _cache_all
-from .calibrate import *  # noqa: F401,F403
-from .calibrate import __all__ as _calibrate_all
-from .calibration import *  # noqa: F401,F403
-from .calibration import __all__ as _calibration_all
-from .channels import *  # noqa: F401,F403
-from .channels import __all__ as _channels_all
-from .detector import *  # noqa: F401,F403
-from .detector import __all__ as _detector_all
-from .distortion import *  # noqa: F401,F403
-from .distortion import __all__ as _distortion_all
-from .evaluation import *  # noqa: F401,F403
-from .evaluation import __all__ as _evaluation_all
-from .footage import *  # noqa: F401,F403
-from .footage import __all__ as _footage_all
-from .frameview import *  # noqa: F401,F403
-from .frameview import __all__ as _frameview_all
-from .kinds import *  # noqa: F401,F403
-from .kinds import __all__ as _kinds_all
-from .layers import *  # noqa: F401,F403
-from .layers import __all__ as _layers_all
-from .linear import *  # noqa: F401,F403
-from .linear import __all__ as _linear_all
-from .models import *  # noqa: F401,F403
-from .models import __all__ as _models_all
-from .outputs import *  # noqa: F401,F403
-from .outputs import __all__ as _outputs_all
-from .templates import *  # noqa: F401,F403
-from .templates import __all__ as _templates_all
-from .trees import *  # noqa: F401,F403
-from .trees import __all__ as _trees_all
-from .video import *  # noqa: F401,F403
-from .video import __all__ as _video_all
-from .windows import *  # noqa: F401,F403
-from .windows import __all__ as _windows_all
+from .windows import (
+    GROUND_STRIDE_M, PERSON_BOX_WINDOW, CandidateWindows, check_ground_visible,
+    window_homographies, select_candidate_windows, person_boxes, window_scale, distort_pixels,
+    windows_through_lens,
+)
+from .channels import (
+    HOG_CELL, N_HOG_BINS, HOG_CHANNELS, HOG_WEIGHT_SHAPE, HOG_CLIP, ACF_SHRINK, N_ACF_CHANNELS,
+    N_ACF_ORIENTS, ACF_WEIGHT_SHAPE, ACF_GRADIENT_LAMBDA, fast_orientation_channels,
+    fast_acf_pixel_channels, acf_channel_cell_maps, FrameFeatures, check_frame, cell_sums,
+    orientation_cell_maps, channel_slices3, correlate_slices, block_normalize_cells,
+    hog_window_features, acf_window_features, hog_frame_features, acf_frame_features,
+)
+from .templates import (
+    FRAME_CELL_SIZES, CELLS_PER_SOURCE_CELL, HOG_TOLERANCE, ACF_TOLERANCE, choose_cell_sizes,
+    group_windows, patch_grid, TemplateGroup, build_template_groups, required_padding,
+    check_windows, SOURCE_DISTANCE_M, resolve_object_model, window_mapping, hog_frame_remap,
+    acf_frame_remap, acf_gradient_rows, SnappedBoxes, TemplateOperator, FeatureKind, HOG_FEATURES,
+    ACF_FEATURES, FEATURE_MAKERS, feature_maker_to_dict, feature_maker_from_dict,
+)
+from .linear import AdaptedLinearOperator, build_adapted_linear_operator
+from .trees import AdaptedTreesOperator, build_adapted_trees_operator
+from .layers import (
+    UPSAMPLE_BELOW, UPSAMPLE_FACTOR, frame_to_band, upsampled_windows, upsampled_band,
+    MultiResolutionOperator, build_multiresolution_operator,
+)
+from .frameview import FRAME_VIEW_SCALES, frame_view, frame_view_features, frame_view_copies
+from .kinds import DetectorKind, HOG_DETECTOR, ACF_DETECTOR, DETECTOR_KINDS, detector_kind
+from .detector import DEFAULT_THRESHOLD, FrameDetector
+from .stream import FrameDetections, detect_on_ground, DetectorSpec, detect_stream
+from .evaluation import standardize_boxes, ground_truth_rows, evaluate_detections
 
-__all__ = (_windows_all + _channels_all + _templates_all + _linear_all + _trees_all
-           + _layers_all + _frameview_all + _kinds_all + _detector_all + _models_all + _cache_all
-           + _calibration_all + _calibrate_all + _distortion_all + _evaluation_all
-           + _video_all + _footage_all + _outputs_all)
+__all__ = [
+    "GROUND_STRIDE_M", "PERSON_BOX_WINDOW", "CandidateWindows", "check_ground_visible",
+    "window_homographies", "select_candidate_windows", "person_boxes", "window_scale",
+    "distort_pixels", "windows_through_lens", "HOG_CELL", "N_HOG_BINS", "HOG_CHANNELS",
+    "HOG_WEIGHT_SHAPE", "HOG_CLIP", "ACF_SHRINK", "N_ACF_CHANNELS", "N_ACF_ORIENTS",
+    "ACF_WEIGHT_SHAPE", "ACF_GRADIENT_LAMBDA", "fast_orientation_channels",
+    "fast_acf_pixel_channels", "acf_channel_cell_maps", "FrameFeatures", "check_frame",
+    "cell_sums", "orientation_cell_maps", "channel_slices3", "correlate_slices",
+    "block_normalize_cells", "hog_window_features", "acf_window_features", "hog_frame_features",
+    "acf_frame_features", "FRAME_CELL_SIZES", "CELLS_PER_SOURCE_CELL", "HOG_TOLERANCE",
+    "ACF_TOLERANCE", "choose_cell_sizes", "group_windows", "patch_grid", "TemplateGroup",
+    "build_template_groups", "required_padding", "check_windows", "SOURCE_DISTANCE_M",
+    "resolve_object_model", "window_mapping", "hog_frame_remap", "acf_frame_remap",
+    "acf_gradient_rows", "SnappedBoxes", "TemplateOperator", "FeatureKind", "HOG_FEATURES",
+    "ACF_FEATURES", "FEATURE_MAKERS", "feature_maker_to_dict", "feature_maker_from_dict",
+    "AdaptedLinearOperator", "build_adapted_linear_operator", "AdaptedTreesOperator",
+    "build_adapted_trees_operator", "UPSAMPLE_BELOW", "UPSAMPLE_FACTOR", "frame_to_band",
+    "upsampled_windows", "upsampled_band", "MultiResolutionOperator",
+    "build_multiresolution_operator", "FRAME_VIEW_SCALES", "frame_view", "frame_view_features",
+    "frame_view_copies", "DetectorKind", "HOG_DETECTOR", "ACF_DETECTOR", "DETECTOR_KINDS",
+    "detector_kind", "DEFAULT_THRESHOLD", "FrameDetector", "FrameDetections", "detect_on_ground",
+    "DetectorSpec", "detect_stream", "standardize_boxes", "ground_truth_rows",
+    "evaluate_detections",
+]

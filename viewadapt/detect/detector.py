@@ -15,12 +15,12 @@ import numpy as np
 from ..geometry import PERSON_HEIGHT_M, Camera
 from ..objectmodel import OBJECT_MODELS
 from ..remap import ANGLE_RULES
-from .cache import DEFAULT_CACHE_LIMIT_GB, OperatorCache
+from viewadapt.io.cache import DEFAULT_CACHE_LIMIT_GB, OperatorCache
 from .channels import check_frame
-from .distortion import check_distortion
+from viewadapt.camera.distortion import check_distortion
 from .kinds import DETECTOR_KINDS, HOG_DETECTOR, detector_kind
 from .layers import UPSAMPLE_BELOW, build_multiresolution_operator
-from .models import SourceDetectors
+from viewadapt.io.models import SourceDetectors
 from .templates import CELLS_PER_SOURCE_CELL, HOG_TOLERANCE
 from .windows import select_candidate_windows, windows_through_lens
 
@@ -42,7 +42,7 @@ class FrameDetector:
     person_heights : sequence of float
         Assumed person heights, metres: one set of candidate windows each.
     cache_dir : path or None
-        Where :class:`~viewadapt.detect.cache.OperatorCache` keeps the adapted operators.
+        Where :class:`~viewadapt.io.cache.OperatorCache` keeps the adapted operators.
     cache_limit_gb : float or None
         That directory's size limit (least recently used operators go first); None or 0:
         no limit.

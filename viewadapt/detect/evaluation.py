@@ -17,8 +17,7 @@ import numpy as np
 
 from ..metrics import evaluate_frames
 
-__all__ = ["standardize_boxes", "ground_truth_rows", "evaluate_detections", "plot_det_figure",
-           "FAMILY_COLORS"]
+__all__ = ["standardize_boxes", "ground_truth_rows", "evaluate_detections"]
 
 
 def standardize_boxes(boxes, aspect: float = 0.41) -> np.ndarray:
@@ -69,40 +68,3 @@ def evaluate_detections(detections, ground_truth, **kw) -> dict:
     return evaluate_frames(dts, gts)
 
 
-#: figure colour of each detector family (the method name's first part)
-FAMILY_COLORS = {"hog": "tab:blue", "acf": "tab:red", "opencv": "tab:gray"}
-
-
-def plot_det_figure(results, path_stem, title=""):
-    """Miss rate against FPPI, log-log, the legend with each method's LAMR (Fig. 3)."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    dash = {"pyramid": "-", "warp": "--", "adapted": ":", "opencv": "-.", "native": "-."}
-    fig, ax = plt.subplots(figsize=(5.5, 4.5))
-    variants = sorted({m.partition("[")[2] for m in results if "[" in m})
-    for m, r in sorted(results.items(), key=lambda kv: kv[1]["lamr"]):
-        fam = m.split("_")[0]
-        ls = dash.get(m.split("_")[-1], "-")
-        if "[" in m:          # an adapted variant (rule, object model): its own dash pattern
-            ls = (0, (4, 1 + variants.index(m.partition("[")[2]), 1, 1))
-        fppi = np.r_[1e-3, r["fppi"]] if len(r["fppi"]) else np.array([1e-3, 10])
-        mr = np.r_[1.0, r["miss_rate"]] if len(r["miss_rate"]) else np.array([1.0, 1.0])
-        ax.step(np.maximum(fppi, 1e-3), mr, where="post", ls=ls, lw=2,
-                color=FAMILY_COLORS.get(fam, "k"), label=f"{100 * r['lamr']:.1f}% {m}")
-    ax.set_xscale("log")
-    ax.set_yscale("log")
-    ax.set_xlim(1e-2, 1e1)
-    ax.set_ylim(5e-2, 1.0)
-    ax.set_xlabel("false positives per image")
-    ax.set_ylabel("miss rate")
-    ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=8, loc="lower left", title="log-average miss rate")
-    if title:
-        ax.set_title(title, fontsize=9)
-    fig.tight_layout()
-    fig.savefig(f"{path_stem}.png", dpi=150)
-    fig.savefig(f"{path_stem}.pdf")
-    plt.close(fig)

@@ -2,7 +2,7 @@
 
 A :class:`DetectorKind` holds everything the full-frame code needs to know about one
 detector: its features (:class:`~viewadapt.detect.templates.FeatureKind`: layout, frame
-cell maps, frame ``G``), its model within :class:`~viewadapt.detect.models.SourceDetectors`,
+cell maps, frame ``G``), its model within :class:`~viewadapt.io.models.SourceDetectors`,
 how its adapted operator is built, its template tolerance and its non-maximum suppression.
 :class:`~viewadapt.detect.FrameDetector`, the frames benchmark, its runtime table and the
 training of the source detectors all read these specs instead of switching on names.

@@ -17,7 +17,7 @@ import numpy as np
 
 from ..geometry import WINDOW_CORNERS, map_points
 from ..nms import detections_from_scores
-from .arrayfile import stored_array, under_prefix, with_prefix
+from viewadapt.arrays import stored_array, under_prefix, with_prefix
 from .channels import check_frame
 from .templates import SnappedBoxes, check_windows
 from .windows import CandidateWindows
@@ -107,7 +107,7 @@ class MultiResolutionOperator(SnappedBoxes):
 
     def to_arrays(self, layer_to_arrays):
         """The operator as ``(meta, arrays)`` (its stored form,
-        :class:`~viewadapt.detect.cache.OperatorCache`): frame size, window count, and per
+        :class:`~viewadapt.io.cache.OperatorCache`): frame size, window count, and per
         layer its factor, rows and operator -- ``layer_to_arrays(op) -> (meta, arrays)``,
         arrays under ``layer{i}/`` -- with ``layer{i}/index`` its windows."""
         meta = dict(image_size=[int(v) for v in self.image_size], n_windows=self.n_windows,

@@ -24,7 +24,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..nms import detections_from_scores
-from .arrayfile import stored_array
+from viewadapt.arrays import stored_array
 from .channels import (
     HOG_CELL, HOG_CHANNELS, HOG_WEIGHT_SHAPE, FrameFeatures, check_frame, hog_frame_features,
 )
@@ -192,7 +192,7 @@ class AdaptedLinearOperator(TemplateOperator):
 
     def to_arrays(self):
         """The operator as ``(meta, arrays)``: JSON-ready metadata and plain arrays (its
-        stored form, :class:`~viewadapt.detect.cache.OperatorCache`); the groups' geometry
+        stored form, :class:`~viewadapt.io.cache.OperatorCache`); the groups' geometry
         and the run tables (``runs_*``: the templates, once, and the distinct positions)."""
         meta, arrays = self._geometry_to_arrays()
         r = self._runs

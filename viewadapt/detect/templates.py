@@ -48,7 +48,7 @@ from ..geometry import (
 from ..mapping import homography_mapping
 from ..objectmodel import PlaneModel, object_model, view_mapping
 from ..remap import CellGrid
-from .arrayfile import stored_array
+from viewadapt.arrays import stored_array
 from .channels import (
     ACF_GRADIENT_LAMBDA, ACF_SHRINK, ACF_WEIGHT_SHAPE, HOG_CELL, HOG_CHANNELS, HOG_WEIGHT_SHAPE,
     N_ACF_CHANNELS, N_ACF_ORIENTS, N_HOG_BINS, FrameFeatures, acf_frame_features,

@@ -25,7 +25,7 @@ import scipy.sparse as sp
 
 from ..boosting import AdaBoostTrees
 from ..nms import detections_from_scores
-from .arrayfile import stored_array, under_prefix, with_prefix
+from viewadapt.arrays import stored_array, under_prefix, with_prefix
 from .channels import (
     ACF_GRADIENT_LAMBDA, ACF_SHRINK, ACF_WEIGHT_SHAPE, N_ACF_CHANNELS, FrameFeatures,
     acf_frame_features, check_frame,
@@ -158,7 +158,7 @@ class AdaptedTreesOperator(TemplateOperator):
 
     def to_arrays(self):
         """The operator as ``(meta, arrays)``: JSON-ready metadata and plain arrays (its
-        stored form, :class:`~viewadapt.detect.cache.OperatorCache`): the groups'
+        stored form, :class:`~viewadapt.io.cache.OperatorCache`): the groups'
         geometry, the model (``model/*``, :meth:`AdaBoostTrees.to_arrays`), each group's
         ``G[used]`` as CSR parts concatenated (``G_indptr``: ``n_used + 1`` entries per
         group, ``G_nnz_ptr`` (G + 1,) offsets into ``G_indices`` / ``G_data``), the window

@@ -51,6 +51,10 @@ __all__ = [
     "check_ground_visible",
     "window_homographies",
     "select_candidate_windows",
+    "person_boxes",
+    "window_scale",
+    "distort_pixels",
+    "windows_through_lens",
 ]
 
 #: The paper's real-world stride, ``8 * 1.75 / 96`` metres (Sec. 5.1).
@@ -146,9 +150,6 @@ def person_boxes(homographies) -> np.ndarray:
     q = map_points(H, np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]]))
     lo, hi = q.min(axis=1), q.max(axis=1)
     return np.concatenate([lo, hi - lo], axis=1)
-
-
-__all__ += ["person_boxes", "window_scale"]
 
 
 def _camera_ground_frame(camera: Camera):
@@ -496,4 +497,3 @@ def windows_through_lens(windows: CandidateWindows, K, dist) -> tuple:
     return out, keep
 
 
-__all__ += ["distort_pixels", "windows_through_lens"]

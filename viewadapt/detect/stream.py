@@ -4,7 +4,7 @@ or split over worker processes with the same results.
 The adapted detector scores world-space candidate windows (Wang et al. 2017, Sec. 5.1), so
 every detection is a window whose person stands at a known ground position:
 :func:`detect_on_ground` returns it with the boxes. :func:`detect_stream` runs a
-:class:`~viewadapt.detect.FrameDetector` over frames (:mod:`viewadapt.detect.video`) in
+:class:`~viewadapt.detect.FrameDetector` over frames (:mod:`viewadapt.io.video`) in
 order, optionally in worker processes, each of which makes the same detector from a
 :class:`DetectorSpec` and loads its adapted operator from the operator cache.
 """
@@ -18,10 +18,10 @@ from typing import Iterator, NamedTuple
 
 import numpy as np
 
-from ..nms import detections_from_scores
-from .channels import check_frame
-from .detector import FrameDetector
-from .kinds import detector_kind
+from viewadapt.detect.channels import check_frame
+from viewadapt.detect.detector import FrameDetector
+from viewadapt.detect.kinds import detector_kind
+from viewadapt.nms import detections_from_scores
 
 __all__ = ["FrameDetections", "detect_on_ground", "DetectorSpec", "detect_stream"]
 
@@ -122,8 +122,8 @@ class DetectorSpec:
     def make(self) -> FrameDetector:
         """A new :class:`FrameDetector` of this spec (its operators built on first use, or
         read from the operator cache)."""
-        from ..geometry import Camera
-        from .models import SourceDetectors
+        from viewadapt.geometry import Camera
+        from viewadapt.io.models import SourceDetectors
 
         return FrameDetector(Camera.from_dict(json.loads(self.camera)),
                              SourceDetectors.load(self.model), **json.loads(self.options))
@@ -148,7 +148,7 @@ def detect_stream(frames, spec: DetectorSpec, *, jobs: int = 1,
     Parameters
     ----------
     frames : iterable of Frame
-        E.g. a :class:`~viewadapt.detect.video.FrameStream`; consumed lazily.
+        E.g. a :class:`~viewadapt.io.video.FrameStream`; consumed lazily.
     spec : DetectorSpec
     jobs : int
         1: in this process, with ``detector`` (or ``spec.make()``). More (or -1, all

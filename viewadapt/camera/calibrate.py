@@ -26,9 +26,9 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from ..geometry import Camera
-from .calibration import check_calibration
-from .distortion import check_distortion
+from viewadapt.camera.checks import check_calibration
+from viewadapt.camera.distortion import check_distortion
+from viewadapt.geometry import Camera
 
 __all__ = [
     "GroundCalibration",
@@ -408,7 +408,7 @@ def calibrate_from_ground_points(image_points, ground_points, image_size, *, foc
     ValueError
         One line: fewer than 4 points, non-finite values, (nearly) collinear points, a
         degenerate focal estimate, a camera recovered below the ground, or a result that
-        fails :func:`~viewadapt.detect.calibration.check_calibration`.
+        fails :func:`~viewadapt.io.calibration.check_calibration`.
     """
     w, h = (int(v) for v in image_size)
     if w <= 0 or h <= 0:

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import csv
 import importlib.util
 import json
 import sys
@@ -10,69 +9,15 @@ from pathlib import Path
 
 import numpy as np
 
-from ..files import UserError, atomic_write_text
-from .calibrate import GroundCalibration, calibrate_from_ground_points
-from .distortion import check_distortion
+from viewadapt.camera.calibrate import GroundCalibration, calibrate_from_ground_points
+from viewadapt.camera.distortion import check_distortion
+from viewadapt.io.calibration import read_correspondences
+from viewadapt.io.files import UserError, atomic_write_text
 
-__all__ = ["register", "cmd_calibrate", "read_correspondences", "calibration_text"]
+__all__ = ["register", "cmd_calibrate", "calibration_text"]
 
-#: Columns of the correspondences CSV: pixels (u, v) and ground metres (X, Y).
-CORRESPONDENCE_COLUMNS = ("u", "v", "X", "Y")
 #: ``--height`` warns when the recovered height differs from it by more than this fraction.
 HEIGHT_TOLERANCE = 0.05
-
-
-def read_correspondences(path) -> tuple[np.ndarray, np.ndarray]:
-    """Image <-> ground-plane correspondences from a CSV with columns ``u, v, X, Y``.
-
-    ``u, v`` are pixels (pixel centres at integers), ``X, Y`` metres on the ground plane
-    ``Z = 0``; other columns are ignored, spaces around values too, and lines starting
-    with ``#`` are comments.
-
-    Returns
-    -------
-    image_points : (N, 2) ndarray
-    ground_points : (N, 2) ndarray
-
-    Raises
-    ------
-    ValueError
-        One line: missing columns, an empty or non-numeric cell, NaN or infinity.
-    """
-    path = Path(path)
-    if not path.is_file():
-        raise FileNotFoundError(f"correspondences file {path} does not exist")
-    try:
-        lines = [ln for ln in path.read_text(encoding="utf-8-sig").splitlines()
-                 if ln.strip() and not ln.lstrip().startswith("#")]
-    except UnicodeDecodeError:
-        raise ValueError(f"{path}: not a text CSV file") from None
-    rows = list(csv.reader(lines, skipinitialspace=True))
-    if not rows:
-        raise ValueError(f"{path}: empty; expected a CSV with the columns u, v, X, Y "
-                         "(pixels and metres)")
-    header = [c.strip() for c in rows[0]]
-    missing = [c for c in CORRESPONDENCE_COLUMNS if c not in header]
-    if missing:
-        raise ValueError(f"{path}: lacks the column(s) {', '.join(missing)} (need u, v, X, "
-                         f"Y: pixels and ground metres; found {', '.join(header) or 'none'})")
-    idx = [header.index(c) for c in CORRESPONDENCE_COLUMNS]
-    data = np.empty((len(rows) - 1, 4))
-    for i, row in enumerate(rows[1:]):
-        line = i + 2
-        for j, (k, c) in enumerate(zip(idx, CORRESPONDENCE_COLUMNS)):
-            cell = row[k].strip() if k < len(row) else ""
-            if not cell:
-                raise ValueError(f"{path}: row {line} has no value in column {c}")
-            try:
-                data[i, j] = float(cell)
-            except ValueError:
-                raise ValueError(f"{path}: row {line}, column {c}: {cell!r} is not a number") \
-                    from None
-            if not np.isfinite(data[i, j]):
-                raise ValueError(f"{path}: row {line}, column {c} is {cell!r}; the values must "
-                                 "be finite")
-    return data[:, :2].copy(), data[:, 2:].copy()
 
 
 def calibration_text(result: GroundCalibration, suffix: str, n_points: int) -> str:

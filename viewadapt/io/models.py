@@ -1,6 +1,6 @@
 """The source-view detectors the full-frame detector adapts, as one object to save and load.
 
-On disk they are an array file (:mod:`viewadapt.detect.arrayfile`) of format
+On disk they are an array file (:mod:`viewadapt.io.arrayfile`) of format
 ``"viewadapt.source_detectors"``: nothing in it is executed when it is read.
 """
 
@@ -11,9 +11,11 @@ from pathlib import Path
 
 import numpy as np
 
-from ..boosting import AdaBoostTrees
-from .arrayfile import read_array_file, stored_array, under_prefix, with_prefix, write_array_file
-from .channels import HOG_WEIGHT_SHAPE
+from viewadapt.arrays import stored_array, under_prefix, with_prefix
+from viewadapt.boosting import AdaBoostTrees
+from viewadapt.detect.channels import HOG_WEIGHT_SHAPE
+from viewadapt.io.arrayfile import read_array_file, write_array_file
+from viewadapt.io.packaged import packaged_path
 
 __all__ = ["SOURCE_DETECTORS_FORMAT", "SOURCE_DETECTORS_VERSION", "SourceDetectors",
            "shipped_model_path"]
@@ -35,9 +37,7 @@ def shipped_model_path() -> Path:
     seed, renderer, content hash) and the version that wrote it. ``viewadapt detect``
     uses them when no ``--model`` is given.
     """
-    from importlib.resources import files
-
-    return Path(str(files("viewadapt") / "data" / _SHIPPED))
+    return packaged_path(_SHIPPED)
 
 
 @dataclass

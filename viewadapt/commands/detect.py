@@ -9,21 +9,23 @@ from pathlib import Path
 
 import numpy as np
 
-from ..files import atomic_output_dir, check_output_dir, run_metadata
-from ..geometry import PERSON_HEIGHT_M
-from ..objectmodel import OBJECT_MODELS
-from ..remap import ANGLE_RULES
-from .cache import DEFAULT_CACHE_LIMIT_GB, check_cache_limit
-from .calibration import read_boxes, read_calibration, read_distortion
-from .detector import FrameDetector
-from .distortion import Undistortion
-from .evaluation import evaluate_detections, plot_det_figure
-from .footage import DetectorSpec, detect_stream
-from .kinds import DETECTOR_KINDS
-from .layers import UPSAMPLE_BELOW
-from .models import SourceDetectors, shipped_model_path
-from .outputs import ANNOTATE_CHOICES, DetectionWriter
-from .video import open_frames, prefetched
+from viewadapt.camera.distortion import Undistortion
+from viewadapt.detect.detector import FrameDetector
+from viewadapt.detect.evaluation import evaluate_detections
+from viewadapt.detect.kinds import DETECTOR_KINDS
+from viewadapt.detect.layers import UPSAMPLE_BELOW
+from viewadapt.detect.stream import DetectorSpec, detect_stream
+from viewadapt.geometry import PERSON_HEIGHT_M
+from viewadapt.io.boxes import read_boxes
+from viewadapt.io.cache import DEFAULT_CACHE_LIMIT_GB, check_cache_limit
+from viewadapt.io.calibration import read_calibration, read_distortion
+from viewadapt.io.files import atomic_output_dir, atomic_write_text, check_output_dir, run_metadata
+from viewadapt.io.models import SourceDetectors, shipped_model_path
+from viewadapt.io.outputs import plot_det_figure
+from viewadapt.io.outputs import ANNOTATE_CHOICES, DetectionWriter
+from viewadapt.io.video import open_frames, prefetched
+from viewadapt.objectmodel import OBJECT_MODELS
+from viewadapt.remap import ANGLE_RULES
 
 __all__ = ["LENS_CHOICES", "DEFAULT_LENS", "register", "cmd_detect", "check_frame_selection",
            "person_heights", "cache_limit", "add_cache_options", "lens_correction"]
@@ -214,10 +216,10 @@ def cmd_detect(args) -> int:
             ev = evaluate_detections(dets, truth)
             evaluation = {"lamr": ev["lamr"], "n_gt": int(sum(len(t[0]) for t in truth)),
                           "fppi": ev["fppi"].tolist(), "miss_rate": ev["miss_rate"].tolist()}
-            (tmp / "evaluation.json").write_text(json.dumps(evaluation))
+            atomic_write_text(tmp / "evaluation.json", json.dumps(evaluation))
             plot_det_figure({f"{args.detector}_adapted": ev}, tmp / "det",
                             title=f"{len(names)} frames, {evaluation['n_gt']} persons")
-        (tmp / "metadata.json").write_text(json.dumps(_metadata(
+        atomic_write_text(tmp / "metadata.json", json.dumps(_metadata(
             args, det, stream, writer, dist, correction, annotate, operator_seconds=t_operator,
             seconds=seconds, cpu_seconds=cpu_seconds), indent=2))
     wrote = ["detections.csv", "detections_coco.json", "det.txt"] + {

@@ -1,32 +1,25 @@
-"""Inputs of the detector on a user's footage: camera calibration files and ground truth.
+"""Camera calibration files, and the ground-point correspondences a calibration is made from.
 
 A calibrated camera is what turns the image search into a search over the ground plane
 (Wang et al. 2017, Sec. 5.1); :func:`read_calibration` reads one from YAML or JSON,
-:func:`read_distortion` its optional lens distortion coefficients.
-:func:`read_boxes` reads optional ground-truth person boxes for evaluation.
+:func:`read_distortion` its optional lens distortion coefficients;
+:func:`read_correspondences` the image <-> ground points ``viewadapt calibrate`` fits a
+camera to.
 """
 
 from __future__ import annotations
 
+import csv
 import json
 from pathlib import Path
 
 import numpy as np
 
-from ..geometry import Camera, camera_from_pose
+from viewadapt.camera.checks import check_calibration
+from viewadapt.camera.distortion import DISTORTION_SIZES
+from viewadapt.geometry import Camera, camera_from_pose
 
-__all__ = ["read_calibration", "read_distortion", "check_calibration", "read_boxes",
-           "read_frame"]
-
-
-def read_frame(path) -> np.ndarray:
-    """A frame as uint8 RGB (M, N, 3); a missing or undecodable file is a ``ValueError``."""
-    import cv2
-
-    img = cv2.imread(str(path), cv2.IMREAD_COLOR)
-    if img is None:
-        raise ValueError(f"frame {path} is missing or cannot be decoded as an image")
-    return np.ascontiguousarray(img[:, :, ::-1])
+__all__ = ["read_calibration", "read_distortion", "read_correspondences", "CORRESPONDENCE_COLUMNS"]
 
 
 def read_calibration(path) -> Camera:
@@ -84,11 +77,6 @@ def read_calibration(path) -> Camera:
     raise ValueError(f"{path}: give either K, R, t or focal, height, tilt")
 
 
-#: How many distortion coefficients OpenCV accepts: (k1, k2, p1, p2[, k3[, k4, k5, k6[, s1,
-#: s2, s3, s4[, tau_x, tau_y]]]]).
-DISTORTION_SIZES = (4, 5, 8, 12, 14)
-
-
 def read_distortion(path) -> np.ndarray | None:
     """The OpenCV lens distortion coefficients of a calibration file, or ``None``.
 
@@ -96,7 +84,7 @@ def read_distortion(path) -> np.ndarray | None:
     k2, p1, p2[, k3[, k4, k5, k6[, s1, s2, s3, s4[, tau_x, tau_y]]]]]`` (radial, tangential,
     thin-prism and tilt terms of ``cv2.projectPoints``; a ``1xN`` or ``Nx1`` nested list is
     flattened). The file's ``K`` is the camera matrix the coefficients refer to, and ``K,
-    R, t`` describe the undistorted frame (:class:`~viewadapt.detect.distortion.Undistortion`).
+    R, t`` describe the undistorted frame (:class:`~viewadapt.camera.distortion.Undistortion`).
 
     Returns
     -------
@@ -188,141 +176,58 @@ def _image_size(value, path) -> tuple:
     return int(w), int(h)
 
 
-def _matrix(value, field, shape, name) -> np.ndarray:
-    try:
-        a = np.asarray(value, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name}: {field} must be {_shape_words(shape)}") from None
-    if a.shape != shape and not (len(shape) == 1 and a.size == shape[0] and a.ndim == 2
-                                 and 1 in a.shape):
-        raise ValueError(f"{name}: {field} must be {_shape_words(shape)}, got shape "
-                         f"{a.shape}")
-    if not np.all(np.isfinite(a)):
-        raise ValueError(f"{name}: {field} has non-finite values (NaN or infinity)")
-    return a.reshape(shape)
+#: Columns of the correspondences CSV: pixels (u, v) and ground metres (X, Y).
+CORRESPONDENCE_COLUMNS = ("u", "v", "X", "Y")
 
 
-def _shape_words(shape) -> str:
-    return "a 3x3 matrix of numbers" if len(shape) == 2 else "3 numbers"
+def read_correspondences(path) -> tuple[np.ndarray, np.ndarray]:
+    """Image <-> ground-plane correspondences from a CSV with columns ``u, v, X, Y``.
 
-
-def check_calibration(K, R, t, image_size, *, name: str = "calibration") -> Camera:
-    """A :class:`~viewadapt.geometry.Camera` from ``K, R, t`` after checking them.
-
-    Parameters
-    ----------
-    K : (3, 3) array_like
-        Intrinsics: finite, upper-triangular (``K[1, 0] = K[2, 0] = K[2, 1] = 0``),
-        ``K[2, 2] > 0`` (divided out if not 1), focal lengths ``fx = K[0, 0]`` and
-        ``fy = K[1, 1]`` positive, principal point ``(K[0, 2], K[1, 2])`` inside the image
-        (``-0.5 .. width - 0.5``, ``-0.5 .. height - 0.5``). The skew ``K[0, 1]`` may be
-        non-zero.
-    R : (3, 3) array_like
-        World-to-camera rotation: ``R R^T = I`` within 1e-6 (then re-orthonormalised to
-        the nearest rotation) and ``det R = +1``.
-    t : (3,) array_like
-        Finite; the camera centre ``-R^T t`` must lie above the ground (``Z > 0``).
-    image_size : (width, height)
-    name : str
-        Starts every error message (e.g. ``"calibration cam.yaml"``).
+    ``u, v`` are pixels (pixel centres at integers), ``X, Y`` metres on the ground plane
+    ``Z = 0``; other columns are ignored, spaces around values too, and lines starting
+    with ``#`` are comments.
 
     Returns
     -------
-    Camera
+    image_points : (N, 2) ndarray
+    ground_points : (N, 2) ndarray
 
     Raises
     ------
     ValueError
-        One line naming the field, e.g. ``"calibration cam.yaml: K has a negative focal
-        length (fx = -274)"``.
+        One line: missing columns, an empty or non-numeric cell, NaN or infinity.
     """
-    w, h = image_size
-    K = _matrix(K, "K", (3, 3), name)
-    R = _matrix(R, "R", (3, 3), name)
-    t = _matrix(t, "t", (3,), name)
-    low = {"K[1,0]": K[1, 0], "K[2,0]": K[2, 0], "K[2,1]": K[2, 1]}
-    bad = [f"{k} = {v:g}" for k, v in low.items() if v != 0]
-    if bad:
-        raise ValueError(f"{name}: K must be upper-triangular ({', '.join(bad)}; expected "
-                         "[[fx, s, cx], [0, fy, cy], [0, 0, 1]])")
-    if K[2, 2] <= 0:
-        raise ValueError(f"{name}: K[2,2] must be positive (normally 1), got {K[2, 2]:g}")
-    K = K / K[2, 2]
-    for f, v in (("fx", K[0, 0]), ("fy", K[1, 1])):
-        if v <= 0:
-            raise ValueError(f"{name}: K has a {'negative' if v < 0 else 'zero'} focal "
-                             f"length ({f} = {v:g})")
-    cx, cy = K[0, 2], K[1, 2]
-    if not (-0.5 <= cx <= w - 0.5 and -0.5 <= cy <= h - 0.5):
-        raise ValueError(f"{name}: K's principal point (cx, cy) = ({cx:g}, {cy:g}) lies "
-                         f"outside the {w}x{h} image")
-    dev = float(np.abs(R @ R.T - np.eye(3)).max())
-    if dev > 1e-6:
-        raise ValueError(f"{name}: R is not a rotation (R R^T differs from the identity by "
-                         f"{dev:.2g}, more than 1e-6)")
-    det = float(np.linalg.det(R))
-    if det < 0:
-        raise ValueError(f"{name}: R has determinant {det:.3g}, not +1 (a reflection, not a "
-                         "rotation)")
-    if dev > 1e-12:                             # the nearest rotation (Camera's own
-        U, _, Vt = np.linalg.svd(R)             # check allows 1e-8)
-        R = U @ Vt
-    centre = -R.T @ t
-    if centre[2] <= 0:
-        raise ValueError(f"{name}: the camera centre -R^T t is at height {centre[2]:g} m, "
-                         "at or below the ground plane Z = 0 (world Z is up; check the sign "
-                         "of t)")
-    return Camera(K, R, t, (int(w), int(h)))
-
-
-def read_boxes(path, frame_paths) -> dict:
-    """Ground-truth person boxes of a user's frames, from CSV or COCO JSON.
-
-    CSV: a header with ``frame, x, y, w, h`` (pixels, top-left corner and size) and
-    optionally ``occlusion`` (hidden fraction, 0..1); ``frame`` is the frame's file name or
-    path. COCO: ``images`` with ``id`` and ``file_name``, ``annotations`` with ``image_id``
-    and ``bbox`` ``[x, y, w, h]`` (and optionally ``occlusion``). Frames are matched by file
-    name; a frame without boxes has no persons.
-
-    Returns
-    -------
-    dict file name -> ((G, 4) boxes, (G,) occlusion)
-    """
-    import pandas as pd
-
     path = Path(path)
     if not path.is_file():
-        raise FileNotFoundError(f"boxes file {path} does not exist")
-    names = {Path(p).name for p in frame_paths}
+        raise FileNotFoundError(f"correspondences file {path} does not exist")
     try:
-        if path.suffix.lower() == ".json":
-            d = json.loads(path.read_text())
-            files = {im["id"]: Path(im["file_name"]).name for im in d["images"]}
-            rows = [(files[a["image_id"]], *a["bbox"], float(a.get("occlusion", 0.0)))
-                    for a in d["annotations"]]
-            df = pd.DataFrame(rows, columns=["frame", "x", "y", "w", "h", "occlusion"])
-        else:
-            df = pd.read_csv(path)
-            missing = {"frame", "x", "y", "w", "h"} - set(df.columns)
-            if missing:
-                raise ValueError(f"lacks the columns {sorted(missing)} (need frame, x, y, w, h"
-                                 "[, occlusion])")
-            if "occlusion" not in df.columns:
-                df["occlusion"] = 0.0
-            df["frame"] = [Path(str(f)).name for f in df["frame"]]
-    except (KeyError, TypeError, json.JSONDecodeError, pd.errors.ParserError) as exc:
-        raise ValueError(f"{path}: not a boxes CSV or COCO file ({exc})") from None
-    except ValueError as exc:
-        raise ValueError(f"{path}: {exc}") from None
-    vals = df[["x", "y", "w", "h", "occlusion"]].to_numpy(np.float64)
-    if not np.all(np.isfinite(vals)) or (vals[:, 2:4] <= 0).any():
-        raise ValueError(f"{path}: boxes need finite x, y and positive w, h")
-    if len(df) and not set(df["frame"]) & names:
-        raise ValueError(f"{path}: none of its frames ({', '.join(sorted(set(df['frame']))[:3])}"
-                         f" ...) is among the frames given")
-    out = {}
-    for n in names:
-        d = df[df["frame"] == n]
-        out[n] = (d[["x", "y", "w", "h"]].to_numpy(np.float64).reshape(-1, 4),
-                  d["occlusion"].to_numpy(np.float64))
-    return out
+        lines = [ln for ln in path.read_text(encoding="utf-8-sig").splitlines()
+                 if ln.strip() and not ln.lstrip().startswith("#")]
+    except UnicodeDecodeError:
+        raise ValueError(f"{path}: not a text CSV file") from None
+    rows = list(csv.reader(lines, skipinitialspace=True))
+    if not rows:
+        raise ValueError(f"{path}: empty; expected a CSV with the columns u, v, X, Y "
+                         "(pixels and metres)")
+    header = [c.strip() for c in rows[0]]
+    missing = [c for c in CORRESPONDENCE_COLUMNS if c not in header]
+    if missing:
+        raise ValueError(f"{path}: lacks the column(s) {', '.join(missing)} (need u, v, X, "
+                         f"Y: pixels and ground metres; found {', '.join(header) or 'none'})")
+    idx = [header.index(c) for c in CORRESPONDENCE_COLUMNS]
+    data = np.empty((len(rows) - 1, 4))
+    for i, row in enumerate(rows[1:]):
+        line = i + 2
+        for j, (k, c) in enumerate(zip(idx, CORRESPONDENCE_COLUMNS)):
+            cell = row[k].strip() if k < len(row) else ""
+            if not cell:
+                raise ValueError(f"{path}: row {line} has no value in column {c}")
+            try:
+                data[i, j] = float(cell)
+            except ValueError:
+                raise ValueError(f"{path}: row {line}, column {c}: {cell!r} is not a number") \
+                    from None
+            if not np.isfinite(data[i, j]):
+                raise ValueError(f"{path}: row {line}, column {c} is {cell!r}; the values must "
+                                 "be finite")
+    return data[:, :2].copy(), data[:, 2:].copy()

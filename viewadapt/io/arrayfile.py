@@ -21,11 +21,10 @@ from pathlib import Path
 
 import numpy as np
 
-from ..files import atomic_path
-from ..version import __version__
+from viewadapt.io.files import atomic_path
+from viewadapt.version import __version__
 
-__all__ = ["ArrayFileError", "write_array_file", "read_array_file", "stored_array",
-           "with_prefix", "under_prefix"]
+__all__ = ["ArrayFileError", "write_array_file", "read_array_file"]
 
 #: the entry that holds the JSON metadata
 METADATA_KEY = "metadata"
@@ -126,33 +125,3 @@ def read_array_file(path, fmt: str, version: int, *, remedy: str):
     return meta, arrays
 
 
-def stored_array(arrays: dict, key: str, kinds: str, *, ndim=None, shape=None,
-                 finite: bool = True) -> np.ndarray:
-    """``arrays[key]`` after checking it: present, of a dtype kind in ``kinds`` (``"b"``
-    bool, ``"i"``/``"u"`` integers, ``"f"`` floats, ``"U"`` text), of ``ndim`` dimensions
-    and of ``shape`` (``None`` entries match any length), and (with ``finite``) without
-    NaN or infinite values; ``ValueError`` otherwise."""
-    if key not in arrays:
-        raise ValueError(f"it lacks the array {key!r}")
-    a = arrays[key]
-    if a.dtype.kind not in kinds:
-        raise ValueError(f"its array {key!r} is of dtype {a.dtype}")
-    if ndim is not None and a.ndim != ndim:
-        raise ValueError(f"its array {key!r} has {a.ndim} dimensions, not {ndim}")
-    if shape is not None and (a.ndim != len(shape) or any(
-            s is not None and s != n for s, n in zip(shape, a.shape))):
-        raise ValueError(f"its array {key!r} has shape {a.shape}, not {tuple(shape)}")
-    if finite and a.dtype.kind == "f" and not np.all(np.isfinite(a)):
-        raise ValueError(f"its array {key!r} holds NaN or infinite values")
-    return a
-
-
-def with_prefix(prefix: str, arrays: dict) -> dict:
-    """``arrays`` with ``prefix`` before every name (an object's arrays inside another's)."""
-    return {prefix + k: v for k, v in arrays.items()}
-
-
-def under_prefix(prefix: str, arrays: dict) -> dict:
-    """The arrays named ``prefix...``, without the prefix (inverse of :func:`with_prefix`)."""
-    n = len(prefix)
-    return {k[n:]: v for k, v in arrays.items() if k.startswith(prefix)}

@@ -20,10 +20,9 @@ from typing import Iterator, NamedTuple
 
 import numpy as np
 
-from .calibration import read_frame
 
 __all__ = ["IMAGE_SUFFIXES", "Frame", "FrameStream", "open_frames", "natural_sort_key",
-           "prefetched"]
+           "prefetched", "read_frame"]
 
 #: File name suffixes read as still images (anything else is opened as a video).
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".webp", ".ppm", ".pgm",
@@ -336,3 +335,13 @@ def prefetched(items, depth: int = 4) -> Iterator:
     finally:
         stop.set()
         worker.join()
+
+
+def read_frame(path) -> np.ndarray:
+    """A frame as uint8 RGB (M, N, 3); a missing or undecodable file is a ``ValueError``."""
+    import cv2
+
+    img = cv2.imread(str(path), cv2.IMREAD_COLOR)
+    if img is None:
+        raise ValueError(f"frame {path} is missing or cannot be decoded as an image")
+    return np.ascontiguousarray(img[:, :, ::-1])

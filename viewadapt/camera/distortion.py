@@ -19,9 +19,8 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from .calibration import DISTORTION_SIZES
 
-__all__ = ["Undistortion", "distort_image", "check_distortion"]
+__all__ = ["DISTORTION_SIZES", "Undistortion", "distort_image", "check_distortion"]
 
 #: Iterations and tolerance (normalised coordinates) of ``cv2.undistortPointsIter``, which
 #: inverts the distortion model by fixed-point iteration.
@@ -147,3 +146,8 @@ def distort_image(img: np.ndarray, K, dist, *, border_value: float = 0.0) -> np.
     return cv2.remap(img, src[..., 0].astype(np.float32), src[..., 1].astype(np.float32),
                      cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT,
                      borderValue=float(border_value))
+
+
+#: How many distortion coefficients OpenCV accepts: (k1, k2, p1, p2[, k3[, k4, k5, k6[, s1,
+#: s2, s3, s4[, tau_x, tau_y]]]]).
+DISTORTION_SIZES = (4, 5, 8, 12, 14)

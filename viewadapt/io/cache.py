@@ -3,7 +3,7 @@
 Building a camera's adapted operators (every template's ``G^T w`` or ``G[used]``) is the
 offline step of Wang et al. (2017, Sec. 5.1); the cache makes it once per camera and model.
 
-An entry is an array file (:mod:`viewadapt.detect.arrayfile`) of format
+An entry is an array file (:mod:`viewadapt.io.arrayfile`) of format
 ``"viewadapt.operator"``, never a pickle: the operator's own arrays (templates, ``G`` rows,
 run tables, geometry) with JSON metadata naming its class from :data:`OPERATOR_CLASSES`
 and its feature maker from :data:`~viewadapt.detect.templates.FEATURE_MAKERS`; loading
@@ -17,11 +17,11 @@ from pathlib import Path
 
 import numpy as np
 
-from ..version import __version__
-from .arrayfile import read_array_file, write_array_file
-from .layers import MultiResolutionOperator
-from .linear import AdaptedLinearOperator
-from .trees import AdaptedTreesOperator
+from viewadapt.detect.layers import MultiResolutionOperator
+from viewadapt.detect.linear import AdaptedLinearOperator
+from viewadapt.detect.trees import AdaptedTreesOperator
+from viewadapt.io.arrayfile import read_array_file, write_array_file
+from viewadapt.version import __version__
 
 __all__ = ["DEFAULT_CACHE_LIMIT_GB", "check_cache_limit", "OPERATOR_FORMAT", "OPERATOR_CLASSES",
            "operator_to_arrays", "operator_from_arrays", "OperatorCache"]

@@ -29,12 +29,12 @@ import threading
 import time
 from pathlib import Path
 
-from .version import __version__
+from viewadapt.version import __version__
 
 __all__ = ["UserError", "RunError", "MARKER", "atomic_path", "atomic_write_bytes",
            "atomic_write_text", "atomic_output_dir", "check_output_dir", "claim_output_dir",
            "is_project_output", "read_marker", "write_marker", "clean_stale_partials",
-           "current_command", "running_command", "umask", "run_metadata"]
+           "current_command", "running_command", "umask", "run_metadata", "FailedRunCleanup"]
 
 #: the marker file in every output directory the project writes
 MARKER = ".viewadapt-output"
@@ -350,3 +350,56 @@ def run_metadata(seed=None, **extra) -> dict:
             "seed": seed, "created": time.strftime("%Y-%m-%dT%H:%M:%S"),
             "numpy": np.__version__, "scipy": scipy.__version__, "opencv": cv2.__version__,
             "scikit-learn": sklearn.__version__} | extra
+
+
+def _files_under(d: Path) -> set:
+    if not d.is_dir():
+        return set()
+    return {p.relative_to(d).as_posix() for p in d.rglob("*") if p.is_file()}
+
+
+class FailedRunCleanup:
+    """What a failed or interrupted command leaves in its ``--out``.
+
+    Outputs are atomic, so a failing command leaves only what it wrote outside them
+    (caches). Empty folders it made go; if it made ``--out`` and left nothing in it, that
+    goes too; files it left (cached features or operators, a demo's dataset: a rerun
+    reuses them) are kept, named in the error line, and ``--out`` stays marked as the
+    project's so a rerun is accepted. ``generate`` is not handled here: its images are
+    kept for a resume and it says so itself.
+    """
+
+    def __init__(self, out, name: str):
+        self.out = Path(out)
+        self.name = name
+        self.existed = self.out.exists()
+        self.before = _files_under(self.out)
+        self.dirs_before = ({p for p in self.out.rglob("*") if p.is_dir()}
+                            if self.out.is_dir() else set())
+        self.marked_before = (self.out / MARKER).is_file()
+
+    def finish(self) -> str:
+        """Clean up after a failure; returns what was kept, for the error line."""
+        if not self.out.is_dir():
+            return "nothing was written"
+        made = (p for p in self.out.rglob("*") if p.is_dir() and p not in self.dirs_before)
+        for d in sorted(made, key=lambda p: len(p.parts), reverse=True):
+            try:
+                d.rmdir()                        # only empty folders this run made
+            except OSError:
+                pass
+        new = sorted(_files_under(self.out) - self.before - {MARKER})
+        if not new:
+            if not self.marked_before:           # the marker this run put there goes too
+                (self.out / MARKER).unlink(missing_ok=True)
+            if not self.existed:
+                try:
+                    self.out.rmdir()
+                except OSError:
+                    pass
+                return "nothing was written"
+            return f"nothing in {self.out} was changed"
+        tops = sorted({f.split("/", 1)[0] + ("/" if "/" in f else "") for f in new})
+        write_marker(self.out, self.name)
+        return (f"kept {len(new)} file(s) it wrote under {self.out}: {', '.join(tops)}; a "
+                "rerun reuses them")
