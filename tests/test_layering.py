@@ -186,3 +186,15 @@ def test_no_module_imports_another_modules_private_names():
     bad = [f"{m}:{line} imports {n} from {t}" for m, t, n, line in names
            if n.startswith("_") and not n.startswith("__")]
     assert not bad, "\n".join(bad)
+
+
+#: a module (or test file) past this many lines is two modules
+MAX_LINES = 600
+
+
+def test_no_file_is_over_600_lines():
+    files = [p for pkg in PACKAGES + ("tests",) for p in (ROOT / pkg).rglob("*.py")
+             if ".venv" not in p.parts]
+    long = sorted(f"{p.relative_to(ROOT)}: {n}" for p in files
+                  if (n := len(p.read_text(encoding="utf-8").splitlines())) > MAX_LINES)
+    assert not long, "files over 600 lines:\n" + "\n".join(long)

@@ -30,10 +30,11 @@ from generator.verify import verify_dataset
 from viewadapt.geometry import (
     apply_homography, crop_camera, crop_homography, window_to_image_homography,
 )
+from tests.paths import REPO as REPO_ROOT
 
-from .tolerances import EXACT
+from tests.tolerances import EXACT
 
-ASSETS = Path(__file__).resolve().parent.parent / "assets"
+ASSETS = REPO_ROOT / "assets"
 
 
 @pytest.fixture(scope="module")
@@ -64,7 +65,7 @@ def test_import_generator_pulls_no_blender_or_torch():
 
 
 def test_only_one_module_imports_bpy():
-    src = Path(__file__).resolve().parent.parent / "generator"
+    src = REPO_ROOT / "generator"
     users = sorted(p.name for p in src.glob("*.py") if "import bpy" in p.read_text())
     assert users == ["blender.py"]
     torch_users = sorted(p.name for p in src.glob("*.py")

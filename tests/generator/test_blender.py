@@ -14,7 +14,6 @@ import subprocess
 import sys
 import textwrap
 import time
-from pathlib import Path
 
 import cv2
 import numpy as np
@@ -32,6 +31,7 @@ from generator.verify import verify_dataset  # noqa: E402
 from viewadapt.geometry import (  # noqa: E402
     Camera, apply_homography, camera_from_pose, crop_camera,
 )
+from tests.paths import REPO as REPO_ROOT  # noqa: E402
 
 pytestmark = pytest.mark.blender
 
@@ -44,7 +44,7 @@ MICRO = dict(preset="micro", person_ids=("p001", "p002", "p004"),
              scene_ids=("plaza", "warehouse"), instances=1, backgrounds_per_scene=1,
              frames=1, persons_per_frame=(2, 3), samples=4, background_samples=4,
              frame_samples=8)
-REPO = Path(__file__).resolve().parent.parent
+REPO = REPO_ROOT
 
 
 def _micro_config():

@@ -4,7 +4,6 @@
 import re
 import sys
 import textwrap
-from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -13,9 +12,10 @@ import pytest
 from benchmark.crops.detectors import BUILTIN_DETECTORS, detector_spec
 from benchmark.toydata import make_toy_dataset
 from viewadapt.cli import main
+from tests.paths import REPO as REPO_ROOT
 
 #: the worked example of docs/detectors.md: its python code block, run as a user's module
-DOC = Path(__file__).resolve().parents[1] / "docs" / "detectors.md"
+DOC = REPO_ROOT / "docs" / "detectors.md"
 USER_MODULE = re.search(r"```python\n(.*?)```", DOC.read_text(encoding="utf-8"), re.S).group(1)
 
 

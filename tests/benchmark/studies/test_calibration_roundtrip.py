@@ -35,7 +35,7 @@ OUTPUTS = ("calibration_roundtrip.csv", "calibration_summary.csv", "calibration_
 
 @pytest.fixture(scope="module")
 def toy(tmp_path_factory):
-    """The frames of tests/test_fullframe_bench.py's toy set: one camera, two frames."""
+    """The frames of tests/benchmark/frames/test_command.py's toy set: one camera, two frames."""
     return small_toy_frames(tmp_path_factory.mktemp("tf") / "data")
 
 
