@@ -20,10 +20,18 @@ Modules (public names are re-exported here):
   -- linear SVM, boosted trees.
 * :mod:`viewadapt.metrics` (matching: :mod:`viewadapt.matching`), :mod:`viewadapt.nms`,
   :mod:`viewadapt.boxes` -- evaluation.
-* :mod:`viewadapt.io.files` -- atomic files and output folders, run metadata.
-* :mod:`viewadapt.detect` (a subpackage) -- full-frame detection on a calibrated camera:
-  world-space candidate windows, the per-position adapted detectors applied as one
-  operator, and :class:`viewadapt.detect.FrameDetector`.
+* :mod:`viewadapt.arrays` -- named arrays checked as they are read back.
+
+Subpackages (names not re-exported here):
+
+* :mod:`viewadapt.detect` -- full-frame detection on a calibrated camera: world-space
+  candidate windows, the per-position adapted detectors applied as one operator, and
+  :class:`viewadapt.detect.FrameDetector`.
+* :mod:`viewadapt.camera` -- a camera from ground-point correspondences; lens distortion.
+* :mod:`viewadapt.io` -- every file the library reads or writes: models, the operator
+  cache, calibration files, videos, ``detect``'s outputs, atomic output folders.
+* :mod:`viewadapt.commands`, :mod:`viewadapt.cli` -- ``viewadapt detect``, ``viewadapt
+  calibrate`` and the command line.
 
 ``import viewadapt`` never imports Blender (bpy), torch or anny.
 """

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["stored_array", "with_prefix", "under_prefix"]
+__all__ = ["stored_array", "with_prefix", "under_prefix", "is_int", "is_json_scalar"]
 
 
 def stored_array(arrays: dict, key: str, kinds: str, *, ndim=None, shape=None,
@@ -39,3 +39,13 @@ def under_prefix(prefix: str, arrays: dict) -> dict:
     """The arrays named ``prefix...``, without the prefix (inverse of :func:`with_prefix`)."""
     n = len(prefix)
     return {k[n:]: v for k, v in arrays.items() if k.startswith(prefix)}
+
+
+def is_int(v) -> bool:
+    """An integer (Python or numpy), not a bool."""
+    return isinstance(v, (int, np.integer)) and not isinstance(v, bool)
+
+
+def is_json_scalar(v) -> bool:
+    """None, a string, a number or a bool: a value JSON keeps as it is."""
+    return v is None or isinstance(v, (str, int, float, bool))

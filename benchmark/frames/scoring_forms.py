@@ -2,7 +2,7 @@
 
 The operators of :mod:`viewadapt.detect` score with one compiled loop each. These are the
 same operators written other ways; ``bench runtime`` times them against the compiled loops
-and the tests check that all agree:
+(:func:`scoring_forms_ms`) and the tests check that all agree:
 
 * linear -- ``"sparse"``: one CSR matrix (a row per distinct scored position) times the
   concatenated cell maps; ``"template"``: one ``cv2.matchTemplate`` cross-correlation per
@@ -15,6 +15,7 @@ and the tests check that all agree:
 
 from __future__ import annotations
 
+import time
 import weakref
 
 import numpy as np
@@ -26,7 +27,7 @@ from viewadapt.detect import (
     correlate_slices,
 )
 
-__all__ = ["LINEAR_FORMS", "TREES_FORMS", "linear_scores", "trees_scores"]
+__all__ = ["LINEAR_FORMS", "TREES_FORMS", "linear_scores", "trees_scores", "scoring_forms_ms"]
 
 LINEAR_FORMS = ("sparse", "template", "gather")
 #: each linear operator's CSR form, built on first use (kept outside the operator, so it
@@ -50,6 +51,39 @@ def linear_scores(op, features, form: str) -> np.ndarray:
     if form not in LINEAR_FORMS:
         raise ValueError(f"form must be one of {LINEAR_FORMS}, got {form!r}")
     return _per_layer(op, features, lambda o, f: _linear(o, f, form))
+
+
+def _median_ms(fn, repeat):
+    ts = []
+    for _ in range(repeat):
+        t = time.perf_counter()
+        fn()
+        ts.append(time.perf_counter() - t)
+    return round(1e3 * float(np.median(ts)), 2)
+
+
+def scoring_forms_ms(hog, acf, frame, repeat=3):
+    """Milliseconds (median, rounded to 0.01) of scoring ``frame`` with the adapted
+    operators' compiled loops and with other forms of the same operators.
+
+    ``hog`` and ``acf`` are the adapted HOG and ACF operators; the slow forms
+    (``"template"``, ``"gather"``) are timed twice, the others ``repeat`` times. Returns
+    (HOG forms, ACF forms), each a dict from the form in words to milliseconds.
+    """
+    f0, a0 = hog.frame_features(frame), acf.frame_features(frame)
+    hog_forms = {"runs: compiled loop over distinct positions (default)":
+                 _median_ms(lambda: hog.scores(f0), repeat),
+                 "sparse, one row per distinct position":
+                 _median_ms(lambda: linear_scores(hog, f0, "sparse"), repeat),
+                 "template: matchTemplate per shared template":
+                 _median_ms(lambda: linear_scores(hog, f0, "template"), 2),
+                 "gather: patch x template per window":
+                 _median_ms(lambda: linear_scores(hog, f0, "gather"), 2)}
+    acf_forms = {"cascade: compiled loop, the positions of a group together (default)":
+                 _median_ms(lambda: acf.scores(a0), repeat),
+                 "blocks: numpy, blocks of trees over the positions still alive":
+                 _median_ms(lambda: trees_scores(acf, a0, "blocks"), repeat)}
+    return hog_forms, acf_forms
 
 
 def _linear(op: AdaptedLinearOperator, features, form):

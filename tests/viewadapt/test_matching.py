@@ -1,26 +1,17 @@
-"""Tests for viewadapt.matching and the frame accumulation of viewadapt.metrics.
-
-Each stage is checked three ways: golden values worked out by hand (in the comments),
-properties, and a plain-loop port of Dollár's toolbox (bbGt evalRes/compOas, dbEval
-compRoc) that the fast numpy code must reproduce.
+"""Matching detections to ground truth on each frame and accumulating the frames' matches
+into a DET curve (viewadapt.matching, viewadapt.metrics): golden values worked out by hand
+and plain-loop ports of the toolbox's bbGt evalRes/compOas and dbEval compRoc.
 """
 
 import numpy as np
 import pytest
 
 from tests.tolerances import EXACT
-from tests.viewadapt.toolbox_reference import toolbox_lamr
+from tests.viewadapt.toolbox_reference import APPROX, toolbox_lamr
 from viewadapt.metrics import (
-    FPPI_REFERENCE,
-    FrameMatch,
-    accumulate_frames,
-    evaluate_frames,
-    log_average_miss_rate,
+    FPPI_REFERENCE, FrameMatch, accumulate_frames, evaluate_frames, log_average_miss_rate,
     match_detections,
 )
-
-#: pytest.approx spelling of EXACT (float64 arithmetic on counts; no iterative algorithm).
-APPROX = dict(rel=EXACT["rtol"], abs=EXACT["atol"])
 
 # ============================================================================ references
 

@@ -10,7 +10,7 @@ import pytest
 from sklearn.metrics import roc_curve
 
 from tests.tolerances import EXACT
-from tests.viewadapt.toolbox_reference import toolbox_lamr
+from tests.viewadapt.toolbox_reference import APPROX, toolbox_lamr
 from viewadapt.metrics import (
     FPPI_REFERENCE,
     det_curve_windows,
@@ -19,8 +19,6 @@ from viewadapt.metrics import (
     miss_rate_at_fppw,
 )
 
-#: pytest.approx spelling of EXACT (float64 arithmetic on counts; no iterative algorithm).
-APPROX = dict(rel=EXACT["rtol"], abs=EXACT["atol"])
 
 # ============================================================================ references
 

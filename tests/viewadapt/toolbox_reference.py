@@ -2,6 +2,11 @@
 
 import math
 
+from tests.tolerances import EXACT
+
+#: pytest.approx spelling of EXACT (float64 arithmetic on counts; no iterative algorithm).
+APPROX = dict(rel=EXACT["rtol"], abs=EXACT["atol"])
+
 
 def toolbox_lamr(xs, ys, ref):
     """Plain-loop port of dbEval: xs = fppi, ys = recall, curve by decreasing score.

@@ -23,8 +23,8 @@ HEIGHT_TOLERANCE = 0.05
 def calibration_text(result: GroundCalibration, suffix: str, n_points: int) -> str:
     """The calibration file of ``result`` as YAML (``.yaml``/``.yml``) or JSON (``.json``).
 
-    ``image_size, K, R, t`` (and ``dist``) as :func:`~viewadapt.detect.read_calibration`
-    and :func:`~viewadapt.detect.read_distortion` read them, full float precision; then the
+    ``image_size, K, R, t`` (and ``dist``) as :func:`~viewadapt.io.read_calibration`
+    and :func:`~viewadapt.io.read_distortion` read them, full float precision; then the
     informational ``reprojection_error_px`` (RMS), ``camera_height_m``, ``tilt_deg``,
     ``focal`` (``"estimated"`` or ``"given"``) and ``correspondences``.
     """

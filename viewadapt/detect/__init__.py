@@ -11,8 +11,10 @@ Modules:
 * :mod:`~viewadapt.detect.windows` -- candidate windows over the ground plane (Sec. 5.1).
 * :mod:`~viewadapt.detect.channels` -- frame features: per-pixel channels once, cell maps
   at every size the windows need; the same features of a canonical window.
-* :mod:`~viewadapt.detect.templates` -- windows grouped into shared templates; the frame
-  ``G`` of each feature kind.
+* :mod:`~viewadapt.detect.templates` -- windows grouped into shared templates.
+* :mod:`~viewadapt.detect.frame_remap` -- the frame ``G`` of a template, for any object
+  model; :mod:`~viewadapt.detect.features` -- the feature families (HOG, ACF) the
+  operators read.
 * :mod:`~viewadapt.detect.linear`, :mod:`~viewadapt.detect.trees` -- the adapted HOG/SVM
   and ACF operators.
 * :mod:`~viewadapt.detect.layers` -- small persons' windows on an upsampled frame band.
@@ -47,9 +49,15 @@ from .channels import (
 from .templates import (
     FRAME_CELL_SIZES, CELLS_PER_SOURCE_CELL, HOG_TOLERANCE, ACF_TOLERANCE, choose_cell_sizes,
     group_windows, patch_grid, TemplateGroup, build_template_groups, required_padding,
-    check_windows, SOURCE_DISTANCE_M, resolve_object_model, window_mapping, hog_frame_remap,
-    acf_frame_remap, acf_gradient_rows, SnappedBoxes, TemplateOperator, FeatureKind, HOG_FEATURES,
-    ACF_FEATURES, FEATURE_MAKERS, feature_maker_to_dict, feature_maker_from_dict,
+    check_windows, SnappedBoxes, TemplateOperator,
+)
+from .frame_remap import (
+    SOURCE_DISTANCE_M, resolve_object_model, window_mapping, hog_frame_remap, acf_frame_remap,
+    acf_gradient_rows,
+)
+from .features import (
+    FeatureKind, HOG_FEATURES, ACF_FEATURES, FEATURE_MAKERS, feature_maker_to_dict,
+    feature_maker_from_dict,
 )
 from .linear import AdaptedLinearOperator, build_adapted_linear_operator
 from .trees import AdaptedTreesOperator, build_adapted_trees_operator
@@ -59,8 +67,8 @@ from .layers import (
 )
 from .frameview import FRAME_VIEW_SCALES, frame_view, frame_view_features, frame_view_copies
 from .kinds import DetectorKind, HOG_DETECTOR, ACF_DETECTOR, DETECTOR_KINDS, detector_kind
-from .detector import DEFAULT_THRESHOLD, FrameDetector
-from .stream import FrameDetections, detect_on_ground, DetectorSpec, detect_stream
+from .detector import DEFAULT_THRESHOLD, FrameDetections, FrameDetector
+from .stream import DetectorSpec, detect_stream
 from .evaluation import standardize_boxes, ground_truth_rows, evaluate_detections
 
 __all__ = [
@@ -74,16 +82,15 @@ __all__ = [
     "block_normalize_cells", "hog_window_features", "acf_window_features", "hog_frame_features",
     "acf_frame_features", "FRAME_CELL_SIZES", "CELLS_PER_SOURCE_CELL", "HOG_TOLERANCE",
     "ACF_TOLERANCE", "choose_cell_sizes", "group_windows", "patch_grid", "TemplateGroup",
-    "build_template_groups", "required_padding", "check_windows", "SOURCE_DISTANCE_M",
-    "resolve_object_model", "window_mapping", "hog_frame_remap", "acf_frame_remap",
-    "acf_gradient_rows", "SnappedBoxes", "TemplateOperator", "FeatureKind", "HOG_FEATURES",
+    "build_template_groups", "required_padding", "check_windows", "SnappedBoxes",
+    "TemplateOperator", "SOURCE_DISTANCE_M", "resolve_object_model", "window_mapping",
+    "hog_frame_remap", "acf_frame_remap", "acf_gradient_rows", "FeatureKind", "HOG_FEATURES",
     "ACF_FEATURES", "FEATURE_MAKERS", "feature_maker_to_dict", "feature_maker_from_dict",
     "AdaptedLinearOperator", "build_adapted_linear_operator", "AdaptedTreesOperator",
     "build_adapted_trees_operator", "UPSAMPLE_BELOW", "UPSAMPLE_FACTOR", "frame_to_band",
     "upsampled_windows", "upsampled_band", "MultiResolutionOperator",
     "build_multiresolution_operator", "FRAME_VIEW_SCALES", "frame_view", "frame_view_features",
     "frame_view_copies", "DetectorKind", "HOG_DETECTOR", "ACF_DETECTOR", "DETECTOR_KINDS",
-    "detector_kind", "DEFAULT_THRESHOLD", "FrameDetector", "FrameDetections", "detect_on_ground",
-    "DetectorSpec", "detect_stream", "standardize_boxes", "ground_truth_rows",
-    "evaluate_detections",
+    "detector_kind", "DEFAULT_THRESHOLD", "FrameDetections", "FrameDetector", "DetectorSpec",
+    "detect_stream", "standardize_boxes", "ground_truth_rows", "evaluate_detections",
 ]

@@ -9,25 +9,46 @@ Wang et al. (2017, Sec. 5.1) -- and then detects on any number of frames of that
 from __future__ import annotations
 
 import time
+from typing import NamedTuple
 
 import numpy as np
 
+from ..camera.distortion import check_distortion
 from ..geometry import PERSON_HEIGHT_M, Camera
+from ..io.cache import DEFAULT_CACHE_LIMIT_GB, OperatorCache
+from ..io.models import SourceDetectors
 from ..objectmodel import OBJECT_MODELS
 from ..remap import ANGLE_RULES
-from viewadapt.io.cache import DEFAULT_CACHE_LIMIT_GB, OperatorCache
 from .channels import check_frame
-from viewadapt.camera.distortion import check_distortion
 from .kinds import DETECTOR_KINDS, HOG_DETECTOR, detector_kind
 from .layers import UPSAMPLE_BELOW, build_multiresolution_operator
-from viewadapt.io.models import SourceDetectors
 from .templates import CELLS_PER_SOURCE_CELL, HOG_TOLERANCE
 from .windows import select_candidate_windows, windows_through_lens
 
-__all__ = ["DEFAULT_THRESHOLD", "FrameDetector"]
+__all__ = ["DEFAULT_THRESHOLD", "FrameDetections", "FrameDetector"]
 #: Score threshold of the detections kept for non-maximum suppression: low, so that a DET
 #: curve reaches high false-positive rates.
 DEFAULT_THRESHOLD = -1.0
+
+
+class FrameDetections(NamedTuple):
+    """The detections of one frame.
+
+    Attributes
+    ----------
+    boxes : (D, 5) ndarray
+        ``(x, y, w, h, score)`` in frame pixels, by decreasing score (as
+        :meth:`FrameDetector.detect`).
+    window : (D,) int64 ndarray
+        Index of each detection's candidate window in ``detector.windows``.
+    ground_xy : (D, 2) ndarray
+        Where each detected person stands: world ``(X, Y)`` on the ground plane ``Z = 0``,
+        metres.
+    """
+
+    boxes: np.ndarray
+    window: np.ndarray
+    ground_xy: np.ndarray
 
 
 class FrameDetector:
@@ -151,7 +172,41 @@ class FrameDetector:
 
     def detect(self, image, kind: str = "hog") -> np.ndarray:
         """(D, 5) detections ``(x, y, w, h, score)`` of the adapted ``kind`` detector on one
-        frame of this camera, by decreasing score."""
+        frame of this camera, by decreasing score (the boxes of :meth:`detect_on_ground`)."""
+        return self.detect_on_ground(image, kind).boxes
+
+    def detect_on_ground(self, image, kind: str = "hog") -> FrameDetections:
+        """Detections of one frame with the candidate window and ground position of each.
+
+        The operator's window scores, thresholded at ``thresholds[kind]`` and non-maximum
+        suppressed by :func:`~viewadapt.nms.detections_from_scores` with the operator's
+        settings; each kept box is a row of the operator's window boxes with that window's
+        score, and non-maximum suppression names the window it kept.
+
+        Parameters
+        ----------
+        image : (height, width[, 3]) ndarray
+            A frame of this camera (undistorted if the camera has lens distortion and the
+            windows were not mapped through the lens).
+        kind : {"hog", "acf"}
+
+        Returns
+        -------
+        FrameDetections
+
+        Notes
+        -----
+        The ground position of a detection is its candidate window's:
+        ``windows.ground_xy``, the point on the ground below the feet of the person of
+        assumed height the window was built for (the window's feet point
+        :attr:`CandidateWindows.feet <viewadapt.detect.CandidateWindows.feet>` seen on the
+        ground). It is exact for that window, not an approximation through the box: the box
+        reported is the window's snapped to its shared template (a whole-cell shift of at
+        most the template tolerance), so the box's bottom centre can lie a few pixels from
+        the window's feet point.
+        """
         kind = detector_kind(kind).name
-        check_frame(image, self.size)
-        return self.operator(kind).detect(image, threshold=self.thresholds[kind])
+        img = check_frame(image, self.size)
+        dets, window = self.operator(kind).detect(img, threshold=self.thresholds[kind],
+                                                  return_index=True)
+        return FrameDetections(dets, window, self.windows.ground_xy[window].reshape(-1, 2))

@@ -28,10 +28,10 @@ import scipy.sparse as sp
 from .._validation import check_image
 from ..geometry import WINDOW_HEIGHT, WINDOW_WIDTH
 from .channels import HOG_CELL
+from .features import FeatureKind, HOG_FEATURES
 from .layers import UPSAMPLE_BELOW, UPSAMPLE_FACTOR, frame_to_band
 from .templates import (
-    CELLS_PER_SOURCE_CELL, FRAME_CELL_SIZES, HOG_FEATURES, FeatureKind, TemplateGroup,
-    choose_cell_sizes, patch_grid,
+    CELLS_PER_SOURCE_CELL, FRAME_CELL_SIZES, TemplateGroup, choose_cell_sizes, patch_grid,
 )
 from .windows import window_scale
 

@@ -12,8 +12,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from .features import ACF_FEATURES, HOG_FEATURES
 from .linear import AdaptedLinearOperator, build_adapted_linear_operator
-from .templates import ACF_FEATURES, ACF_TOLERANCE, HOG_FEATURES, HOG_TOLERANCE
+from .templates import ACF_TOLERANCE, HOG_TOLERANCE
 from .trees import AdaptedTreesOperator, build_adapted_trees_operator
 
 __all__ = ["DetectorKind", "HOG_DETECTOR", "ACF_DETECTOR", "DETECTOR_KINDS", "detector_kind"]

@@ -15,9 +15,8 @@ from typing import NamedTuple
 
 import numpy as np
 
+from ..arrays import stored_array, under_prefix, with_prefix
 from ..geometry import WINDOW_CORNERS, map_points
-from ..nms import detections_from_scores
-from viewadapt.arrays import stored_array, under_prefix, with_prefix
 from .channels import check_frame
 from .templates import SnappedBoxes, check_windows
 from .windows import CandidateWindows
@@ -190,20 +189,6 @@ class MultiResolutionOperator(SnappedBoxes):
         for layer, feats in zip(self.layers, features):
             out[layer.index] = layer.operator.scores(feats)
         return out
-
-    def detect(self, image, *, threshold: float = 0.0, nms_threshold=None,
-               max_candidates: int = 2000) -> np.ndarray:
-        """Features, scores and non-maximum suppression (as the layers' operator kind).
-
-        Returns
-        -------
-        (D, 5) ndarray of ``(x, y, w, h, score)`` rows in frame pixels, by decreasing score.
-        """
-        s = self.scores(self.frame_features(image))
-        return detections_from_scores(
-            self._cached_boxes(), s, threshold=threshold, overlap=self.nms_overlap,
-            nms_threshold=self.nms_threshold if nms_threshold is None else nms_threshold,
-            max_candidates=max_candidates)
 
 
 def upsampled_band(img, f, rows):

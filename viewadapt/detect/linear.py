@@ -23,15 +23,14 @@ from functools import partial
 import numpy as np
 import scipy.sparse as sp
 
-from ..nms import detections_from_scores
-from viewadapt.arrays import stored_array
+from ..arrays import stored_array
 from .channels import (
-    HOG_CELL, HOG_CHANNELS, HOG_WEIGHT_SHAPE, FrameFeatures, check_frame, hog_frame_features,
+    HOG_CELL, HOG_CHANNELS, HOG_WEIGHT_SHAPE, FrameFeatures, hog_frame_features,
 )
+from .frame_remap import hog_frame_remap, resolve_object_model, window_mapping
 from .templates import (
-    CELLS_PER_SOURCE_CELL, FRAME_CELL_SIZES, HOG_TOLERANCE, TemplateOperator,
-    build_template_groups, check_windows, choose_cell_sizes, hog_frame_remap, required_padding,
-    resolve_object_model, window_mapping,
+    CELLS_PER_SOURCE_CELL, FRAME_CELL_SIZES, HOG_TOLERANCE, TemplateOperator, build_template_groups,
+    check_windows, choose_cell_sizes, required_padding,
 )
 from .windows import CandidateWindows
 
@@ -106,20 +105,6 @@ class AdaptedLinearOperator(TemplateOperator):
     def frame_features(self, image) -> FrameFeatures:
         """The frame's feature maps this operator reads."""
         return self.features(image)
-
-    def detect(self, image, *, threshold: float = 0.0, nms_threshold: float = 0.5,
-               max_candidates: int = 2000) -> np.ndarray:
-        """Features, scores and non-maximum suppression on one frame.
-
-        Returns
-        -------
-        (D, 5) ndarray of ``(x, y, w, h, score)`` rows, by decreasing score.
-        """
-        check_frame(image, self.image_size)
-        s = self.scores(self.frame_features(image))
-        return detections_from_scores(self._cached_boxes(), s, threshold=threshold,
-                                      nms_threshold=nms_threshold,
-                                      max_candidates=max_candidates)
 
     def layout(self, channels=None):
         """Offsets and (rows, columns) of each cell size's padded map in

@@ -3,7 +3,8 @@ or split over worker processes with the same results.
 
 The adapted detector scores world-space candidate windows (Wang et al. 2017, Sec. 5.1), so
 every detection is a window whose person stands at a known ground position:
-:func:`detect_on_ground` returns it with the boxes. :func:`detect_stream` runs a
+:meth:`FrameDetector.detect_on_ground <viewadapt.detect.FrameDetector.detect_on_ground>`
+returns it with the boxes. :func:`detect_stream` runs a
 :class:`~viewadapt.detect.FrameDetector` over frames (:mod:`viewadapt.io.video`) in
 order, optionally in worker processes, each of which makes the same detector from a
 :class:`DetectorSpec` and loads its adapted operator from the operator cache.
@@ -14,78 +15,14 @@ from __future__ import annotations
 import collections
 import json
 from dataclasses import dataclass
-from typing import Iterator, NamedTuple
+from typing import Iterator
 
 import numpy as np
 
-from viewadapt.detect.channels import check_frame
-from viewadapt.detect.detector import FrameDetector
-from viewadapt.detect.kinds import detector_kind
-from viewadapt.nms import detections_from_scores
+from .detector import FrameDetections, FrameDetector
+from .kinds import detector_kind
 
-__all__ = ["FrameDetections", "detect_on_ground", "DetectorSpec", "detect_stream"]
-
-
-class FrameDetections(NamedTuple):
-    """The detections of one frame.
-
-    Attributes
-    ----------
-    boxes : (D, 5) ndarray
-        ``(x, y, w, h, score)`` in frame pixels, by decreasing score (as
-        :meth:`FrameDetector.detect <viewadapt.detect.FrameDetector.detect>`).
-    window : (D,) int64 ndarray
-        Index of each detection's candidate window in ``detector.windows``.
-    ground_xy : (D, 2) ndarray
-        Where each detected person stands: world ``(X, Y)`` on the ground plane ``Z = 0``,
-        metres.
-    """
-
-    boxes: np.ndarray
-    window: np.ndarray
-    ground_xy: np.ndarray
-
-
-def detect_on_ground(detector: FrameDetector, image, kind: str = "hog") -> FrameDetections:
-    """Detections of one frame with the candidate window and ground position of each.
-
-    The boxes are those of ``detector.detect(image, kind)``: the operator's window scores,
-    thresholded and non-maximum suppressed by
-    :func:`~viewadapt.nms.detections_from_scores` with the operator's settings. Each kept
-    box is a row of the operator's window boxes with that window's score; non-maximum
-    suppression names the window it kept.
-
-    Parameters
-    ----------
-    detector : FrameDetector
-    image : (height, width[, 3]) ndarray
-        A frame of the detector's camera (undistorted if the camera has lens distortion).
-    kind : {"hog", "acf"}
-
-    Returns
-    -------
-    FrameDetections
-
-    Notes
-    -----
-    The ground position of a detection is its candidate window's:
-    ``detector.windows.ground_xy``, the point on the ground below the feet of the person of
-    assumed height the window was built for (the window's feet point
-    :attr:`CandidateWindows.feet <viewadapt.detect.CandidateWindows.feet>` seen on the
-    ground). It is exact for that window, not an approximation through the box: the box
-    reported is the window's snapped to its shared template (a whole-cell shift of at
-    most the template tolerance), so the box's bottom centre can lie a few pixels from
-    the window's feet point.
-    """
-    kind = detector_kind(kind).name
-    img = check_frame(image, detector.size)
-    op = detector.operator(kind)
-    boxes = op.boxes()
-    scores = op.scores(op.frame_features(img))
-    dets, window = detections_from_scores(
-        boxes, scores, threshold=detector.thresholds[kind], overlap=op.nms_overlap,
-        nms_threshold=op.nms_threshold, return_index=True)
-    return FrameDetections(dets, window, detector.windows.ground_xy[window].reshape(-1, 2))
+__all__ = ["DetectorSpec", "detect_stream"]
 
 
 @dataclass(frozen=True)
@@ -98,7 +35,7 @@ class DetectorSpec:
         JSON of :meth:`Camera.to_dict <viewadapt.geometry.Camera.to_dict>`.
     model : str
         Path of the source detectors file (:meth:`SourceDetectors.load
-        <viewadapt.detect.SourceDetectors.load>`).
+        <viewadapt.io.SourceDetectors.load>`).
     kind : str
         The detector kind run on the frames.
     options : str
@@ -138,7 +75,7 @@ def _detect_in_worker(spec: DetectorSpec, image) -> FrameDetections:
     if det is None:
         _WORKER_DETECTORS.clear()           # one detector per worker: that of this run
         det = _WORKER_DETECTORS[spec] = spec.make()
-    return detect_on_ground(det, image, spec.kind)
+    return det.detect_on_ground(image, spec.kind)
 
 
 def detect_stream(frames, spec: DetectorSpec, *, jobs: int = 1,
@@ -166,7 +103,7 @@ def detect_stream(frames, spec: DetectorSpec, *, jobs: int = 1,
     if jobs is None or jobs == 1:
         det = detector if detector is not None else spec.make()
         for frame in frames:
-            yield frame, detect_on_ground(det, frame.image, spec.kind)
+            yield frame, det.detect_on_ground(frame.image, spec.kind)
         return
     if not isinstance(jobs, (int, np.integer)) or jobs < -1 or jobs == 0:
         raise ValueError(f"jobs must be >= 1 or -1 (all cores), got {jobs!r}")

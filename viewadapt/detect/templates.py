@@ -1,4 +1,4 @@
-"""Candidate windows grouped into shared templates, and the geometry every operator shares.
+"""Candidate windows grouped into shared templates: the layout every adapted operator shares.
 
 Each world-space candidate window (:mod:`viewadapt.detect.windows`) sees the person through
 its own homography ``H_n`` (canonical window -> frame), so it needs its own adapted detector
@@ -10,7 +10,7 @@ For a linear model on cell features the adapted detector of window ``n`` is
 
 (eq. (5)-(7)), ``x`` the frame's cell features (:mod:`viewadapt.detect.channels`) and
 ``G_n = S_n \\otimes A_n`` the remapping from frame cells to the canonical window's cells
-(:func:`hog_frame_remap`, :func:`acf_frame_remap`).
+(:mod:`viewadapt.detect.frame_remap`).
 
 Cell sizes: each window reads frame cells of the allowed size closest to (below) the size
 of one of its source cells in the frame (:func:`choose_cell_sizes`), so every window reads
@@ -33,37 +33,22 @@ References
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-from functools import partial
-from typing import Callable
+from dataclasses import dataclass
 
 import numpy as np
-import scipy.sparse as sp
 
-from ..adapt import acf_remap_matrix, hog_remap_matrix
-from ..geometry import (
-    WINDOW_CENTRE, WINDOW_CORNERS, WINDOW_HEIGHT, WINDOW_WIDTH, crop_camera, map_points,
-    window_to_image_homography,
-)
-from ..mapping import homography_mapping
-from ..objectmodel import PlaneModel, object_model, view_mapping
-from ..remap import CellGrid
-from viewadapt.arrays import stored_array
-from .channels import (
-    ACF_GRADIENT_LAMBDA, ACF_SHRINK, ACF_WEIGHT_SHAPE, HOG_CELL, HOG_CHANNELS, HOG_WEIGHT_SHAPE,
-    N_ACF_CHANNELS, N_ACF_ORIENTS, N_HOG_BINS, FrameFeatures, acf_frame_features,
-    acf_window_features, hog_frame_features, hog_window_features,
-)
+from ..arrays import is_int, stored_array
+from ..geometry import WINDOW_CENTRE, WINDOW_CORNERS, map_points
+from ..nms import detections_from_scores
+from .channels import HOG_CELL, FrameFeatures, check_frame
+from .features import feature_maker_from_dict, feature_maker_to_dict
 from .windows import CandidateWindows, person_boxes
 
 __all__ = [
     "FRAME_CELL_SIZES", "CELLS_PER_SOURCE_CELL", "HOG_TOLERANCE", "ACF_TOLERANCE",
     "choose_cell_sizes", "group_windows", "patch_grid", "TemplateGroup",
-    "build_template_groups", "required_padding", "check_windows", "SOURCE_DISTANCE_M",
-    "resolve_object_model", "window_mapping",
-    "hog_frame_remap", "acf_frame_remap", "acf_gradient_rows",
-    "SnappedBoxes", "TemplateOperator", "FeatureKind", "HOG_FEATURES", "ACF_FEATURES",
-    "FEATURE_MAKERS", "feature_maker_to_dict", "feature_maker_from_dict",
+    "build_template_groups", "required_padding", "check_windows", "SnappedBoxes",
+    "TemplateOperator",
 ]
 
 #: Frame cell sizes the adapted operators may choose from (:func:`choose_cell_sizes`).
@@ -191,7 +176,30 @@ class TemplateGroup:
 
 
 class SnappedBoxes:
-    """Person boxes of an operator's ``snapped_homographies``, computed once."""
+    """What every adapted operator shares: the person boxes of its ``snapped_homographies``
+    (computed once) and detection -- scores of its windows thresholded and non-maximum
+    suppressed with the operator's :attr:`nms_overlap` and :attr:`nms_threshold`."""
+
+    #: non-maximum suppression of the operator's detections
+    #: (:func:`~viewadapt.nms.detections_from_scores`)
+    nms_overlap, nms_threshold = "union", 0.5
+
+    def detect(self, image, *, threshold: float = 0.0, nms_threshold: float | None = None,
+               max_candidates: int = 2000, return_index: bool = False):
+        """Features, scores and non-maximum suppression on one frame (``nms_threshold`` by
+        default the operator's).
+
+        Returns
+        -------
+        (D, 5) ndarray of ``(x, y, w, h, score)`` rows in frame pixels, by decreasing score;
+        with ``return_index``, also the (D,) indices of their windows.
+        """
+        check_frame(image, self.image_size)
+        s = self.scores(self.frame_features(image))
+        return detections_from_scores(
+            self._cached_boxes(), s, threshold=threshold, overlap=self.nms_overlap,
+            nms_threshold=self.nms_threshold if nms_threshold is None else nms_threshold,
+            max_candidates=max_candidates, return_index=return_index)
 
     def boxes(self) -> np.ndarray:
         """(N, 4) person boxes ``(x, y, w, h)`` of the scored (snapped) windows, in the
@@ -274,10 +282,10 @@ class TemplateOperator(SnappedBoxes):
         """Set the shared geometry from :meth:`_geometry_to_arrays`' ``(meta, arrays)``
         (group templates left empty), checking every entry; ``ValueError`` otherwise."""
         size, n, pad = meta.get("image_size"), meta.get("n_windows"), meta.get("pad")
-        if not (isinstance(size, list) and len(size) == 2 and all(_is_int(v) and v > 0
+        if not (isinstance(size, list) and len(size) == 2 and all(is_int(v) and v > 0
                                                                   for v in size)):
             raise ValueError(f"its image_size is {size!r}")
-        if not (_is_int(n) and n > 0 and _is_int(pad) and pad >= 0):
+        if not (is_int(n) and n > 0 and is_int(pad) and pad >= 0):
             raise ValueError(f"its window count {n!r} or padding {pad!r} is not valid")
         cell = stored_array(arrays, "cell_size", "iu", shape=(n,))
         H = stored_array(arrays, "snapped_homographies", "f", shape=(n, 3, 3))
@@ -368,87 +376,6 @@ def required_padding(groups, image_size) -> int:
     return need
 
 
-def _patch_cells(g) -> CellGrid:
-    """The frame cells of group ``g``'s prototype patch."""
-    c = g.cell_size
-    return CellGrid(g.shape[1], g.shape[0], c, origin=(g.origin[0] * c - 0.5,
-                                                       g.origin[1] * c - 0.5))
-
-
-#: Distance of the source view's camera from the person, metres, for object models other
-#: than the plane: that of the dataset's elevation-0 crops (:func:`viewadapt.geometry.crop_camera`).
-SOURCE_DISTANCE_M = 10.0
-
-
-def resolve_object_model(model):
-    """An object model from its name (``"plane"``, ``"body"``) or the model itself."""
-    return object_model(model) if isinstance(model, str) else model
-
-
-def window_mapping(windows: CandidateWindows, n: int, model="plane"):
-    """Canonical-window pixels -> frame pixels of window ``n`` under the object model.
-
-    The plane (the paper's model) gives the window's homography itself. Another model
-    (e.g. the mean body, :mod:`viewadapt.objectmodel`) gives the point mapping of a person
-    of that shape, seen in the source view by the elevation-0 crop camera
-    (:data:`SOURCE_DISTANCE_M`) and in the frame by ``windows.camera`` at the window's
-    ground position and person height (:func:`viewadapt.objectmodel.view_mapping`),
-    followed by the window's homography relative to its person plane (identity on the
-    native frame; the band's upsampling on an upsampled layer).
-
-    Returns
-    -------
-    (3, 3) ndarray for the plane, else a callable mapping (NaN where undefined).
-    """
-    model = resolve_object_model(model)
-    H = windows.homographies[n]
-    if isinstance(model, PlaneModel):
-        return H
-    cam = windows.camera
-    if cam is None:
-        raise ValueError(f"the {model.name!r} object model needs the windows' camera "
-                         "(windows from select_candidate_windows)")
-    ground, height = windows.ground_xy[n], float(windows.person_height[n])
-    source = crop_camera(0.0, distance=SOURCE_DISTANCE_M, person_height=height)
-    body = view_mapping(model, source, cam, source_ground=(0.0, 0.0), target_ground=ground,
-                        person_height=height, window=(WINDOW_WIDTH, WINDOW_HEIGHT))
-    # frame -> this layer's pixels: the layer's window homography against the plane's
-    to_layer = homography_mapping(H @ np.linalg.inv(
-        window_to_image_homography(cam, ground, height)))
-    return lambda p: to_layer(body(p))
-
-
-def hog_frame_remap(H, g: "TemplateGroup", rule: str = "covariant") -> sp.csr_matrix:
-    """``G`` from a frame patch of block-normalised HOG cells (n_y, n_x, 13) to the canonical
-    window's (16, 8, 13) cells for the window ``H`` (canonical -> frame px: a homography or
-    a point mapping, :func:`window_mapping`).
-
-    Normalised cell features are intensive
-    (:func:`~viewadapt.detect.channels.block_normalize_cells`):
-    area-weighted means; ``S (x) A`` on the orientation channels, ``S`` alone on the texture
-    energies (:func:`viewadapt.adapt.hog_remap_matrix`).
-    """
-    return hog_remap_matrix(H, source_cell_size=HOG_CELL, target_grid=_patch_cells(g),
-                            n_bins=N_HOG_BINS, rule=rule, preserve="mean",
-                            n_plain=HOG_CHANNELS - N_HOG_BINS)
-
-
-def acf_frame_remap(H, g: "TemplateGroup", rule: str = "covariant") -> sp.csr_matrix:
-    """``G`` from a frame patch of ACF cells (n_y, n_x, 10) to the canonical window's ACF
-    channels (10, 32, 16) for the window ``H`` (a homography or a point mapping;
-    :func:`viewadapt.adapt.acf_remap_matrix`)."""
-    return acf_remap_matrix(H, shrink=ACF_SHRINK, n_color=N_ACF_CHANNELS - N_ACF_ORIENTS,
-                            n_orients=N_ACF_ORIENTS, rule=rule, target_grid=_patch_cells(g),
-                            target_layout="channels_last")
-
-
-def acf_gradient_rows() -> np.ndarray:
-    """(5120,) bool: the rows of an ACF ``G`` that give the gradient magnitude and
-    orientation channels (scaled by ``s ** lambda``, :data:`ACF_GRADIENT_LAMBDA`)."""
-    n_out = ACF_WEIGHT_SHAPE[1] * ACF_WEIGHT_SHAPE[2]
-    return np.arange(N_ACF_CHANNELS * n_out) >= (N_ACF_CHANNELS - N_ACF_ORIENTS - 1) * n_out
-
-
 def check_windows(windows):
     """ValueError unless ``windows`` is a non-empty :class:`CandidateWindows`."""
     if not isinstance(windows, CandidateWindows) or len(windows) == 0:
@@ -456,93 +383,3 @@ def check_windows(windows):
                          "(viewadapt.detect.select_candidate_windows)")
 
 
-@dataclass(frozen=True, eq=False)
-class FeatureKind:
-    """One feature family as the full-frame detectors read it: its layout on the canonical
-    window, its frame cell maps and its frame ``G``.
-
-    Attributes
-    ----------
-    name : str
-    source_cell : int
-        The canonical window's cell (or block) size, px: what frame cell sizes are chosen on.
-    shape : tuple
-        Layout of the canonical window's features (and of a source model's weights).
-    window_features : callable
-        ``window_features(window) -> ndarray`` of ``shape`` (what source models train on).
-    frame_features : callable
-        ``frame_features(image, cell_sizes, *, pad, image_size) -> FrameFeatures``.
-    frame_remap : callable
-        ``frame_remap(H, group, rule) -> G`` from a frame patch to the window's features.
-    gradient_lambda : float
-        Power-law exponent of the rows in ``gradient_rows`` across scales (0: none).
-    gradient_rows : (n,) bool ndarray or None
-        Rows of ``G`` scaled by ``s ** gradient_lambda``.
-    """
-
-    name: str
-    source_cell: int
-    shape: tuple
-    window_features: Callable
-    frame_features: Callable
-    frame_remap: Callable
-    gradient_lambda: float = 0.0
-    gradient_rows: object = field(default=None, repr=False)
-
-
-#: block-normalised HOG cells (:func:`~viewadapt.detect.channels.hog_window_features`)
-HOG_FEATURES = FeatureKind("hog", HOG_CELL, HOG_WEIGHT_SHAPE, hog_window_features,
-                           hog_frame_features, hog_frame_remap)
-#: ACF channels (:func:`~viewadapt.detect.channels.acf_window_features`)
-ACF_FEATURES = FeatureKind("acf", ACF_SHRINK, ACF_WEIGHT_SHAPE, acf_window_features,
-                           acf_frame_features, acf_frame_remap, ACF_GRADIENT_LAMBDA,
-                           acf_gradient_rows())
-
-
-#: The functions an operator's stored feature maker may name
-#: (:func:`feature_maker_from_dict`): nothing else is ever called from a stored operator.
-FEATURE_MAKERS = {f.__name__: f for f in (hog_frame_features, acf_frame_features)}
-
-
-def _is_int(v) -> bool:
-    return isinstance(v, (int, np.integer)) and not isinstance(v, bool)
-
-
-def _json_scalar(v) -> bool:
-    return v is None or isinstance(v, (str, int, float, bool))
-
-
-def feature_maker_to_dict(maker) -> dict:
-    """An operator's feature maker -- a ``functools.partial`` of a function in
-    :data:`FEATURE_MAKERS` with keyword arguments only -- as ``{"function": name,
-    "keywords": {...}}`` (JSON-ready); ``ValueError`` for any other callable."""
-    func = getattr(maker, "func", None)
-    name = getattr(func, "__name__", None)
-    if not isinstance(maker, partial) or maker.args or FEATURE_MAKERS.get(name) is not func:
-        raise ValueError(f"only a feature maker partial(f, **keywords) with f one of "
-                         f"{sorted(FEATURE_MAKERS)} can be stored, got {maker!r}")
-    kw = {}
-    for k, v in maker.keywords.items():
-        v = [int(c) if _is_int(c) else c for c in v] if isinstance(v, (list, tuple)) else v
-        v = int(v) if _is_int(v) else v
-        if not (_json_scalar(v) or isinstance(v, list) and all(_json_scalar(c) for c in v)):
-            raise ValueError(f"the feature maker's keyword {k}={v!r} cannot be stored")
-        kw[k] = v
-    return {"function": name, "keywords": kw}
-
-
-def feature_maker_from_dict(d) -> partial:
-    """The feature maker :func:`feature_maker_to_dict` described: a function of
-    :data:`FEATURE_MAKERS` by name with its (JSON scalar or list) keywords; ``ValueError``
-    for any other name or keyword value."""
-    if not isinstance(d, dict) or d.get("function") not in FEATURE_MAKERS \
-            or not isinstance(d.get("keywords"), dict):
-        name = d.get("function") if isinstance(d, dict) else d
-        raise ValueError(f"its feature maker {name!r} is not one of {sorted(FEATURE_MAKERS)}")
-    kw = dict(d["keywords"])
-    for k, v in kw.items():
-        if not (_json_scalar(v) or isinstance(v, list) and all(_json_scalar(c) for c in v)):
-            raise ValueError(f"its feature maker's keyword {k}={v!r} is not a plain value")
-    if "image_size" in kw and kw["image_size"] is not None:
-        kw["image_size"] = tuple(kw["image_size"])
-    return partial(FEATURE_MAKERS[d["function"]], **kw)

@@ -23,17 +23,18 @@ from functools import partial
 import numpy as np
 import scipy.sparse as sp
 
+from ..arrays import stored_array, under_prefix, with_prefix
 from ..boosting import AdaBoostTrees
-from ..nms import detections_from_scores
-from viewadapt.arrays import stored_array, under_prefix, with_prefix
 from .channels import (
     ACF_GRADIENT_LAMBDA, ACF_SHRINK, ACF_WEIGHT_SHAPE, N_ACF_CHANNELS, FrameFeatures,
-    acf_frame_features, check_frame,
+    acf_frame_features,
+)
+from .frame_remap import (
+    acf_frame_remap, acf_gradient_rows, resolve_object_model, window_mapping,
 )
 from .templates import (
-    ACF_TOLERANCE, CELLS_PER_SOURCE_CELL, FRAME_CELL_SIZES, TemplateOperator,
-    acf_frame_remap, acf_gradient_rows, build_template_groups, check_windows,
-    choose_cell_sizes, required_padding, resolve_object_model, window_mapping,
+    ACF_TOLERANCE, CELLS_PER_SOURCE_CELL, FRAME_CELL_SIZES, TemplateOperator, build_template_groups,
+    check_windows, choose_cell_sizes, required_padding,
 )
 from .windows import CandidateWindows
 
@@ -245,15 +246,6 @@ class AdaptedTreesOperator(TemplateOperator):
                        np.ascontiguousarray(offsets, np.int32),
                        np.ascontiguousarray(weights, np.float32)))
         return op
-
-    def detect(self, image, *, threshold: float = 0.0, nms_threshold: float = 0.65,
-               max_candidates: int = 2000) -> np.ndarray:
-        """Features, cascade scores and NMS (``overlap="min"``, as ACF) on one frame."""
-        check_frame(image, self.image_size)
-        s = self.scores(self.frame_features(image))
-        return detections_from_scores(self._cached_boxes(), s, threshold=threshold,
-                                      nms_threshold=nms_threshold, overlap="min",
-                                      max_candidates=max_candidates)
 
 
 def build_adapted_trees_operator(windows: CandidateWindows, model, *,

@@ -458,7 +458,7 @@ def windows_through_lens(windows: CandidateWindows, K, dist) -> tuple:
     ``distort(H p)``; over one window the lens is smooth, so a homography fitted (least
     squares, ``cv2.findHomography``) to a 5 x 9 grid of the window's points stands in for
     it, and the adapted detector scores the distorted frame itself, with no per-frame
-    undistortion (the alternative :class:`~viewadapt.detect.Undistortion` is measured
+    undistortion (the alternative :class:`~viewadapt.camera.Undistortion` is measured
     against in ``benchmark.studies.distortion_study``). The person's ground position is the
     window's own, unchanged.
 

@@ -7,7 +7,7 @@ moved into place only when the run succeeds):
   input, :class:`~viewadapt.io.video.Frame`), ``source`` (image or video file name),
   ``x, y, w, h`` (box, pixels), ``score`` and ``ground_x, ground_y`` (where the person
   stands, world metres on the ground plane,
-  :func:`~viewadapt.detect.stream.detect_on_ground`).
+  :meth:`~viewadapt.detect.FrameDetector.detect_on_ground`).
 * ``detections_coco.json`` -- COCO results: a list of ``{"image_id", "category_id",
   "bbox", "score"}`` with ``image_id = frame + 1`` and ``category_id = 1`` (person).
 * ``det.txt`` -- MOTChallenge detections, one line ``frame, id, bb_left, bb_top, bb_width,

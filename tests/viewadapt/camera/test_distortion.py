@@ -10,7 +10,7 @@ import cv2
 import numpy as np
 import pytest
 
-from viewadapt.camera import check_distortion, distort_image, Undistortion
+from viewadapt.camera import Undistortion, check_distortion, distort_image
 from viewadapt.geometry import camera_from_pose
 from viewadapt.io import read_calibration, read_distortion
 
@@ -213,7 +213,7 @@ def test_windows_through_the_lens_follow_it_to_a_fraction_of_a_pixel():
 
 def test_frame_detector_through_a_lens(tmp_path):
     from viewadapt.detect import FrameDetector
-    from viewadapt.io import shipped_model_path, SourceDetectors
+    from viewadapt.io import SourceDetectors, shipped_model_path
 
     cam = _lens_camera()
     models = SourceDetectors.load(shipped_model_path())

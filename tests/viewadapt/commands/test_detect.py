@@ -16,9 +16,10 @@ from benchmark.data import load_dataset
 from benchmark.frames.methods import load_frames, train_source_detectors
 from viewadapt.camera import distort_image
 from viewadapt.cli import main
-from viewadapt.detect import detect_on_ground, detect_stream, DetectorSpec
+from viewadapt.detect import DetectorSpec, detect_stream
+from viewadapt.nms import detections_from_scores
 from viewadapt.io import (
-    natural_sort_key, open_frames, prefetched, read_calibration, shipped_model_path, SourceDetectors,
+    SourceDetectors, natural_sort_key, open_frames, prefetched, read_calibration, shipped_model_path,
 )
 from tests.toy_frames import TOY_FRAME_SIZE, small_toy_frames
 
@@ -165,9 +166,10 @@ def test_prefetched_keeps_order_raises_in_place_and_stops_early():
 
 
 def test_ground_positions_are_those_of_the_windows(toy):
-    """detect_on_ground gives FrameDetector.detect's boxes, each with the ground point of
-    its window -- which is where the feet of that window's person project, and close to
-    where the toy person whose box it found stands."""
+    """FrameDetector.detect_on_ground gives the operator's thresholded, suppressed window
+    scores (and detect the same boxes), each with the ground point of its window -- which
+    is where the feet of that window's person project, and close to where the toy person
+    whose box it found stands."""
     spec = DetectorSpec.create(toy.cam, toy.model, "hog", cache_dir=toy.cache,
                                thresholds={"hog": -0.5})
     det = spec.make()
@@ -175,8 +177,13 @@ def test_ground_positions_are_those_of_the_windows(toy):
     errors = []
     for f in toy.frames:
         img = cv2.imread(str(f.path))[:, :, ::-1].copy()
-        found = detect_on_ground(det, img, "hog")
-        assert np.array_equal(found.boxes, det.detect(img, "hog")) and len(found.boxes) > 0
+        found = det.detect_on_ground(img, "hog")
+        op = det.operator("hog")
+        scored = detections_from_scores(op.boxes(), op.scores(op.frame_features(img)),
+                                        threshold=-0.5, overlap=op.nms_overlap,
+                                        nms_threshold=op.nms_threshold)
+        assert np.array_equal(found.boxes, scored) and len(found.boxes) > 0
+        assert np.array_equal(det.detect(img, "hog"), found.boxes)
         # each box is its window's (snapped) person box, each ground point its window's
         assert np.array_equal(det.operator("hog").boxes()[found.window], found.boxes[:, :4])
         assert np.array_equal(found.ground_xy, det.windows.ground_xy[found.window])

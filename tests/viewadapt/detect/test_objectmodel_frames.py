@@ -1,6 +1,6 @@
 """The full-frame detector with an object model other than the paper's plane (the mean
-body of viewadapt.objectmodel) and with each angle rule: window mappings, operators,
-FrameDetector options and the frames benchmark's variant names."""
+body of viewadapt.objectmodel) and with each angle rule: window mappings, operators and
+FrameDetector options."""
 
 import numpy as np
 import pytest
@@ -8,7 +8,7 @@ import pytest
 from viewadapt.detect import (
     FrameDetector, build_adapted_linear_operator, select_candidate_windows, upsampled_windows,
 )
-from viewadapt.detect.templates import window_mapping
+from viewadapt.detect.frame_remap import window_mapping
 from viewadapt.geometry import WINDOW_FEET, WINDOW_HEAD, apply_homography, camera_from_pose
 
 
@@ -85,25 +85,3 @@ def test_frame_detector_options(camera):
     # the plane keeps its cache key; the body has its own
     assert "object_model" not in FrameDetector(camera, models).params
     assert FrameDetector(camera, models, object_model="body").params["object_model"] == "body"
-
-
-def test_frames_variant_names():
-    from benchmark.frames.methods import (
-        ADAPTED_VARIANTS, adapted_method, check_method, split_method,
-    )
-    from benchmark.frames.command import expand_adapted
-
-    for variant, (rule, model) in ADAPTED_VARIANTS.items():
-        name = adapted_method("acf", rule, model)
-        assert name == f"acf_{variant}"
-        kind, how, got = split_method(name)
-        assert (kind.name, how, got) == ("acf", "adapted", (rule, model))
-    assert split_method("hog_warp")[1:] == ("warp", None)
-    assert split_method("opencv") == (None, "opencv", None)
-    with pytest.raises(ValueError, match="unknown method"):
-        check_method("hog_adapted[cube]")
-    assert expand_adapted(["hog_adapted", "hog_warp"], ["covariant", "paper"],
-                          ["plane", "body"]) == [
-        "hog_adapted", "hog_adapted[paper eq.3]", "hog_adapted[body]",
-        "hog_adapted[body, paper eq.3]", "hog_warp"]
-    assert expand_adapted(["acf_adapted"]) == ["acf_adapted"]

@@ -14,7 +14,7 @@ import pytest
 from viewadapt.boosting import AdaBoostTrees
 from viewadapt.detect import FrameDetector
 from viewadapt.geometry import camera_from_pose
-from viewadapt.io import OperatorCache, read_calibration, SourceDetectors
+from viewadapt.io import OperatorCache, SourceDetectors, read_calibration
 from viewadapt.io.arrayfile import read_array_file, write_array_file
 from viewadapt.version import __version__
 

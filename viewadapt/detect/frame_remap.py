@@ -1,0 +1,108 @@
+"""The frame ``G`` of a template: frame cells -> the canonical window's features.
+
+For a linear model on cell features the adapted detector of window ``n`` is
+``s_n = w^T G_n x + b = (G_n^T w)^T x + b`` (Wang et al. 2017, eq. (5)-(7)), ``x`` the frame's
+cell features and ``G_n = S_n (x) A_n`` the remapping from the frame cells of the window's
+template patch to the canonical window's cells: :func:`hog_frame_remap` (HOG/SVM) and
+:func:`acf_frame_remap` (ACF), for the paper's plane object model or any other
+(:func:`window_mapping`).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sp
+
+from ..adapt import acf_remap_matrix, hog_remap_matrix
+from ..geometry import WINDOW_HEIGHT, WINDOW_WIDTH, crop_camera, window_to_image_homography
+from ..mapping import homography_mapping
+from ..objectmodel import PlaneModel, object_model, view_mapping
+from ..remap import CellGrid
+from .channels import (
+    ACF_SHRINK, ACF_WEIGHT_SHAPE, HOG_CELL, HOG_CHANNELS, N_ACF_CHANNELS, N_ACF_ORIENTS, N_HOG_BINS,
+)
+from .windows import CandidateWindows
+
+__all__ = ["SOURCE_DISTANCE_M", "resolve_object_model", "window_mapping", "hog_frame_remap",
+           "acf_frame_remap", "acf_gradient_rows"]
+
+
+def _patch_cells(g) -> CellGrid:
+    """The frame cells of group ``g``'s prototype patch."""
+    c = g.cell_size
+    return CellGrid(g.shape[1], g.shape[0], c, origin=(g.origin[0] * c - 0.5,
+                                                       g.origin[1] * c - 0.5))
+
+
+#: Distance of the source view's camera from the person, metres, for object models other
+#: than the plane: that of the dataset's elevation-0 crops (:func:`viewadapt.geometry.crop_camera`).
+SOURCE_DISTANCE_M = 10.0
+
+
+def resolve_object_model(model):
+    """An object model from its name (``"plane"``, ``"body"``) or the model itself."""
+    return object_model(model) if isinstance(model, str) else model
+
+
+def window_mapping(windows: CandidateWindows, n: int, model="plane"):
+    """Canonical-window pixels -> frame pixels of window ``n`` under the object model.
+
+    The plane (the paper's model) gives the window's homography itself. Another model
+    (e.g. the mean body, :mod:`viewadapt.objectmodel`) gives the point mapping of a person
+    of that shape, seen in the source view by the elevation-0 crop camera
+    (:data:`SOURCE_DISTANCE_M`) and in the frame by ``windows.camera`` at the window's
+    ground position and person height (:func:`viewadapt.objectmodel.view_mapping`),
+    followed by the window's homography relative to its person plane (identity on the
+    native frame; the band's upsampling on an upsampled layer).
+
+    Returns
+    -------
+    (3, 3) ndarray for the plane, else a callable mapping (NaN where undefined).
+    """
+    model = resolve_object_model(model)
+    H = windows.homographies[n]
+    if isinstance(model, PlaneModel):
+        return H
+    cam = windows.camera
+    if cam is None:
+        raise ValueError(f"the {model.name!r} object model needs the windows' camera "
+                         "(windows from select_candidate_windows)")
+    ground, height = windows.ground_xy[n], float(windows.person_height[n])
+    source = crop_camera(0.0, distance=SOURCE_DISTANCE_M, person_height=height)
+    body = view_mapping(model, source, cam, source_ground=(0.0, 0.0), target_ground=ground,
+                        person_height=height, window=(WINDOW_WIDTH, WINDOW_HEIGHT))
+    # frame -> this layer's pixels: the layer's window homography against the plane's
+    to_layer = homography_mapping(H @ np.linalg.inv(
+        window_to_image_homography(cam, ground, height)))
+    return lambda p: to_layer(body(p))
+
+
+def hog_frame_remap(H, g, rule: str = "covariant") -> sp.csr_matrix:
+    """``G`` from a frame patch of block-normalised HOG cells (n_y, n_x, 13) to the canonical
+    window's (16, 8, 13) cells for the window ``H`` (canonical -> frame px: a homography or
+    a point mapping, :func:`window_mapping`).
+
+    Normalised cell features are intensive
+    (:func:`~viewadapt.detect.channels.block_normalize_cells`):
+    area-weighted means; ``S (x) A`` on the orientation channels, ``S`` alone on the texture
+    energies (:func:`viewadapt.adapt.hog_remap_matrix`).
+    """
+    return hog_remap_matrix(H, source_cell_size=HOG_CELL, target_grid=_patch_cells(g),
+                            n_bins=N_HOG_BINS, rule=rule, preserve="mean",
+                            n_plain=HOG_CHANNELS - N_HOG_BINS)
+
+
+def acf_frame_remap(H, g, rule: str = "covariant") -> sp.csr_matrix:
+    """``G`` from a frame patch of ACF cells (n_y, n_x, 10) to the canonical window's ACF
+    channels (10, 32, 16) for the window ``H`` (a homography or a point mapping;
+    :func:`viewadapt.adapt.acf_remap_matrix`)."""
+    return acf_remap_matrix(H, shrink=ACF_SHRINK, n_color=N_ACF_CHANNELS - N_ACF_ORIENTS,
+                            n_orients=N_ACF_ORIENTS, rule=rule, target_grid=_patch_cells(g),
+                            target_layout="channels_last")
+
+
+def acf_gradient_rows() -> np.ndarray:
+    """(5120,) bool: the rows of an ACF ``G`` that give the gradient magnitude and
+    orientation channels (scaled by ``s ** lambda``, :data:`ACF_GRADIENT_LAMBDA`)."""
+    n_out = ACF_WEIGHT_SHAPE[1] * ACF_WEIGHT_SHAPE[2]
+    return np.arange(N_ACF_CHANNELS * n_out) >= (N_ACF_CHANNELS - N_ACF_ORIENTS - 1) * n_out
