@@ -43,24 +43,31 @@ from benchmark.data import (
 from benchmark.crops.detectors import detector_spec, feature_key
 from benchmark.crops.features import FeatureCache, background_windows, person_windows
 from benchmark.crops.folds import Fold, make_folds
+from benchmark.frames.spec import OBJECT_MODEL_TAGS, RULE_TAGS, variant_label
 
 __all__ = ["CrossvalConfig", "ADAPT_VARIANTS", "EXACT_VARIANTS", "run_crossval",
            "require_complete"]
-#: method name -> (angle rule, per-cell A, object model)
-ADAPT_VARIANTS = {
-    "adapted": ("covariant", True, "plane"),
-    "adapted[S only]": ("none", True, "plane"),
-    "adapted[paper eq.3]": ("paper", True, "plane"),
-    "adapted[single A]": ("covariant", False, "plane"),
-    "adapted[body]": ("covariant", True, "body"),
-    "adapted[body, S only]": ("none", True, "body"),
-    "adapted[body, paper eq.3]": ("paper", True, "body"),
-}
+
+
+def _adapt_variants() -> dict:
+    out = {}
+    for model in OBJECT_MODEL_TAGS:
+        out.update({variant_label("adapted", rule, model): (rule, True, model)
+                    for rule in RULE_TAGS})
+        if model == "plane":
+            out[variant_label("adapted", extra="single A")] = ("covariant", False, "plane")
+    return out
+
+
+#: method name -> (angle rule, per-cell A, object model): every object model with every
+#: angle rule, named as the frames' adapted variants (:func:`benchmark.frames.spec.variant_label`,
+#: e.g. ``adapted[body, paper eq.3]``), and ``adapted[single A]`` (one ``A`` per window)
+ADAPT_VARIANTS = _adapt_variants()
 #: variants every detector runs; those with ``ablations`` run all with ``cfg.ablations``
 CORE_VARIANTS = ("adapted", "adapted[body]")
 #: upper-bound rows -> (angle rule, the variant whose negatives they share)
-EXACT_VARIANTS = {"exact geometry": ("covariant", "adapted"),
-                  "exact geometry[paper eq.3]": ("paper", "adapted[paper eq.3]")}
+EXACT_VARIANTS = {variant_label("exact geometry", rule): (rule, variant_label("adapted", rule))
+                  for rule in ("covariant", "paper")}
 
 
 def require_complete(ds: Dataset, *, allow_incomplete: bool = False) -> str | None:
@@ -234,7 +241,7 @@ def _task(det, s, t, fold, cfg, data, seed, memo=None):
         for v in variant_names(spec, cfg):
             results[v] = spec.score_adapted(model, Xfine, data["G"][(det, s, t, v)])
         for m in cfg.object_models:
-            name = "image warping" if m == "plane" else f"image warping[{m}]"
+            name = variant_label("image warping", object_model=m)
             results[name] = spec.score(model, test_feats(src_rep, _warp_key(s, m)))
         if _wants_exact(spec, cfg, data):
             n_pos = int(mp.sum())

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import copy
+import dataclasses
 import json
 import time
 from pathlib import Path
@@ -17,13 +18,11 @@ from viewadapt.io import DEFAULT_CACHE_LIMIT_GB, plot_det_figure
 from viewadapt.objectmodel import OBJECT_MODELS
 from viewadapt.remap import ANGLE_RULES
 
-from benchmark.frames.methods import (
-    DEFAULT_FRAME_VIEW, FRAME_VIEW_CHOICES, METHODS, NEGATIVE_CHOICES, adapted_method,
-    check_method, split_method,
-)
+from benchmark.frames.methods import DEFAULT_FRAME_VIEW, FRAME_VIEW_CHOICES, NEGATIVE_CHOICES
 from benchmark.frames.report import (
     accuracy_targets, phase_gap_lines, phase_table, plot_seed_figure, seed_summary, summary_table,
 )
+from benchmark.frames.spec import DEFAULT_METHODS, FrameMethod
 
 __all__ = ["register", "cmd_bench_frames", "cmd_bench_runtime", "plot_det_figure"]
 
@@ -45,8 +44,8 @@ def _group_by_camera(frames):
 def _detect_camera(group, models, methods, heights, cache_dir, cache_limit_gb, tolerance,
                    cells_per_source_cell, upsample_below, grid_phase=(0.0, 0.0),
                    progress=None):
-    """Every method on the frames of one camera, the candidate windows at ``grid_phase``:
-    (detections, seconds, windows)."""
+    """Every method (:class:`~benchmark.frames.spec.FrameMethod`) on the frames of one camera,
+    the candidate windows at ``grid_phase``: (detections, seconds, windows), by method."""
     from benchmark.frames.methods import FrameMethods
 
     fd = FrameMethods(group[0].camera, models, person_heights=heights, cache_dir=cache_dir,
@@ -74,12 +73,13 @@ def run_frames_benchmark(data, *, methods, seed=0, quick=False, max_frames=None,
                          tolerance=HOG_TOLERANCE, cells_per_source_cell=CELLS_PER_SOURCE_CELL,
                          upsample_below=None, jobs=1, frame_view=DEFAULT_FRAME_VIEW,
                          negatives="elevation0", phases=1):
-    """Detect with every method on every frame.
+    """Detect with every method (``methods``: :class:`~benchmark.frames.spec.FrameMethod` s)
+    on every frame.
 
     Cameras are processed in parallel with ``jobs`` worker processes (joblib); the
     seconds per frame are measured inside each worker. With ``phases`` > 1 the methods
-    that score the candidate windows (:func:`benchmark.frames.methods.moves_with_grid`) run again
-    with the windows' ground grid at each of the ``phases x phases`` grid phases
+    that score the candidate windows (``on_window_grid``) run again with the windows'
+    ground grid at each of the ``phases x phases`` grid phases
     (:func:`benchmark.frames.phases.grid_phases`), and their ``lamr`` is the mean over the
     phases (``lamr_phases``: each phase's, the default grid's first); their curves,
     detections and seconds are the default grid's. The other methods do not read the
@@ -88,17 +88,16 @@ def run_frames_benchmark(data, *, methods, seed=0, quick=False, max_frames=None,
     Returns
     -------
     (results, models, detections, frames, info, phase_detections)
-        ``phase_detections``: {method: per phase, per frame detections} of the methods run
-        at every phase (empty with one phase).
+        ``results``, ``detections`` and ``phase_detections`` by method; ``phase_detections``:
+        {method: per phase, per frame detections} of the methods run at every phase (empty
+        with one phase).
     """
     from joblib import Parallel, delayed
     from tqdm.auto import tqdm
 
     from benchmark.data import load_dataset
     from benchmark.frames.phases import grid_phases
-    from benchmark.frames.methods import (
-        evaluate_method, load_frames, moves_with_grid, train_source_detectors,
-    )
+    from benchmark.frames.methods import evaluate_method, load_frames, train_source_detectors
 
     if upsample_below is None:
         upsample_below = UPSAMPLE_BELOW
@@ -119,7 +118,7 @@ def run_frames_benchmark(data, *, methods, seed=0, quick=False, max_frames=None,
             print(f"  trained in {time.perf_counter() - t0:.0f} s", flush=True)
     groups = _group_by_camera(frames)
     order = [f for g in groups for f in g]
-    moving = [m for m in methods if moves_with_grid(m)] if phases > 1 else []
+    moving = [m for m in methods if m.on_window_grid] if phases > 1 else []
     # (group, phase, methods): every method on the default grid, then the moving ones
     tasks = [(g, phase_list[0], methods) for g in groups] + [
         (g, ph, moving) for ph in phase_list[1:] for g in groups if moving]
@@ -157,12 +156,9 @@ def run_frames_benchmark(data, *, methods, seed=0, quick=False, max_frames=None,
     return results, models, dets, order, info, phase_dets
 
 
-#: methods that train nothing: a seed study runs them once
-UNTRAINED_METHODS = ("opencv", "opencv_native")
-
-
 def _earlier_results(out: Path, data: Path) -> dict:
-    """``out``'s earlier run on ``data``: method -> (frame key -> detections, s / frame)."""
+    """``out``'s earlier run on ``data``: :class:`~benchmark.frames.spec.FrameMethod` ->
+    (frame key -> detections, s / frame)."""
     from benchmark.data import read_json
 
     run, det = out / "run.json", out / "detections.json"
@@ -177,7 +173,8 @@ def _earlier_results(out: Path, data: Path) -> dict:
 
     table = pd.read_csv(out / "frames_summary.csv")
     secs = dict(zip(table["method"], table["seconds_per_frame"].astype(float)))
-    return {m: (d, secs.get(m, float("nan"))) for m, d in read_json(det).items()}
+    return {FrameMethod.parse(m): (d, secs.get(m, float("nan")))
+            for m, d in read_json(det).items()}
 
 
 def curve_corners(fppi, miss_rate):
@@ -200,27 +197,27 @@ def _frame_key(f) -> str:
     return f"{f.path.name}@{f.scene_id}"
 
 
-def _method_arg(text):
+def _method_arg(text) -> FrameMethod:
     try:
-        return check_method(text)
+        return FrameMethod.parse(text)
     except ValueError as exc:
         raise argparse.ArgumentTypeError(str(exc)) from None
 
 
 def expand_adapted(methods, rules=None, object_models=None) -> list:
-    """``methods`` with each adapted method replaced by one per rule and object model
-    (:func:`benchmark.frames.methods.adapted_method`); unchanged when both are None."""
+    """``methods`` (:class:`~benchmark.frames.spec.FrameMethod` s) with each adapted method
+    replaced by one per object model and rule (each object model's rules in turn; a method's
+    own rule or object model where ``rules`` or ``object_models`` is None), duplicates
+    dropped; unchanged when both are None."""
     if not rules and not object_models:
         return list(methods)
     out = []
     for m in methods:
-        kind, how, variant = split_method(m)
-        if how != "adapted":
+        if m.how != "adapted":
             out.append(m)
             continue
-        for model in object_models or (variant[1],):
-            for rule in rules or (variant[0],):
-                out.append(adapted_method(kind, rule, model))
+        out += [dataclasses.replace(m, rule=rule, object_model=model)
+                for model in object_models or (m.object_model,) for rule in rules or (m.rule,)]
     return list(dict.fromkeys(out))
 
 
@@ -242,7 +239,8 @@ def cmd_bench_frames(args) -> int:
     if args.phases > 1 and args.keep_other_methods:
         raise ValueError("--phases does not combine with --keep-other-methods (an earlier "
                          "run holds the default grid's detections only)")
-    methods = expand_adapted(args.methods or list(METHODS), args.rules, args.object_models)
+    methods = expand_adapted(args.methods or list(DEFAULT_METHODS), args.rules,
+                             args.object_models)
     earlier = _earlier_results(args.out, args.data) if args.keep_other_methods else {}
     models = SourceDetectors.load(args.model) if args.model else None
     seeds = [args.seed + i for i in range(args.seeds)]
@@ -259,9 +257,10 @@ def cmd_bench_frames(args) -> int:
         args.data, methods=methods, seed=seeds[0], models=models, **kw)
     per_seed = {seeds[0]: {m: results[m] for m in methods}}
     seed_models = {}
-    trained = [m for m in methods if m not in UNTRAINED_METHODS]
+    trained = [m for m in methods if m.needs_training]        # OpenCV's: run once
     for i, seed in enumerate(seeds[1:], 2):
-        print(f"\nseed {seed} ({i} of {len(seeds)}; {', '.join(trained)})", flush=True)
+        print(f"\nseed {seed} ({i} of {len(seeds)}; {', '.join(m.name for m in trained)})",
+              flush=True)
         per_seed[seed], seed_models[seed], *_ = run_frames_benchmark(
             args.data, methods=trained, seed=seed, **kw)
     kept = [m for m in earlier if m not in methods]
@@ -269,12 +268,12 @@ def cmd_bench_frames(args) -> int:
         old, sec = earlier[m]
         missing = [_frame_key(f) for f in frames if _frame_key(f) not in old]
         if missing:
-            raise ValueError(f"--keep-other-methods: {m}'s earlier results lack the frames "
+            raise ValueError(f"--keep-other-methods: {m.name}'s earlier results lack the frames "
                              f"{missing[:3]}{' ...' if len(missing) > 3 else ''}")
         dets[m] = [np.asarray(old[_frame_key(f)], float).reshape(-1, 5) for f in frames]
         results[m] = dict(evaluate_method(dets[m], frames), seconds_per_frame=sec)
     if kept:
-        print(f"kept from the earlier run in {args.out}: {', '.join(kept)}")
+        print(f"kept from the earlier run in {args.out}: {', '.join(m.name for m in kept)}")
         methods = list(dict.fromkeys([*earlier, *methods]))     # the earlier run's order
     with atomic_output_dir(args.out) as tmp:
         n_phases = len(info["grid_phases"]) if phase_dets else 1    # none moved: one grid
@@ -283,14 +282,12 @@ def cmd_bench_frames(args) -> int:
         csv = []
         for m in methods:
             r = results[m]
-            _, how, variant = split_method(m)
-            rule, model = variant if how == "adapted" else ("", "")
-            csv.append(dict(method=m, lamr=r["lamr"],
+            csv.append(dict(method=m.name, lamr=r["lamr"],
                             lamr_default_grid=r.get("lamr_phases", [r["lamr"]])[0],
                             grid_phases=len(r.get("lamr_phases", [0])),
                             seconds_per_frame=r["seconds_per_frame"],
-                            n_frames=info["n_frames"], n_gt=info["n_gt"], rule=rule,
-                            object_model=model))
+                            n_frames=info["n_frames"], n_gt=info["n_gt"], rule=m.rule or "",
+                            object_model=m.object_model or ""))
         lamrs = {s: {m: r["lamr"] for m, r in res.items()} for s, res in per_seed.items()}
         lines += accuracy_targets(results, lamrs)
         if phase_dets:
@@ -305,7 +302,7 @@ def cmd_bench_frames(args) -> int:
             lines += ["", *seed_lines]
             (tmp / "seeds.md").write_text("\n".join(seed_lines) + "\n")
             (tmp / "seeds.csv").write_text("seed,method,lamr,seconds_per_frame\n" + "".join(
-                f"{s},{m},{r['lamr']:.5f},{r['seconds_per_frame']:.5f}\n"
+                f"{s},{m.name},{r['lamr']:.5f},{r['seconds_per_frame']:.5f}\n"
                 for s, res in per_seed.items() for m, r in res.items()))
             plot_seed_figure(lamrs, tmp / "seeds")
         (tmp / "frames_summary.md").write_text("\n".join(lines) + "\n")
@@ -313,13 +310,14 @@ def cmd_bench_frames(args) -> int:
 
         pd.DataFrame(csv).to_csv(tmp / "frames_summary.csv", index=False, float_format="%.5f")
         # the curves are the default grid's, with their own LAMR
-        curves = {m: dict(results[m], lamr=results[m].get("lamr_phases", [results[m]["lamr"]])[0])
+        curves = {m.name: dict(results[m],
+                               lamr=results[m].get("lamr_phases", [results[m]["lamr"]])[0])
                   for m in methods}
         (tmp / "det_curves.json").write_text(json.dumps(
             {m: dict(zip(("fppi", "miss_rate"), (a.tolist() for a in curve_corners(
                 c["fppi"], c["miss_rate"]))), lamr=c["lamr"]) for m, c in curves.items()}))
         (tmp / "detections.json").write_text(json.dumps(
-            {m: {_frame_key(f): d.tolist() for f, d in zip(frames, dets[m])}
+            {m.name: {_frame_key(f): d.tolist() for f, d in zip(frames, dets[m])}
              for m in methods}))
         plot_det_figure(curves, tmp / "det_frames",
                         title=f"{info['n_frames']} frames, {info['n_gt']} persons"
@@ -329,7 +327,8 @@ def cmd_bench_frames(args) -> int:
         for seed, m in seed_models.items():
             m.save(tmp / "models" / f"source_detectors_seed{seed}.npz")
         (tmp / "run.json").write_text(json.dumps(run_metadata(
-            args.seed, data=str(args.data), methods=methods, kept_from_earlier_run=kept, **info,
+            args.seed, data=str(args.data), methods=[m.name for m in methods],
+            kept_from_earlier_run=[m.name for m in kept], **info,
             seeds=seeds, training=models.training,
             seconds=round(time.perf_counter() - t0, 1)), indent=2, default=str))
     print("\n".join(lines))
@@ -428,7 +427,8 @@ def register(sub, common) -> None:
                                     "detectors and the baselines, and write DET curves, "
                                     "log-average miss rates and a table.")
     p.add_argument("--methods", nargs="+", default=None, type=_method_arg, metavar="METHOD",
-                   help="methods to run (default: " + " ".join(METHODS) + "); also "
+                   help="methods to run (default: " + " ".join(m.name for m in DEFAULT_METHODS)
+                        + "); also "
                         "opencv_native and adapted variants such as 'hog_adapted[body]' "
                         "(quoted)")
     p.add_argument("--rules", nargs="+", choices=list(ANGLE_RULES), default=None,

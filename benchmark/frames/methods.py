@@ -2,14 +2,14 @@
 
 Frame contract: see :mod:`benchmark.toyframes` (``frames_coco.json`` with the calibration
 in every image entry). Calibration files for users' footage:
-:func:`viewadapt.detect.read_calibration`.
+:func:`viewadapt.io.read_calibration`.
 
 Methods (Wang et al. 2017, Sec. 5.2 and Table 1), all on the same frames:
 
 ``hog_adapted`` / ``acf_adapted``
     the viewpoint-adapted detectors over world-space windows
     (:class:`viewadapt.detect.FrameDetector`); ``hog_adapted[body, paper eq.3]`` and the
-    other :data:`ADAPTED_VARIANTS`: the same with another angle rule or object model;
+    other adapted variants: the same with another angle rule or object model;
 ``hog_warp`` / ``acf_warp``
     every candidate window warped into the canonical view, then featurised and classified
     (Li et al. 2008; Algorithm 1);
@@ -23,6 +23,9 @@ Methods (Wang et al. 2017, Sec. 5.2 and Table 1), all on the same frames:
 ``opencv``
     ``cv2.HOGDescriptor.detectMultiScale`` with OpenCV's default people detector on the
     4x-upsampled frame (``opencv_native``: on the frame as it is).
+
+Each method is a :class:`benchmark.frames.spec.FrameMethod`, its name parsed once where it
+enters.
 """
 
 from __future__ import annotations
@@ -36,20 +39,19 @@ from benchmark.frames.pyramids import (
     ACF_PYRAMID_LAMBDAS, acf_pyramid_detect, acf_pyramid_fast_detect, hog_pyramid_detect,
     pyramid_scales,
 )
+from benchmark.frames.spec import frame_method
 from viewadapt.detect import (
-    ACF_DETECTOR, check_frame, detector_kind, FrameDetector, HOG_DETECTOR, PERSON_BOX_WINDOW,
+    ACF_DETECTOR, FrameDetector, HOG_DETECTOR, PERSON_BOX_WINDOW, check_frame, detector_kind,
     person_boxes,
 )
 from viewadapt.geometry import WINDOW_HEIGHT, Camera
 from viewadapt.io import SourceDetectors
 from viewadapt.nms import detections_from_scores
 
-__all__ = ["FrameRecord", "load_frames", "train_source_detectors", "dataset_provenance", "NEGATIVE_CHOICES", "FRAME_VIEW_CHOICES",
-           "DEFAULT_FRAME_VIEW", "METHODS", "ADAPTED_VARIANTS", "adapted_method", "split_method",
-           "check_method", "moves_with_grid", "FrameMethods", "evaluate_method", "PAPER_FPS",
-           "warp_scores",
-           "pyramid_scales", "hog_pyramid_detect", "acf_pyramid_detect",
-           "acf_pyramid_fast_detect", "ACF_PYRAMID_LAMBDAS", "opencv_detect"]
+__all__ = ["FrameRecord", "load_frames", "train_source_detectors", "dataset_provenance",
+           "NEGATIVE_CHOICES", "FRAME_VIEW_CHOICES", "DEFAULT_FRAME_VIEW", "FrameMethods",
+           "evaluate_method", "PAPER_FPS", "warp_scores", "pyramid_scales", "hog_pyramid_detect",
+           "acf_pyramid_detect", "acf_pyramid_fast_detect", "ACF_PYRAMID_LAMBDAS", "opencv_detect"]
 
 #: Table 1 of the paper: frames per second on one Intel Core i7 core, CAVIAR 384x288.
 #: ``acf_pyramid_fast`` is what the paper timed as the ACF pyramid (Dollár's toolbox, fast
@@ -58,8 +60,6 @@ PAPER_FPS = {"hog_pyramid": 0.439, "acf_pyramid": 3.54, "acf_pyramid_fast": 3.54
              "hog_warp": 0.0666,
              "acf_warp": 0.0419, "hog_adapted": 11.8, "acf_adapted": 10.7}
 PAPER_WINDOWS = 31603
-METHODS = ("hog_adapted", "hog_warp", "hog_pyramid", "opencv", "acf_adapted", "acf_warp",
-           "acf_pyramid", "acf_pyramid_fast")
 
 
 # ------------------------------------------------------------------------------- input
@@ -244,65 +244,6 @@ def _nms(boxes, scores, threshold, kind):
                                   nms_threshold=kind.nms_threshold)
 
 
-#: the adapted detector's variants on frames -> (angle rule, object model): the
-#: cross-validation's names (:data:`benchmark.crops.crossval.ADAPT_VARIANTS`, per-cell ``A``)
-ADAPTED_VARIANTS = {"adapted": ("covariant", "plane"),
-                    "adapted[S only]": ("none", "plane"),
-                    "adapted[paper eq.3]": ("paper", "plane"),
-                    "adapted[body]": ("covariant", "body"),
-                    "adapted[body, S only]": ("none", "body"),
-                    "adapted[body, paper eq.3]": ("paper", "body")}
-
-
-def adapted_method(kind, rule: str = "covariant", object_model: str = "plane") -> str:
-    """The frames method name of the adapted ``kind`` detector with ``rule`` and
-    ``object_model``: e.g. ``"hog_adapted"``, ``"acf_adapted[body, paper eq.3]"``."""
-    for variant, key in ADAPTED_VARIANTS.items():
-        if key == (rule, object_model):
-            return f"{detector_kind(kind).name}_{variant}"
-    raise ValueError(f"no adapted variant with rule {rule!r} and object model "
-                     f"{object_model!r}; variants: {list(ADAPTED_VARIANTS.values())}")
-
-
-def split_method(method):
-    """``"hog_adapted[body]"`` -> (the hog DetectorKind, "adapted", ("covariant", "body"));
-    ``"hog_warp"`` -> (kind, "warp", None); ``"acf_pyramid_fast"`` -> (the acf kind,
-    "pyramid_fast", None); (None, method, None) for the others."""
-    name, sep, how = method.partition("_")
-    if sep and how == "pyramid_fast" and name == ACF_DETECTOR.name:
-        return ACF_DETECTOR, how, None
-    if sep and name and how.startswith("adapted") and how in ADAPTED_VARIANTS:
-        try:
-            return detector_kind(name), "adapted", ADAPTED_VARIANTS[how]
-        except ValueError:
-            pass
-    name, _, how = method.rpartition("_")
-    if how in ("warp", "pyramid") and name:
-        try:
-            return detector_kind(name), how, None
-        except ValueError:
-            pass
-    return None, method, None
-
-
-def moves_with_grid(method) -> bool:
-    """Whether ``method`` scores the candidate windows (the adapted variants, image
-    warping), so that its detections move with the windows' ground grid
-    (``grid_phase``); the pyramids and OpenCV's detector slide their own windows over the
-    frame."""
-    _, how, _ = split_method(check_method(method))
-    return how in ("adapted", "warp")
-
-
-def check_method(method) -> str:
-    """``method`` if the frames benchmark knows it, else ValueError naming the choices."""
-    kind, how, _ = split_method(method)
-    if kind is None and how not in ("opencv", "opencv_native"):
-        raise ValueError(f"unknown method {method!r}; choose from {METHODS}, or an adapted "
-                         f"variant such as 'hog_adapted[body]' ({list(ADAPTED_VARIANTS)})")
-    return method
-
-
 class FrameMethods:
     """Every method of the frames benchmark on one camera: the adapted detectors of
     :class:`viewadapt.detect.FrameDetector` (one per angle rule and object model asked
@@ -337,30 +278,30 @@ class FrameMethods:
                                                 object_model=object_model, **self._kw)
         return self._variants[key]
 
-    def prepare(self, method: str) -> None:
-        """Build (or load) ``method``'s adapted operator now: the offline step, not timed
-        per frame; nothing for the other methods."""
-        kind, how, variant = split_method(check_method(method))
-        if how == "adapted":
-            self.detector(*variant).operator(kind.name)
+    def prepare(self, method) -> None:
+        """Build (or load) the adapted operator of ``method`` (a
+        :class:`~benchmark.frames.spec.FrameMethod` or its name) now: the offline step, not
+        timed per frame; nothing for the other methods."""
+        m = frame_method(method)
+        if m.how == "adapted":
+            self.detector(m.rule, m.object_model).operator(m.kind)
 
-    def detect(self, method: str, image) -> np.ndarray:
-        """(D, 5) detections ``(x, y, w, h, score)`` of ``method`` on ``image``."""
+    def detect(self, method, image) -> np.ndarray:
+        """(D, 5) detections ``(x, y, w, h, score)`` of ``method`` (a
+        :class:`~benchmark.frames.spec.FrameMethod` or its name) on ``image``."""
         check_frame(image, self.adapted.size)
-        kind, how, variant = split_method(check_method(method))
-        if how == "adapted":
-            return self.detector(*variant).detect(image, kind.name)
-        if how == "warp":
+        m = frame_method(method)
+        if m.kind == "opencv":
+            return opencv_detect(image, upsample=m.upsample)
+        kind = m.detector
+        if m.how == "adapted":
+            return self.detector(m.rule, m.object_model).detect(image, kind.name)
+        if m.how == "warp":
             s = warp_scores(image, self.windows.homographies, self.models, kind)
             return _nms(person_boxes(self.windows.homographies), s, self.thr[kind.name], kind)
-        if how == "pyramid":
-            detect = hog_pyramid_detect if kind is HOG_DETECTOR else acf_pyramid_detect
-            return detect(image, self.models, threshold=self.thr[kind.name])
-        if how == "pyramid_fast":
-            return acf_pyramid_fast_detect(image, self.models, threshold=self.thr[kind.name])
-        if method == "opencv":
-            return opencv_detect(image, upsample=4)
-        return opencv_detect(image, upsample=1)
+        detect = {"pyramid": hog_pyramid_detect if kind is HOG_DETECTOR else acf_pyramid_detect,
+                  "pyramid_fast": acf_pyramid_fast_detect}[m.how]
+        return detect(image, self.models, upsample=m.upsample, threshold=self.thr[kind.name])
 
 
 def warp_scores(image, homographies, models, kind, *, chunk: int = 512) -> np.ndarray:

@@ -1,6 +1,9 @@
 """The report of a ``bench frames`` run: the summary table, the accuracy targets, the
 adapted - warping gap over grid phases (``--phases``), and the tables and figure of a
-study over training seeds (``--seeds``)."""
+study over training seeds (``--seeds``).
+
+Results are keyed by :class:`benchmark.frames.spec.FrameMethod`; the tables and figures
+write each method's name."""
 
 from __future__ import annotations
 
@@ -8,6 +11,8 @@ import numpy as np
 
 from viewadapt.detect import DETECTOR_KINDS
 from viewadapt.io import FAMILY_COLORS
+
+from benchmark.frames.spec import FrameMethod
 
 #: the accuracy target's margin: adapted LAMR at most this above image warping's
 WARP_MARGIN = 0.03
@@ -22,7 +27,7 @@ def summary_table(results, methods, *, seed_note: str = "", n_phases: int = 1) -
     beside its standard deviation over them and the default grid's."""
     if n_phases == 1:
         lines = [f"| method | LAMR{seed_note} (1e-2..1e0 fppi) | s / frame |", "|---|---|---|"]
-        return lines + [f"| {m} | {results[m]['lamr']:.3f} | "
+        return lines + [f"| {m.name} | {results[m]['lamr']:.3f} | "
                         f"{results[m]['seconds_per_frame']:.3f} |" for m in methods]
     lines = [f"| method | LAMR{seed_note}, mean over {n_phases} grid phases | sd over the "
              "phases | default grid | s / frame |", "|---|---|---|---|---|"]
@@ -32,7 +37,7 @@ def summary_table(results, methods, *, seed_note: str = "", n_phases: int = 1) -
             sd, default = f"{np.std(r['lamr_phases'], ddof=1):.3f}", r["lamr_phases"][0]
         else:                   # the pyramids and OpenCV: not on the windows' grid
             sd, default = "-", r["lamr"]
-        lines.append(f"| {m} | {r['lamr']:.3f} | {sd} | {default:.3f} | "
+        lines.append(f"| {m.name} | {r['lamr']:.3f} | {sd} | {default:.3f} | "
                      f"{r['seconds_per_frame']:.3f} |")
     return lines
 
@@ -43,7 +48,7 @@ def phase_table(results, phases) -> str:
     rows = ["method,phase_forward,phase_left,lamr\n"]
     for m, r in results.items():
         for (a, b), v in zip(phases, r.get("lamr_phases", ())):
-            rows.append(f"{m},{a:g},{b:g},{v:.5f}\n")
+            rows.append(f"{m.name},{a:g},{b:g},{v:.5f}\n")
     return "".join(rows)
 
 
@@ -57,7 +62,7 @@ def phase_gap_lines(phase_detections, frames, *, n_boot: int = 1000, seed: int =
 
     out = []
     for kind in DETECTOR_KINDS:
-        ad, wp = f"{kind}_adapted", f"{kind}_warp"
+        ad, wp = FrameMethod(kind, "adapted"), FrameMethod(kind, "warp")
         if ad not in phase_detections or wp not in phase_detections:
             continue
         diff, lo, hi = phase_mean_difference(
@@ -65,7 +70,7 @@ def phase_gap_lines(phase_detections, frames, *, n_boot: int = 1000, seed: int =
             rng=np.random.default_rng(seed))
         verdict = ("met" if hi <= WARP_MARGIN else "NOT met" if lo > WARP_MARGIN else
                    f"not resolved (the mean {'meets' if diff <= WARP_MARGIN else 'misses'} it)")
-        out.append(f"- {ad} - {wp}: {diff:+.3f} [{lo:+.3f}, {hi:+.3f}] over "
+        out.append(f"- {ad.name} - {wp.name}: {diff:+.3f} [{lo:+.3f}, {hi:+.3f}] over "
                    f"{len(phase_detections[ad])} grid phases; at most +{WARP_MARGIN:g} with "
                    f"the whole interval: {verdict}")
     if not out:
@@ -75,13 +80,13 @@ def phase_gap_lines(phase_detections, frames, *, n_boot: int = 1000, seed: int =
             *out]
 
 
-#: the accuracy targets: (baseline, test on (adapted, baseline) LAMR, wording)
+#: the accuracy targets: (how the baseline detects, test on (adapted, baseline) LAMR, wording)
 TARGETS = (("warp", lambda a, b: a <= b + WARP_MARGIN,
             f"within {WARP_MARGIN:g} of (or below) image warping"),
             ("pyramid", lambda a, b: a < b, "below the unadapted pyramid"))
 
 def accuracy_targets(results, per_seed=None) -> list:
-    """The issue's accuracy targets, read off this run's log-average miss rates; with
+    """The accuracy targets (:data:`TARGETS`), read off this run's log-average miss rates; with
     ``per_seed`` ({seed: {method: LAMR}}, two seeds or more) judged on the seed means,
     with how many seeds meet each on their own."""
     many = per_seed is not None and len(per_seed) > 1
@@ -89,15 +94,15 @@ def accuracy_targets(results, per_seed=None) -> list:
              for m in results} if many else {m: r["lamr"] for m, r in results.items()})
     out = []
     for kind in DETECTOR_KINDS:
-        ad = f"{kind}_adapted"
+        ad = FrameMethod(kind, "adapted")
         if ad not in lamr:
             continue
         for base, test, text in TARGETS:
-            other = f"{kind}_{base}"
+            other = FrameMethod(kind, base)
             if other not in lamr:
                 continue
             ok = test(lamr[ad], lamr[other])
-            line = (f"- {ad} {'mean ' if many else ''}LAMR {lamr[ad]:.3f} {text} "
+            line = (f"- {ad.name} {'mean ' if many else ''}LAMR {lamr[ad]:.3f} {text} "
                     f"({lamr[other]:.3f}): {'met' if ok else 'NOT met'}")
             if many:
                 n = sum(test(r[ad], r[other]) for r in per_seed.values())
@@ -136,7 +141,7 @@ def seed_summary(per_seed) -> list:
     for m in methods:
         vals = [per_seed[s].get(m) for s in seeds]
         cells = " | ".join("-" if v is None else f"{v:.3f}" for v in vals)
-        lines.append(f"| {m} | {cells} | {stats([v for v in vals if v is not None])} |")
+        lines.append(f"| {m.name} | {cells} | {stats([v for v in vals if v is not None])} |")
     gaps = seed_gaps(per_seed)
     if gaps:
         lines += ["", "Adapted minus image warping (negative: adapted misses less; the "
@@ -151,8 +156,9 @@ def seed_gaps(per_seed) -> dict:
     """{detector: [adapted - warping LAMR per seed]} for the detectors with both."""
     out = {}
     for kind in DETECTOR_KINDS:
-        if all(f"{kind}_{b}" in r for r in per_seed.values() for b in ("adapted", "warp")):
-            out[kind] = [r[f"{kind}_adapted"] - r[f"{kind}_warp"] for r in per_seed.values()]
+        ad, wp = FrameMethod(kind, "adapted"), FrameMethod(kind, "warp")
+        if all(ad in r and wp in r for r in per_seed.values()):
+            out[kind] = [r[ad] - r[wp] for r in per_seed.values()]
     return out
 
 
@@ -174,11 +180,12 @@ def plot_seed_figure(per_seed, path_stem, *, what: str = "training seeds"):
     ax = axes[0, 0]
     for i, m in enumerate(methods):
         vals = np.array([per_seed[s][m] for s in seeds if m in per_seed[s]])
-        color = FAMILY_COLORS.get(m.split("_")[0], "tab:gray")
+        color = FAMILY_COLORS.get(m.kind, "tab:gray")
         ax.bar(i, vals.mean(), color=color, alpha=0.3, width=0.7)
         ax.plot(np.full(vals.size, i) + np.linspace(-0.2, 0.2, vals.size), vals, "o",
                 color=color, ms=4)
-    ax.set_xticks(range(len(methods)), methods, rotation=30, ha="right", fontsize=8)
+    ax.set_xticks(range(len(methods)), [m.name for m in methods], rotation=30, ha="right",
+                  fontsize=8)
     ax.set_ylabel("log-average miss rate")
     ax.set_ylim(0, 1)
     ax.set_title(f"{len(seeds)} {what}: dots, mean: bar", fontsize=9)

@@ -7,7 +7,7 @@ with the cameras ``viewadapt calibrate`` recovered
 (:func:`benchmark.studies.calibration_roundtrip.calibrate_draws`, focal length known and
 estimated); each is evaluated against the same ground truth
 (:func:`benchmark.frames.methods.evaluate_method`), and the LAMR differences to the true camera get
-a paired bootstrap interval over frames. The bar (issue 17): within :data:`LAMR_BAR`.
+a paired bootstrap interval over frames. The bar: within :data:`LAMR_BAR`.
 
 Used by ``python -m benchmark.studies.calibration_roundtrip`` (:mod:`benchmark.studies.calibration_roundtrip`),
 which holds the calibration draws, the report and the command line.
@@ -29,7 +29,7 @@ __all__ = ["LAMR_BAR", "PERSON_HEIGHTS", "FOCAL_MODES", "VARIANTS",
            "detector_check", "summarize_lamr",
            "detector_markdown", "fmt_number", "met_text"]
 
-#: issue 17's bar of the detector check: the adapted HOG detector's LAMR with the recovered
+#: the bar of the detector check: the adapted HOG detector's LAMR with the recovered
 #: camera within this of the true camera's
 LAMR_BAR = 0.02
 #: assumed person heights of the detector check, metres (``bench frames``' default)

@@ -3,8 +3,7 @@
 ``python -m benchmark.studies.calibration_roundtrip --data DIR --out DIR [--points 6] [--noise 0.5]
 [--draws 20] [--phases 4] [--model M] [--seed S] [--jobs N]``
 
-Issue 17, item 4's acceptance measurement on a dataset's own calibrated frames. For every
-frame camera (one per scene):
+Measured on a dataset's own calibrated frames. For every frame camera (one per scene):
 
 1. ``--points`` ground points (``Z = 0``) are chosen over the ground the camera sees: a
    jittered grid of pixels over the lower two thirds of the image (inside a 5 % margin,
@@ -14,7 +13,7 @@ frame camera (one per scene):
    coordinate -- a person clicking the points -- and are written as the ``u, v, X, Y``
    CSV ``viewadapt calibrate`` reads, then read back with its reader.
 3. The camera is recovered by the function the command runs
-   (:func:`viewadapt.detect.calibrate_from_ground_points`, principal point the image
+   (:func:`viewadapt.camera.calibrate_from_ground_points`, principal point the image
    centre as the command's default), once with the true focal length given (``--focal``)
    and once with none (estimated).
 
@@ -35,7 +34,7 @@ scored at ``--phases`` x ``--phases`` offsets of their ground grid and its LAMR 
 over them: where a grid falls on the ground is arbitrary, and on a few dozen frames it
 moves a LAMR by several hundredths, as much as a small calibration error does.
 
-The bars (issue 17): height within :data:`HEIGHT_BAR_PCT` %, tilt within
+The bars: height within :data:`HEIGHT_BAR_PCT` %, tilt within
 :data:`TILT_BAR_DEG` degrees -- judged on the 95th percentile over all cameras and draws,
 with no failed calibration -- and the first draw's LAMR within
 :data:`benchmark.studies.calibration_lamr.LAMR_BAR` of the true camera's.
@@ -82,7 +81,7 @@ __all__ = ["HEIGHT_BAR_PCT", "TILT_BAR_DEG", "MIN_DEPRESSION_DEG", "group_camera
            "choose_ground_points", "write_correspondences", "calibrate_draws",
            "ERROR_COLUMNS", "summarize_draws", "run_calibration_roundtrip", "main"]
 
-#: issue 17's bars: recovered camera height within this many percent of the true one
+#: the bars: recovered camera height within this many percent of the true one
 HEIGHT_BAR_PCT = 2.0
 #: ... the tilt within this many degrees (the detector's: :data:`calibration_lamr.LAMR_BAR`)
 TILT_BAR_DEG = 0.5
@@ -237,7 +236,7 @@ def calibrate_draws(name: str, camera: Camera, *, n_points: int, noise_px: float
 
     Each draw chooses points (:func:`choose_ground_points`), adds ``N(0, noise_px^2)``
     pixel noise, writes and reads back the CSV (when ``points_dir`` is given), and runs
-    :func:`viewadapt.detect.calibrate_from_ground_points` with the true focal length and
+    :func:`viewadapt.camera.calibrate_from_ground_points` with the true focal length and
     without (the same noisy points).
 
     Returns
@@ -379,7 +378,7 @@ def run_calibration_roundtrip(frames, models, *, n_points: int = 6, noise_px: fl
 
 def _markdown(summary: pd.DataFrame, overall: pd.DataFrame, per_camera: pd.DataFrame,
               run: dict) -> str:
-    lines = ["# Calibration round trip (issue 17, item 4)", "",
+    lines = ["# Calibration round trip", "",
              f"{run['n_cameras']} frame cameras of `{run['data']}` ({run['n_frames']} frames); "
              f"{run['points']} ground points per draw over the lower two thirds of the image, "
              f"Gaussian pixel noise {run['noise_px']:g} px, {run['draws']} draws per camera "

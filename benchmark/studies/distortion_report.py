@@ -5,7 +5,8 @@ summary table, the verdict and the markdown report.
 :func:`benchmark.studies.distortion_study.run_distortion_study` into one row per condition and
 coefficient set (log-average miss rates with 95 % frame-bootstrap intervals, paired
 differences, per-frame times, the share of persons touching the render's invalid edge);
-:func:`study_verdict` applies the rule of issue 17 to that table, and
+:func:`study_verdict` applies the study's rule (keep the correction that detects as well as
+the pinhole frames at the lower cost) to that table, and
 :func:`study_markdown` writes ``distortion_study.md``. The condition labels of the controls
 (:data:`ORIGINAL`, :data:`ONCE`, :data:`TWICE`) and the thresholds the report quotes
 (:data:`MAX_REMAP_FRACTION`, :data:`VALID_WEIGHT`) are defined here, and
@@ -24,7 +25,7 @@ __all__ = ["ORIGINAL", "ONCE", "TWICE", "MAX_REMAP_FRACTION", "VALID_WEIGHT",
            "summarize_distortion_study", "study_verdict", "study_markdown"]
 
 #: Undistortion counts as cheap when it costs at most this fraction of the detection: the
-#: slack issue 17's acceptance allows ``detect`` against ``bench runtime`` (10 %).
+#: the slack ``detect``'s speed is allowed against ``bench runtime`` (10 %).
 MAX_REMAP_FRACTION = 0.10
 #: A pixel of the undistorted frame is valid when at least this share of its bilinear
 #: weight falls on pixels with data (the rest is the remap's border fill).
@@ -129,8 +130,8 @@ def _undistortion_verdict(summ) -> str:
 
 
 def study_verdict(summ) -> str:
-    """What the table supports, by the rule of issue 17: keep the correction that detects as
-    well as the pinhole frames at the lower cost.
+    """What the table supports, by the study's rule: keep the correction that detects as well
+    as the pinhole frames at the lower cost.
 
     Parameters
     ----------

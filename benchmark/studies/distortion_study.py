@@ -5,7 +5,7 @@ detects as well as on pinhole frames, and at what cost?
 [--dist k1,k2,p1,p2,k3 ...] [--seed S]``
 
 ``viewadapt detect`` corrects a distorted camera by undistorting each frame with maps
-computed once (:class:`viewadapt.detect.Undistortion`: ``cv2.remap`` per frame, new camera
+computed once (:class:`viewadapt.camera.Undistortion`: ``cv2.remap`` per frame, new camera
 matrix = ``K``) and then runs the adapted detector built for the pinhole camera. The
 alternative maps every candidate window through the lens model when the adapted operator
 is built (:func:`viewadapt.detect.windows.windows_through_lens`: each window's homography
@@ -20,8 +20,8 @@ detector (:class:`viewadapt.detect.FrameDetector`, person heights 1.65 and 1.85 
     the frames as rendered;
 ``(b) undistorted``
     each frame synthetically distorted with known OpenCV coefficients
-    (:func:`viewadapt.detect.distort_image`, relative to the frame's own ``K``), then
-    undistorted with :class:`~viewadapt.detect.Undistortion`, as ``detect`` does;
+    (:func:`viewadapt.camera.distort_image`, relative to the frame's own ``K``), then
+    undistorted with :class:`~viewadapt.camera.Undistortion`, as ``detect`` does;
 ``(c) uncorrected``
     the distorted frames detected as if they were pinhole frames (the cost of ignoring the
     lens);
@@ -77,9 +77,9 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from viewadapt.camera import check_distortion, distort_image, Undistortion
+from viewadapt.camera import Undistortion, check_distortion, distort_image
 from viewadapt.detect import FrameDetector
-from viewadapt.io import shipped_model_path, SourceDetectors
+from viewadapt.io import SourceDetectors, shipped_model_path
 from viewadapt.io.files import UserError, atomic_output_dir, check_output_dir, run_metadata
 
 from benchmark.studies.distortion_report import (
@@ -174,8 +174,8 @@ def valid_region(K, dist, image_size) -> np.ndarray:
     """Pixels of the undistorted frame that the synthetic distortion and the undistortion
     fill from image data alone.
 
-    A frame of ones is distorted (:func:`~viewadapt.detect.distort_image`, border 0) and
-    undistorted (:class:`~viewadapt.detect.Undistortion`, border 0); a pixel is valid when
+    A frame of ones is distorted (:func:`~viewadapt.camera.distort_image`, border 0) and
+    undistorted (:class:`~viewadapt.camera.Undistortion`, border 0); a pixel is valid when
     its value is at least :data:`~benchmark.studies.distortion_report.VALID_WEIGHT`, i.e. neither
     remap mixed in border fill.
 
@@ -231,7 +231,7 @@ def invalid_box_fractions(boxes, valid) -> np.ndarray:
 def undistorted_boxes(dets, undistortion) -> np.ndarray:
     """Detections ``(x, y, w, h, score)`` in distorted-frame pixels -> the same in the
     undistorted frame: each box's corners and edge midpoints undistorted
-    (:meth:`Undistortion.undistort_points <viewadapt.detect.Undistortion.undistort_points>`),
+    (:meth:`Undistortion.undistort_points <viewadapt.camera.Undistortion.undistort_points>`),
     their bounding box kept, the score unchanged."""
     d = np.asarray(dets, dtype=np.float64).reshape(-1, 5)
     if len(d) == 0:
@@ -279,7 +279,7 @@ def run_distortion_study(frames, models, distortions, *, cache_dir=None,
     Parameters
     ----------
     frames : list of :class:`benchmark.frames.methods.FrameRecord`
-    models : :class:`viewadapt.detect.SourceDetectors`
+    models : :class:`viewadapt.io.SourceDetectors`
     distortions : list of (D,) ndarray
         OpenCV coefficient sets, each relative to the frames' ``K``.
     cache_dir : path or None

@@ -2,7 +2,7 @@
 
     python -m benchmark.studies.footage_memory --data DIR [--minutes 10] [--out DIR]
 
-Issue 17 asks that a 10-minute 384x288 clip run in flat memory (frames streamed, never all
+The bar: a 10-minute 384x288 clip runs in flat memory (frames streamed, never all
 held). This writes a clip of ``--minutes`` at 25 frames per second from the dataset's
 frames (resized to 384x288 and repeated in order, as :mod:`benchmark.studies.footage_speed`), runs
 ``viewadapt detect`` on it in a child process with the shipped HOG model and an annotated

@@ -2,7 +2,7 @@
 
     python -m benchmark.studies.footage_speed --data DIR [--frames 150] [--model M] [--out DIR]
 
-Issue 17's bar: on a 384x288 clip, ``viewadapt detect`` with the shipped HOG model runs
+The bar: on a 384x288 clip, ``viewadapt detect`` with the shipped HOG model runs
 within 10 % of the adapted detector's own frame rate (``bench runtime``'s adapted fps),
 decoding and undistortion included. Both are timed here, in one process with OpenCV and
 BLAS limited to one thread, on the same frames and the same operator; the command reads
@@ -16,7 +16,7 @@ frame is reported beside the frame rates:
     leaves out loading the operator);
 ``detect (video, dist)``
     the same with lens distortion in the calibration (the clip distorted by
-    :func:`viewadapt.detect.distort_image`), so every frame is undistorted first;
+    :func:`viewadapt.camera.distort_image`), so every frame is undistorted first;
 ``detect (video, dist, lens windows)``
     the same distorted clip with ``--lens windows``: the candidate windows mapped through
     the lens once, the frames read as they are (no undistortion); compared with the bare
@@ -143,9 +143,9 @@ def run_footage_benchmark(data, *, n_frames: int = 150, model=None, heights=(1.6
     if repeats < 1:
         raise ValueError(f"repeats must be at least 1, got {repeats}")
     from viewadapt.cli import main as viewadapt_main
-    from viewadapt.camera import distort_image, Undistortion
+    from viewadapt.camera import Undistortion, distort_image
     from viewadapt.detect import FrameDetector
-    from viewadapt.io import open_frames, shipped_model_path, SourceDetectors
+    from viewadapt.io import SourceDetectors, open_frames, shipped_model_path
 
     from benchmark.frames.runtime import single_thread, timing_camera
 
@@ -243,13 +243,13 @@ def format_table(result) -> str:
     runs = [r for r in result["rows"] if "ratios" in r]
     worst = min(runs, key=lambda r: r["ratio_to_detector"])
     cover = min(r["ratio_coverage"] for r in runs)
-    lines += ["", f"Bar (issue 17): the command within 10 % of the detector's fps, on the "
+    lines += ["", f"Bar: the command within 10 % of the detector's fps, on the "
               f"median paired ratio: {'met' if worst['ratio_to_detector'] >= 0.9 else 'NOT met'}"
               f" (lowest median {worst['ratio_to_detector']:.3f}, {worst['method']}); every "
               f"interval above 0.9: {'yes' if min(r['ratio_low'] for r in runs) >= 0.9 else 'no'}"
               f" (intervals' coverage at least {100 * cover:.1f} %).", "",
               "The command reads and undistorts the next frames in a second thread while it "
-              "detects (`viewadapt.detect.prefetched`); its CPU time per frame counts both "
+              "detects (`viewadapt.io.prefetched`); its CPU time per frame counts both "
               "threads over its frame loop (`cpu_seconds` of its metadata.json: reading, "
               "undistorting, detecting, writing), the detector's its detection loop."]
     return "\n".join(lines) + "\n"

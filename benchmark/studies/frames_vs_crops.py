@@ -57,7 +57,7 @@ import numpy as np
 import pandas as pd
 
 from viewadapt.boxes import box_intersections, safe_ratio
-from viewadapt.detect import FrameDetector, ground_truth_rows, UPSAMPLE_BELOW
+from viewadapt.detect import FrameDetector, UPSAMPLE_BELOW, ground_truth_rows
 from viewadapt.detect.evaluation import standardize_boxes
 from viewadapt.geometry import PERSON_HEIGHT_M
 from viewadapt.io import SourceDetectors
@@ -65,10 +65,9 @@ from viewadapt.io.files import atomic_output_dir, check_output_dir, run_metadata
 from viewadapt.nms import detections_from_scores
 
 from benchmark.data import load_dataset
-from benchmark.frames.methods import (
-    ADAPTED_VARIANTS, evaluate_method, load_frames, train_source_detectors,
-)
-from benchmark.crops.summarize import operating_threshold, paired_differences, summarize
+from benchmark.frames.methods import evaluate_method, load_frames, train_source_detectors
+from benchmark.frames.spec import variant_label
+from benchmark.crops.summarize import paired_differences, summarize
 
 __all__ = ["person_elevations", "label_windows", "score_frames", "window_tables",
            "crop_tables", "FPPW_LEVELS", "ELEVATION_EDGES", "HEIGHT_EDGES", "main"]
@@ -140,10 +139,9 @@ def label_windows(window_boxes, gt_rows, full_boxes=None):
 
 
 def _method(rule: str) -> str:
-    for name, key in ADAPTED_VARIANTS.items():
-        if key == (rule, "plane"):
-            return name
-    raise ValueError(f"no adapted variant for rule {rule!r}")
+    """The crops' name of the adapted variant with ``rule`` (plane object model), e.g.
+    ``"adapted[paper eq.3]"``."""
+    return variant_label("adapted", rule)
 
 
 def score_frames(frames, models, *, rules=RULES, heights=(1.65, 1.85), cache_dir=None,

@@ -2,8 +2,8 @@
 
 One module-scoped render of the ``tiny`` preset (6 persons x 3 scenes x 3 elevations,
 backgrounds, two calibrated frames; low sample counts), then what a user runs on it:
-cross-validation, sweep and report (issue 5), and full-frame detection with the adapted
-detectors (issue 6). The planar toy data of ``test_benchmark.py`` and
+cross-validation, sweep and report, and full-frame detection with the adapted
+detectors. The planar toy data of ``test_benchmark.py`` and
 ``test_fullframe_bench.py`` checks the numbers; this checks that rendered data flows
 through every step.
 """

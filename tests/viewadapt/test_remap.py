@@ -163,7 +163,7 @@ def test_angle_rules_by_hand():
 
 
 def test_angle_map_matches_measured_gradients():
-    # The measurement: a blurred edge warped by vertical foreshortening. Build it:
+    # The measurement: a blurred edge warped by vertical foreshortening. Build it:
     # target image = source image compressed vertically by c; angles measured on pixels.
     import cv2
 

@@ -8,9 +8,10 @@ import pytest
 
 from benchmark.data import load_dataset
 from benchmark.frames.command import run_frames_benchmark
-from benchmark.frames.methods import load_frames, moves_with_grid, train_source_detectors
+from benchmark.frames.methods import load_frames, train_source_detectors
 from benchmark.frames.phases import grid_phases
 from benchmark.frames.report import phase_gap_lines, phase_table, summary_table
+from benchmark.frames.spec import FrameMethod
 from tests.toy_frames import small_toy_frames
 
 
@@ -29,13 +30,15 @@ def toy(tmp_path_factory):
     return data, model
 
 
+def _methods(*names):
+    return [FrameMethod.parse(n) for n in names]
+
+
 def test_which_methods_move_with_the_grid():
-    assert moves_with_grid("hog_adapted") and moves_with_grid("acf_warp")
-    assert moves_with_grid("hog_adapted[body, paper eq.3]")
-    assert not any(map(moves_with_grid, ("hog_pyramid", "acf_pyramid_fast", "opencv",
-                                         "opencv_native")))
-    with pytest.raises(ValueError):
-        moves_with_grid("nonsense")
+    assert all(m.on_window_grid for m in _methods("hog_adapted", "acf_warp",
+                                                    "hog_adapted[body, paper eq.3]"))
+    assert not any(m.on_window_grid for m in _methods("hog_pyramid", "acf_pyramid_fast",
+                                                        "opencv", "opencv_native"))
 
 
 def test_phase_runs_move_the_windows_and_average(toy, tmp_path):
@@ -43,13 +46,14 @@ def test_phase_runs_move_the_windows_and_average(toy, tmp_path):
     from viewadapt.io import SourceDetectors
 
     models = SourceDetectors.load(model_path)
-    kw = dict(methods=["hog_adapted", "hog_warp", "opencv_native"], models=models,
+    ad, wp, cv = _methods("hog_adapted", "hog_warp", "opencv_native")
+    kw = dict(methods=[ad, wp, cv], models=models,
               cache_dir=tmp_path / "cache", progress=False, heights=(1.65, 1.85))
     one, *_, none = run_frames_benchmark(data, **kw)
     res, _, dets, frames, info, phase_dets = run_frames_benchmark(data, phases=2, **kw)
     assert none == {} and info["grid_phases"] == grid_phases(2)
-    assert set(phase_dets) == {"hog_adapted", "hog_warp"}           # opencv runs once
-    for m in ("hog_adapted", "hog_warp"):
+    assert set(phase_dets) == {ad, wp}                              # opencv runs once
+    for m in (ad, wp):
         lamrs = res[m]["lamr_phases"]
         assert len(lamrs) == 4 and res[m]["lamr"] == pytest.approx(np.mean(lamrs))
         # the default grid is the one-phase run's, detection for detection
@@ -58,8 +62,8 @@ def test_phase_runs_move_the_windows_and_average(toy, tmp_path):
         # another phase scores other windows
         assert any(a.shape != b.shape or not np.allclose(a, b)
                    for a, b in zip(phase_dets[m][1], phase_dets[m][0]))
-    assert res["opencv_native"]["lamr"] == one["opencv_native"]["lamr"]
-    assert "lamr_phases" not in res["opencv_native"]
+    assert res[cv]["lamr"] == one[cv]["lamr"]
+    assert "lamr_phases" not in res[cv]
     # the tables
     md = "\n".join(summary_table(res, list(res), n_phases=4))
     assert "mean over 4 grid phases" in md and "| opencv_native |" in md
@@ -74,12 +78,13 @@ def test_gap_verdicts(toy):
     frames = load_frames(data)
     perfect = [np.c_[f.gt, np.ones(len(f.gt))] for f in frames]
     empty = [np.zeros((0, 5)) for _ in frames]
+    ad, wp = _methods("hog_adapted", "hog_warp")
     # adapted perfect, warping finds nothing: the whole interval below +0.03
-    assert phase_gap_lines({"hog_adapted": [perfect] * 2, "hog_warp": [empty] * 2},
+    assert phase_gap_lines({ad: [perfect] * 2, wp: [empty] * 2},
                            frames, n_boot=10)[-1].endswith(": met")
-    assert phase_gap_lines({"hog_adapted": [empty], "hog_warp": [perfect]},
+    assert phase_gap_lines({ad: [empty], wp: [perfect]},
                            frames, n_boot=10)[-1].endswith(": NOT met")
-    assert phase_gap_lines({"hog_adapted": [empty]}, frames) == []
+    assert phase_gap_lines({ad: [empty]}, frames) == []
 
 
 def test_bench_frames_phases_end_to_end(toy, tmp_path):

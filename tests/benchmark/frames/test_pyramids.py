@@ -10,13 +10,12 @@ import numpy as np
 import pytest
 
 from benchmark.data import load_dataset
-from benchmark.frames.methods import (
-    METHODS, FrameMethods, check_method, load_frames, split_method, train_source_detectors,
-)
+from benchmark.frames.methods import FrameMethods, load_frames, train_source_detectors
 from benchmark.frames.pyramids import (
     ACF_PYRAMID_LAMBDAS, acf_fast_pyramid_levels, acf_pyramid_fast_detect, acf_pyramid_levels,
     dense_cascade_scores, dense_cascade_scores_reference,
 )
+from benchmark.frames.spec import DEFAULT_METHODS, FrameMethod
 from viewadapt.detect import ACF_GRADIENT_LAMBDA, ACF_SHRINK, acf_frame_features
 from tests.toy_frames import small_toy_frames
 
@@ -117,14 +116,15 @@ def test_detections_by_decreasing_score(frame, models):
 
 
 def test_method_is_known_and_dispatched(frame, models):
-    assert METHODS.index("acf_pyramid_fast") == METHODS.index("acf_pyramid") + 1
-    assert check_method("acf_pyramid_fast") == "acf_pyramid_fast"
-    kind, how, variant = split_method("acf_pyramid_fast")
-    assert (kind.name, how, variant) == ("acf", "pyramid_fast", None)
+    names = [m.name for m in DEFAULT_METHODS]
+    assert names.index("acf_pyramid_fast") == names.index("acf_pyramid") + 1
+    m = FrameMethod.parse("acf_pyramid_fast")
+    assert (m.kind, m.how, m.rule, m.object_model, m.name) == (
+        "acf", "pyramid_fast", None, None, "acf_pyramid_fast")
     with pytest.raises(ValueError, match="unknown method"):
-        check_method("hog_pyramid_fast")
+        FrameMethod.parse("hog_pyramid_fast")
     fm = FrameMethods(frame.camera, models, thresholds={"hog": 0.0, "acf": -1e9})
-    got = fm.detect("acf_pyramid_fast", frame.image())
+    got = fm.detect(m, frame.image())
     np.testing.assert_array_equal(got, acf_pyramid_fast_detect(frame.image(), models,
                                                                threshold=-1e9))
 

@@ -39,7 +39,7 @@ def test_footage_benchmark_times_every_path(tmp_path):
     meta = json.loads((tmp_path / "w" / "out_clip_dist_windows" / "metadata.json").read_text())
     assert meta["lens_windows"]["dist"] == res["distortion"] and meta["undistortion"] is None
     assert (tmp_path / "w" / "out_clip_dist_windows_1" / "metadata.json").is_file()  # repeat
-    assert "Bar (issue 17)" in format_table(res)
+    assert "Bar: the command within 10 %" in format_table(res)
 
 
 def test_median_interval_is_the_sign_test_interval():

@@ -1,0 +1,165 @@
+"""The methods of the frames benchmark: one frozen :class:`FrameMethod` per method.
+
+A method's name (``"hog_adapted[body, paper eq.3]"``, ``"acf_pyramid_fast"``,
+``"opencv_native"``) is read once, where it enters (the command line, an earlier run's
+files), with :meth:`FrameMethod.parse`; the code in between reads its fields, and the
+outputs write its :attr:`~FrameMethod.name`. The tags that name an adapted variant's angle
+rule and object model (:data:`RULE_TAGS`, :data:`OBJECT_MODEL_TAGS`,
+:func:`variant_label`) also name the cross-validation's variants
+(:data:`benchmark.crops.crossval.ADAPT_VARIANTS`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from viewadapt.detect import DETECTOR_KINDS, detector_kind
+
+__all__ = ["RULE_TAGS", "OBJECT_MODEL_TAGS", "variant_label", "FrameMethod", "FRAME_METHODS",
+           "DEFAULT_METHODS", "frame_method"]
+
+#: angle rule -> its tag in a variant's label (none for the default, covariant rule)
+RULE_TAGS = {"covariant": "", "none": "S only", "paper": "paper eq.3"}
+#: object model -> its tag in a variant's label (none for the default, the person plane)
+OBJECT_MODEL_TAGS = {"plane": "", "body": "body"}
+#: how a method detects -> the detector kinds that have it
+HOWS = {"adapted": tuple(DETECTOR_KINDS), "warp": tuple(DETECTOR_KINDS),
+        "pyramid": (*DETECTOR_KINDS, "opencv"), "pyramid_fast": ("acf",)}
+#: upsampling factors of the frame under a pyramid: the paper's 4x; OpenCV's also the frame
+#: as it is (``opencv_native``)
+UPSAMPLES = {"opencv": (4, 1)}
+PYRAMID_UPSAMPLE = 4
+
+
+def variant_label(base: str, rule: str | None = None, object_model: str | None = None, *,
+                  extra: str = "") -> str:
+    """``base`` tagged with the object model, the angle rule and an ``extra`` tag, e.g.
+    ``variant_label("adapted", "paper", "body")`` -> ``"adapted[body, paper eq.3]"``;
+    ``base`` alone for the defaults (None, covariant, plane) and no ``extra``."""
+    tags = [OBJECT_MODEL_TAGS[object_model] if object_model else "",
+            RULE_TAGS[rule] if rule else "", extra]
+    tags = [t for t in tags if t]
+    return f"{base}[{', '.join(tags)}]" if tags else base
+
+
+@dataclass(frozen=True)
+class FrameMethod:
+    """One method of the frames benchmark.
+
+    Attributes
+    ----------
+    kind : str
+        ``"hog"``, ``"acf"`` (the source detectors, :data:`viewadapt.detect.DETECTOR_KINDS`)
+        or ``"opencv"`` (OpenCV's default people detector).
+    how : str
+        ``"adapted"`` (the viewpoint-adapted detector on the candidate windows),
+        ``"warp"`` (every candidate window warped into the canonical view), ``"pyramid"``
+        (the unadapted detector over an image pyramid; OpenCV's ``detectMultiScale``) or
+        ``"pyramid_fast"`` (ACF over Dollár's fast feature pyramid).
+    rule, object_model : str or None
+        The adapted detector's angle rule (a key of :data:`RULE_TAGS`, default
+        ``"covariant"``) and object model (of :data:`OBJECT_MODEL_TAGS`, default
+        ``"plane"``); None for the other methods.
+    upsample : int or None
+        The pyramids' upsampling of the frame (default 4; OpenCV's also 1); None for the
+        methods on the candidate windows.
+
+    Raises
+    ------
+    ValueError
+        For a combination no method has.
+    """
+
+    kind: str
+    how: str
+    rule: str | None = None
+    object_model: str | None = None
+    upsample: int | None = None
+
+    def __post_init__(self):
+        if self.kind not in HOWS.get(self.how, ()):
+            raise ValueError(f"no frames method detects {self.how!r} with {self.kind!r}; "
+                             f"methods: {', '.join(m.name for m in FRAME_METHODS)}")
+        adapted, pyramid = self.how == "adapted", self.how.startswith("pyramid")
+        if adapted:
+            self._fill(rule="covariant", object_model="plane")
+        if pyramid:
+            self._fill(upsample=PYRAMID_UPSAMPLE)
+        if adapted != (self.rule is not None) or adapted != (self.object_model is not None):
+            raise ValueError(f"{self.how!r} methods take {'a' if adapted else 'no'} rule "
+                             f"and object model, got {self.rule!r}, {self.object_model!r}")
+        if adapted and (self.rule not in RULE_TAGS or self.object_model not in OBJECT_MODEL_TAGS):
+            raise ValueError(f"no adapted variant with rule {self.rule!r} and object model "
+                             f"{self.object_model!r}; rules {tuple(RULE_TAGS)}, object models "
+                             f"{tuple(OBJECT_MODEL_TAGS)}")
+        ups = UPSAMPLES.get(self.kind, (PYRAMID_UPSAMPLE,)) if pyramid else (None,)
+        if self.upsample not in ups:
+            raise ValueError(f"{self.kind}_{self.how} upsamples by one of {ups}, got "
+                             f"{self.upsample!r}")
+
+    def _fill(self, **defaults):
+        for field, value in defaults.items():
+            if getattr(self, field) is None:
+                object.__setattr__(self, field, value)
+
+    @classmethod
+    def parse(cls, text) -> FrameMethod:
+        """The method called ``text`` (its :attr:`name`); a one-line ValueError naming the
+        methods for any other."""
+        try:
+            return _BY_NAME[text]
+        except (KeyError, TypeError):
+            raise ValueError(f"unknown method {text!r}; choose from "
+                             f"{', '.join(_BY_NAME)}") from None
+
+    @property
+    def name(self) -> str:
+        """The method's name in the outputs, e.g. ``"hog_adapted[body, paper eq.3]"``,
+        ``"acf_pyramid_fast"``; OpenCV's ``"opencv"`` (4x) and ``"opencv_native"``."""
+        if self.kind == "opencv":
+            return "opencv" if self.upsample == PYRAMID_UPSAMPLE else "opencv_native"
+        return f"{self.kind}_{variant_label(self.how, self.rule, self.object_model)}"
+
+    @property
+    def detector(self):
+        """The :class:`~viewadapt.detect.DetectorKind` of a HOG or ACF method (ValueError
+        for OpenCV's)."""
+        return detector_kind(self.kind)
+
+    @property
+    def on_window_grid(self) -> bool:
+        """Whether the method scores the candidate windows (adapted, warp), so that its
+        detections move with the windows' ground grid (``grid_phase``); the pyramids slide
+        their own windows over the frame."""
+        return self.how in ("adapted", "warp")
+
+    @property
+    def needs_training(self) -> bool:
+        """Whether the method reads the trained source detectors (all but OpenCV's)."""
+        return self.kind != "opencv"
+
+
+def _all_methods():
+    out = []
+    for kind in DETECTOR_KINDS:
+        out += [FrameMethod(kind, "adapted", rule, model)
+                for model in OBJECT_MODEL_TAGS for rule in RULE_TAGS]
+        out += [FrameMethod(kind, how) for how in ("warp", "pyramid", "pyramid_fast")
+                if kind in HOWS[how]]
+    return tuple(out) + tuple(FrameMethod("opencv", "pyramid", upsample=u)
+                              for u in UPSAMPLES["opencv"])
+
+
+#: every method of the frames benchmark
+FRAME_METHODS = _all_methods()
+_BY_NAME = {m.name: m for m in FRAME_METHODS}
+#: the methods ``bench frames`` runs by default, in its order
+DEFAULT_METHODS = tuple(FrameMethod.parse(n) for n in (
+    "hog_adapted", "hog_warp", "hog_pyramid", "opencv", "acf_adapted", "acf_warp",
+    "acf_pyramid", "acf_pyramid_fast"))
+
+
+def frame_method(method) -> FrameMethod:
+    """``method`` if it is a :class:`FrameMethod`, else the one it names
+    (:meth:`FrameMethod.parse`)."""
+    return method if isinstance(method, FrameMethod) else FrameMethod.parse(method)

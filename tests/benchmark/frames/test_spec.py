@@ -1,0 +1,170 @@
+"""The frames benchmark's methods as frozen specs: every name parses to its fields and back,
+bad names and combinations are refused in one line, the predicates, the command line's
+parsing and expansion, and the variant labels the cross-validation shares."""
+
+import argparse
+import dataclasses
+import pickle
+
+import pytest
+
+from benchmark.frames.spec import (
+    DEFAULT_METHODS, FRAME_METHODS, OBJECT_MODEL_TAGS, RULE_TAGS, FrameMethod, frame_method,
+    variant_label,
+)
+
+#: every method name of ``bench frames`` -> (kind, how, rule, object model, upsample), as the
+#: benchmark documents them (adapted: each rule and object model; the pyramids and OpenCV's
+#: detector on the 4x-upsampled frame, ``opencv_native`` on the frame as it is)
+EXPECTED = {
+    "hog_adapted": ("hog", "adapted", "covariant", "plane", None),
+    "hog_adapted[S only]": ("hog", "adapted", "none", "plane", None),
+    "hog_adapted[paper eq.3]": ("hog", "adapted", "paper", "plane", None),
+    "hog_adapted[body]": ("hog", "adapted", "covariant", "body", None),
+    "hog_adapted[body, S only]": ("hog", "adapted", "none", "body", None),
+    "hog_adapted[body, paper eq.3]": ("hog", "adapted", "paper", "body", None),
+    "hog_warp": ("hog", "warp", None, None, None),
+    "hog_pyramid": ("hog", "pyramid", None, None, 4),
+    "acf_adapted": ("acf", "adapted", "covariant", "plane", None),
+    "acf_adapted[S only]": ("acf", "adapted", "none", "plane", None),
+    "acf_adapted[paper eq.3]": ("acf", "adapted", "paper", "plane", None),
+    "acf_adapted[body]": ("acf", "adapted", "covariant", "body", None),
+    "acf_adapted[body, S only]": ("acf", "adapted", "none", "body", None),
+    "acf_adapted[body, paper eq.3]": ("acf", "adapted", "paper", "body", None),
+    "acf_warp": ("acf", "warp", None, None, None),
+    "acf_pyramid": ("acf", "pyramid", None, None, 4),
+    "acf_pyramid_fast": ("acf", "pyramid_fast", None, None, 4),
+    "opencv": ("opencv", "pyramid", None, None, 4),
+    "opencv_native": ("opencv", "pyramid", None, None, 1),
+}
+#: the methods that score the candidate windows (and so move with their ground grid)
+ON_GRID = {n for n in EXPECTED if "_adapted" in n or n.endswith("_warp")}
+#: the methods that read no trained source detector
+UNTRAINED = {"opencv", "opencv_native"}
+FIELDS = ("kind", "how", "rule", "object_model", "upsample")
+
+
+@pytest.mark.parametrize("name", list(EXPECTED))
+def test_every_name_parses_to_its_fields_and_back(name):
+    m = FrameMethod.parse(name)
+    assert tuple(getattr(m, f) for f in FIELDS) == EXPECTED[name]
+    assert m.name == name
+    assert FrameMethod(*EXPECTED[name]) == m and hash(FrameMethod(*EXPECTED[name])) == hash(m)
+    assert m.on_window_grid == (name in ON_GRID)
+    assert m.needs_training == (name not in UNTRAINED)
+    assert frame_method(name) == m and frame_method(m) is m
+    assert pickle.loads(pickle.dumps(m)) == m          # joblib's workers get them pickled
+
+
+def test_the_table_holds_every_method_once_and_the_defaults_in_order():
+    assert [m.name for m in FRAME_METHODS] == list(EXPECTED)
+    assert [m.name for m in DEFAULT_METHODS] == [
+        "hog_adapted", "hog_warp", "hog_pyramid", "opencv", "acf_adapted", "acf_warp",
+        "acf_pyramid", "acf_pyramid_fast"]
+
+
+def test_defaults_fill_in_and_specs_are_frozen():
+    assert FrameMethod("hog", "adapted") == FrameMethod.parse("hog_adapted")
+    assert FrameMethod("acf", "adapted", object_model="body").name == "acf_adapted[body]"
+    assert FrameMethod("hog", "pyramid").upsample == 4
+    assert FrameMethod("opencv", "pyramid", upsample=1).name == "opencv_native"
+    m = FrameMethod.parse("hog_adapted")
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        m.rule = "paper"
+    assert dataclasses.replace(m, rule="paper").name == "hog_adapted[paper eq.3]"
+    assert FrameMethod.parse("acf_warp").detector.name == "acf"
+    with pytest.raises(ValueError):
+        FrameMethod.parse("opencv").detector
+
+
+@pytest.mark.parametrize("name", ["nonsense", "hog_pyramid_fast", "hog_adapted[cube]",
+                                  "hog_adapted[single A]", "hog_warp[body]", "opencv_adapted",
+                                  "opencv_warp", "acf_adapted[paper eq.3, body]", "hog", "",
+                                  "HOG_ADAPTED", None])
+def test_a_bad_name_is_one_line_naming_the_choices(name):
+    with pytest.raises(ValueError, match="unknown method") as err:
+        FrameMethod.parse(name)
+    msg = str(err.value)
+    assert "\n" not in msg and repr(name) in msg
+    assert all(n in msg for n in EXPECTED)
+
+
+@pytest.mark.parametrize("fields", [
+    ("opencv", "adapted"), ("hog", "pyramid_fast"), ("hog", "slide"), ("sift", "warp"),
+    ("hog", "warp", "paper"), ("hog", "warp", None, "body"), ("hog", "adapted", "literal"),
+    ("hog", "adapted", None, "cube"), ("hog", "adapted", None, None, 4),
+    ("hog", "warp", None, None, 4), ("hog", "pyramid", "paper"),
+    ("hog", "pyramid", None, None, 1), ("opencv", "pyramid", None, None, 2)])
+def test_combinations_no_method_has_are_refused(fields):
+    with pytest.raises(ValueError) as err:
+        FrameMethod(*fields)
+    assert "\n" not in str(err.value)
+
+
+def test_the_tags_cover_the_rules_and_object_models():
+    from viewadapt.objectmodel import OBJECT_MODELS
+    from viewadapt.remap import ANGLE_RULES
+
+    assert set(RULE_TAGS) == set(ANGLE_RULES) and set(OBJECT_MODEL_TAGS) == set(OBJECT_MODELS)
+    assert variant_label("adapted") == variant_label("adapted", "covariant", "plane") == "adapted"
+    assert variant_label("adapted", "paper", "body") == "adapted[body, paper eq.3]"
+    assert variant_label("image warping", object_model="body") == "image warping[body]"
+    assert variant_label("adapted", extra="single A") == "adapted[single A]"
+
+
+def test_the_crops_variants_share_the_labels():
+    from benchmark.crops.crossval import ADAPT_VARIANTS, EXACT_VARIANTS
+
+    # the cross-validation's rows, in their order (its outputs list them so)
+    assert list(ADAPT_VARIANTS.items()) == [
+        ("adapted", ("covariant", True, "plane")),
+        ("adapted[S only]", ("none", True, "plane")),
+        ("adapted[paper eq.3]", ("paper", True, "plane")),
+        ("adapted[single A]", ("covariant", False, "plane")),
+        ("adapted[body]", ("covariant", True, "body")),
+        ("adapted[body, S only]", ("none", True, "body")),
+        ("adapted[body, paper eq.3]", ("paper", True, "body"))]
+    assert EXACT_VARIANTS == {"exact geometry": ("covariant", "adapted"),
+                              "exact geometry[paper eq.3]": ("paper", "adapted[paper eq.3]")}
+    # each per-cell variant is a frames method of either detector, under the same label
+    for label, (rule, per_cell, model) in ADAPT_VARIANTS.items():
+        if per_cell:
+            for kind in ("hog", "acf"):
+                assert FrameMethod(kind, "adapted", rule, model).name == f"{kind}_{label}"
+
+
+def _frames_parser():
+    from viewadapt.cli import common_parser
+
+    from benchmark.frames.command import register
+
+    parser = argparse.ArgumentParser(prog="viewadapt")
+    register(parser.add_subparsers(dest="command"), common_parser())
+    return parser
+
+
+def test_the_command_line_parses_methods_once(tmp_path, capsys):
+    parser = _frames_parser()
+    base = ["bench", "frames", "--data", str(tmp_path), "--out", str(tmp_path / "out")]
+    args = parser.parse_args(base + ["--methods", "hog_adapted[body]", "opencv_native"])
+    assert args.methods == [FrameMethod("hog", "adapted", object_model="body"),
+                            FrameMethod("opencv", "pyramid", upsample=1)]
+    with pytest.raises(SystemExit):
+        parser.parse_args(base + ["--methods", "hog_adapted[cube]"])
+    err = capsys.readouterr().err
+    assert "unknown method 'hog_adapted[cube]'" in err and "hog_adapted[body]" in err
+
+
+def test_expand_adapted():
+    from benchmark.frames.command import expand_adapted
+
+    ms = [FrameMethod.parse(n) for n in ("hog_adapted", "hog_warp")]
+    got = expand_adapted(ms, ["covariant", "paper"], ["plane", "body"])
+    assert [m.name for m in got] == ["hog_adapted", "hog_adapted[paper eq.3]",
+                                     "hog_adapted[body]", "hog_adapted[body, paper eq.3]",
+                                     "hog_warp"]
+    body = FrameMethod.parse("acf_adapted[body]")
+    assert expand_adapted([body]) == [body]
+    assert [m.name for m in expand_adapted([body], rules=["none"])] == ["acf_adapted[body, S only]"]
+    assert [m.name for m in expand_adapted([body, body], object_models=["plane"])] == [
+        "acf_adapted"]
