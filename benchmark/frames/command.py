@@ -12,13 +12,15 @@ from pathlib import Path
 import numpy as np
 
 from viewadapt.commands.detect import add_cache_options, person_heights
-from viewadapt.detect import CELLS_PER_SOURCE_CELL, HOG_TOLERANCE, UPSAMPLE_BELOW
+from viewadapt.detect import (
+    CELLS_PER_SOURCE_CELL, DEFAULT_FRAME_VIEW, FRAME_VIEW_CHOICES, HOG_TOLERANCE, UPSAMPLE_BELOW,
+)
 from viewadapt.geometry import PERSON_HEIGHT_M
 from viewadapt.io import DEFAULT_CACHE_LIMIT_GB, plot_det_figure
 from viewadapt.objectmodel import OBJECT_MODELS
 from viewadapt.remap import ANGLE_RULES
 
-from benchmark.frames.methods import DEFAULT_FRAME_VIEW, FRAME_VIEW_CHOICES, NEGATIVE_CHOICES
+from benchmark.frames.methods import NEGATIVE_CHOICES
 from benchmark.frames.report import (
     accuracy_targets, phase_gap_lines, phase_table, plot_seed_figure, seed_summary, summary_table,
 )

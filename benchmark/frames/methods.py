@@ -30,7 +30,7 @@ enters.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -41,15 +41,15 @@ from benchmark.frames.pyramids import (
 )
 from benchmark.frames.spec import frame_method
 from viewadapt.detect import (
-    ACF_DETECTOR, FrameDetector, HOG_DETECTOR, PERSON_BOX_WINDOW, check_frame, detector_kind,
-    person_boxes,
+    DEFAULT_FRAME_VIEW, FrameDetector, HOG_DETECTOR, PERSON_BOX_WINDOW,
+    check_frame, check_frame_view, detector_kind, person_boxes, train_on_windows,
 )
 from viewadapt.geometry import WINDOW_HEIGHT, Camera
 from viewadapt.io import SourceDetectors
 from viewadapt.nms import detections_from_scores
 
 __all__ = ["FrameRecord", "load_frames", "train_source_detectors", "dataset_provenance",
-           "NEGATIVE_CHOICES", "FRAME_VIEW_CHOICES", "DEFAULT_FRAME_VIEW", "FrameMethods",
+           "NEGATIVE_CHOICES", "FrameMethods",
            "evaluate_method", "PAPER_FPS", "warp_scores", "pyramid_scales", "hog_pyramid_detect",
            "acf_pyramid_detect", "acf_pyramid_fast_detect", "ACF_PYRAMID_LAMBDAS", "opencv_detect"]
 
@@ -146,13 +146,6 @@ def load_frames(root) -> list:
 # ----------------------------------------------------------------------------- training
 
 
-#: ``frame_view`` choices of :func:`train_source_detectors`: which detectors also train on
-#: frame-view copies of the crops.
-FRAME_VIEW_CHOICES = ("hog", "acf", "both", "none")
-#: Both detectors train on the copies (chosen on earlier runs; docs/findings.md, full frames).
-DEFAULT_FRAME_VIEW = "both"
-
-
 #: ``negatives`` choices of :func:`train_source_detectors`
 NEGATIVE_CHOICES = ("elevation0", "rotated")
 
@@ -161,8 +154,9 @@ def train_source_detectors(ds, *, seed: int = 0, quick: bool = False, source_ind
                            progress: bool = False,
                            frame_view: str = DEFAULT_FRAME_VIEW,
                            negatives: str = "elevation0") -> SourceDetectors:
-    """Linear SVM on :func:`viewadapt.detect.hog_window_features` and ACF boosted trees,
-    trained on the dataset's crops of one elevation (default the first, 0).
+    """Linear SVM on :func:`viewadapt.detect.hog_window_features` and ACF boosted trees
+    (:func:`viewadapt.detect.train_on_windows`), trained on the dataset's crops of one
+    elevation (default the first, 0) and its background windows.
 
     ``frame_view`` (``"hog"``, ``"acf"``, ``"both"`` or ``"none"``) says which detectors
     also see one frame-view copy of every crop (:func:`viewadapt.detect.frame_view_copies`):
@@ -176,14 +170,9 @@ def train_source_detectors(ds, *, seed: int = 0, quick: bool = False, source_ind
     their centres (:func:`benchmark.crops.features.rotated_windows`), orientation-enriched
     negatives with no target-view data.
     """
-    from viewadapt.boosting import AdaBoostTrees
-    from viewadapt.classifiers import LinearSVMDetector
-    from viewadapt.detect import HOG_WEIGHT_SHAPE, UPSAMPLE_BELOW, frame_view_copies
-
     from benchmark.crops.features import background_windows, person_windows
 
-    if frame_view not in FRAME_VIEW_CHOICES:
-        raise ValueError(f"frame_view must be one of {FRAME_VIEW_CHOICES}, got {frame_view!r}")
+    check_frame_view(frame_view)
     if negatives not in NEGATIVE_CHOICES:
         raise ValueError(f"negatives must be one of {NEGATIVE_CHOICES}, got {negatives!r}")
     pos = list(person_windows(ds, source_index).images(ds.root))
@@ -194,35 +183,11 @@ def train_source_detectors(ds, *, seed: int = 0, quick: bool = False, source_ind
 
         for a in ROTATIONS_DEG:
             neg += list(rotated_windows(bg, a).images(ds.root))
-    # left-right mirrored crops double the positives (Dalal & Triggs)
-    pos = pos + [np.ascontiguousarray(w[:, ::-1]) for w in pos]
-
-    def training_set(kind, copy_seed):
-        feats = kind.features
-        Xp = np.stack([feats.window_features(w).ravel() for w in pos])
-        Xn = np.stack([feats.window_features(w).ravel() for w in neg])
-        if frame_view in (kind.name, "both"):
-            kw = dict(upsample_below=UPSAMPLE_BELOW)
-            Xp = np.vstack([Xp, frame_view_copies(pos, feats, seed=copy_seed, **kw)])
-            Xn = np.vstack([Xn, frame_view_copies(neg, feats, seed=copy_seed + 1, **kw)])
-        return np.vstack([Xp, Xn]), np.r_[np.ones(len(Xp), int), np.zeros(len(Xn), int)]
-
-    X, y = training_set(HOG_DETECTOR, seed)
-    # C = 0.01 as Dalal & Triggs (block-normalised, clipped cells as their descriptor)
-    svm = LinearSVMDetector(C=0.01, initial_negatives=2000 if quick else 5000,
-                            mining_rounds=1, random_state=seed).fit(X, y)
-    # the channels the full-frame operator reads (float32 OpenCV path)
-    X, y = training_set(ACF_DETECTOR, seed + 2)
-    n_trees = 64 if quick else 256
-    trees = AdaBoostTrees(n_estimators=n_trees, stages=None, max_bins=32 if quick else 64,
-                          max_features=0.25 if quick else 0.125, random_state=seed)
-    trees.fit(X, y)
-    return SourceDetectors(svm.coef_[0].reshape(HOG_WEIGHT_SHAPE).astype(np.float64),
-                           float(svm.intercept_[0]), trees,
-                           training=dict(seed=seed, frame_view=frame_view, quick=quick,
-                                         source_index=source_index, negatives=negatives,
-                                         crops=len(pos) // 2, background_windows=len(neg),
-                                         dataset=dataset_provenance(ds)))
+    models = train_on_windows(pos, neg, seed=seed, quick=quick, frame_view=frame_view)
+    return replace(models, training=dict(
+        seed=seed, frame_view=frame_view, quick=quick, source_index=source_index,
+        negatives=negatives, crops=len(pos), background_windows=len(neg),
+        dataset=dataset_provenance(ds)))
 
 
 def dataset_provenance(ds) -> dict:

@@ -33,8 +33,7 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmark.frames.methods import DEFAULT_FRAME_VIEW
-from viewadapt.detect import DETECTOR_KINDS
+from viewadapt.detect import DEFAULT_FRAME_VIEW, DETECTOR_KINDS
 from viewadapt.io import DEFAULT_CACHE_LIMIT_GB
 
 __all__ = ["RuntimeTarget", "RUNTIME_TARGETS", "TIMING_SIZE", "timing_camera",

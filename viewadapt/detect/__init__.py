@@ -68,6 +68,7 @@ from .layers import (
 from .frameview import FRAME_VIEW_SCALES, frame_view, frame_view_features, frame_view_copies
 from .kinds import DetectorKind, HOG_DETECTOR, ACF_DETECTOR, DETECTOR_KINDS, detector_kind
 from .detector import DEFAULT_THRESHOLD, FrameDetections, FrameDetector
+from .training import FRAME_VIEW_CHOICES, DEFAULT_FRAME_VIEW, check_frame_view, train_on_windows
 from .stream import DetectorSpec, detect_stream
 from .evaluation import standardize_boxes, ground_truth_rows, evaluate_detections
 
@@ -91,6 +92,7 @@ __all__ = [
     "upsampled_windows", "upsampled_band", "MultiResolutionOperator",
     "build_multiresolution_operator", "FRAME_VIEW_SCALES", "frame_view", "frame_view_features",
     "frame_view_copies", "DetectorKind", "HOG_DETECTOR", "ACF_DETECTOR", "DETECTOR_KINDS",
-    "detector_kind", "DEFAULT_THRESHOLD", "FrameDetections", "FrameDetector", "DetectorSpec",
-    "detect_stream", "standardize_boxes", "ground_truth_rows", "evaluate_detections",
+    "detector_kind", "DEFAULT_THRESHOLD", "FrameDetections", "FrameDetector", "FRAME_VIEW_CHOICES",
+    "DEFAULT_FRAME_VIEW", "check_frame_view", "train_on_windows", "DetectorSpec", "detect_stream",
+    "standardize_boxes", "ground_truth_rows", "evaluate_detections",
 ]
