@@ -20,7 +20,8 @@ import cv2
 import numpy as np
 
 
-__all__ = ["DISTORTION_SIZES", "Undistortion", "distort_image", "check_distortion"]
+__all__ = ["DISTORTION_SIZES", "Undistortion", "distort_image", "distort_points",
+           "check_distortion"]
 
 #: Iterations and tolerance (normalised coordinates) of ``cv2.undistortPointsIter``, which
 #: inverts the distortion model by fixed-point iteration.
@@ -146,6 +147,32 @@ def distort_image(img: np.ndarray, K, dist, *, border_value: float = 0.0) -> np.
     return cv2.remap(img, src[..., 0].astype(np.float32), src[..., 1].astype(np.float32),
                      cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT,
                      borderValue=float(border_value))
+
+
+def distort_points(points, K, dist) -> np.ndarray:
+    """Undistorted pixels (N, 2) -> where the lens puts them in the distorted frame (N, 2).
+
+    The inverse of :meth:`Undistortion.undistort_points`: each pixel ``p`` of the
+    undistorted frame (camera matrix ``K``) goes to ``K distort(K^{-1} p)``, OpenCV's lens
+    model applied to the normalised point (``cv2.projectPoints`` of ``(x, y, 1)`` with no
+    rotation or translation).
+
+    Parameters
+    ----------
+    points : (N, 2) array_like
+    K : (3, 3) array_like
+    dist : (D,) array_like
+        OpenCV distortion coefficients.
+    """
+    K = _check_K(K)
+    dist = check_distortion(dist)
+    p = np.asarray(points, dtype=np.float64).reshape(-1, 2)
+    if len(p) == 0:
+        return np.zeros((0, 2))
+    xy = np.linalg.solve(K, np.c_[p, np.ones(len(p))].T).T
+    xy = xy[:, :2] / xy[:, 2:]
+    obj = np.c_[xy, np.ones(len(xy))]
+    return cv2.projectPoints(obj, np.zeros(3), np.zeros(3), K, dist)[0].reshape(-1, 2)
 
 
 #: How many distortion coefficients OpenCV accepts: (k1, k2, p1, p2[, k3[, k4, k5, k6[, s1,

@@ -9,26 +9,29 @@ from pathlib import Path
 
 import numpy as np
 
-from viewadapt.camera.distortion import Undistortion
+from viewadapt.camera.distortion import Undistortion, distort_points
 from viewadapt.detect.detector import FrameDetector
-from viewadapt.detect.evaluation import evaluate_detections
+from viewadapt.detect.evaluation import (
+    BOOTSTRAP_BLOCK, BOOTSTRAP_DRAWS, block_bootstrap, evaluation_rows, summary_numbers,
+)
 from viewadapt.detect.kinds import DETECTOR_KINDS
 from viewadapt.detect.layers import UPSAMPLE_BELOW
 from viewadapt.detect.stream import DetectorSpec, detect_stream
 from viewadapt.geometry import PERSON_HEIGHT_M
-from viewadapt.io.boxes import read_boxes
+from viewadapt.io.boxes import FrameBoxes, read_boxes, read_ignore_regions
 from viewadapt.io.cache import DEFAULT_CACHE_LIMIT_GB, check_cache_limit
 from viewadapt.io.calibration import read_calibration, read_distortion
+from viewadapt.io.imports import calibration_format, read_imported_calibration
 from viewadapt.io.files import atomic_output_dir, atomic_write_text, check_output_dir, run_metadata
 from viewadapt.io.models import SourceDetectors, shipped_model_path
-from viewadapt.io.outputs import plot_det_figure
-from viewadapt.io.outputs import ANNOTATE_CHOICES, DetectionWriter
+from viewadapt.io.outputs import ANNOTATE_CHOICES, DetectionWriter, plot_det_figure
 from viewadapt.io.video import open_frames, prefetched
 from viewadapt.objectmodel import OBJECT_MODELS
 from viewadapt.remap import ANGLE_RULES
 
 __all__ = ["LENS_CHOICES", "DEFAULT_LENS", "register", "cmd_detect", "check_frame_selection",
-           "person_heights", "cache_limit", "add_cache_options", "lens_correction"]
+           "person_heights", "cache_limit", "add_cache_options", "lens_correction",
+           "boxes_in_input_pixels", "evaluation_summary"]
 
 
 #: How ``detect`` handles a calibration's lens distortion (``--lens``); ``auto`` maps the
@@ -50,6 +53,75 @@ def lens_correction(dist, lens: str, object_model: str):
     if lens == "auto":
         return "windows" if object_model == "plane" else "undistort"
     return lens
+
+
+def boxes_in_input_pixels(boxes, K, dist) -> np.ndarray:
+    """Detections ``(x, y, w, h, score)`` (D, 5) found on the undistorted frame -> the same
+    detections in the distorted input's pixels: each box's corners and edge midpoints
+    through the lens (:func:`~viewadapt.camera.distortion.distort_points`), their bounding
+    box kept, the score unchanged."""
+    d = np.asarray(boxes, dtype=np.float64).reshape(-1, 5)
+    if len(d) == 0:
+        return d.copy()
+    x, y, w, h = d[:, 0], d[:, 1], d[:, 2], d[:, 3]
+    u = np.array([0, 0.5, 1, 1, 1, 0.5, 0, 0])
+    v = np.array([0, 0, 0, 0.5, 1, 1, 1, 0.5])
+    pts = np.stack([x[:, None] + u * w[:, None], y[:, None] + v * h[:, None]], -1)
+    q = distort_points(pts.reshape(-1, 2), K, dist).reshape(-1, 8, 2)
+    lo, hi = q.min(axis=1), q.max(axis=1)
+    return np.c_[lo, hi - lo, d[:, 4]]
+
+
+def evaluation_summary(detections, truth, image_size, *, regions=None,
+                       block: int = BOOTSTRAP_BLOCK, seed: int = 0) -> tuple[dict, dict]:
+    """``evaluation.json`` of detections on frames, and the curve for the DET figure.
+
+    Parameters
+    ----------
+    detections : list of (D, 5) ndarray
+        Per frame, in the input's pixels.
+    truth : list of FrameBoxes
+        Per frame, its ground truth.
+    image_size : (width, height)
+    regions : list of polygons, optional
+        Ignore regions.
+    block, seed
+        Of the block bootstrap (:func:`~viewadapt.detect.evaluation.block_bootstrap`).
+
+    Raises
+    ------
+    ValueError
+        No counted ground truth in the frames.
+    """
+    from viewadapt.metrics import evaluate_frames
+
+    gt = [(t.boxes, t.occlusion, image_size, t.ignore) for t in truth]
+    dts, gts = evaluation_rows(detections, gt, regions=regions)
+    n_ignored = int(sum(g[:, 4].sum() for g in gts))
+    n_gt = int(sum(len(g) for g in gts)) - n_ignored
+    if n_gt == 0:
+        raise ValueError(f"no ground-truth box is counted in the {len(gts)} frames detected "
+                         f"({n_ignored} ignored): nothing to evaluate")
+    ev = evaluate_frames(dts, gts)
+    numbers = summary_numbers(ev["fppi"], ev["miss_rate"])
+    ci = block_bootstrap(dts, gts, block=block, draws=BOOTSTRAP_DRAWS, seed=seed)
+    out = {}
+    for k, v in numbers.items():
+        out[k] = v
+        out[f"{k}_ci95"] = ci[k]
+    out |= {
+        "n_gt": n_gt, "n_gt_ignored": n_ignored, "n_frames": len(gts),
+        "fppi": ev["fppi"].tolist(), "miss_rate": ev["miss_rate"].tolist(),
+        "bootstrap": {"method": "circular block bootstrap over consecutive frames (Politis "
+                                "& Romano 1992), 2.5 and 97.5 percentiles",
+                      "block_frames": ci["block_frames"], "draws": BOOTSTRAP_DRAWS,
+                      "draws_used": ci["draws_used"], "seed": seed},
+        "protocol": "Caltech (Dollar et al. 2012): IoU >= 0.5 on boxes standardised to "
+                    "width 0.41 height; ground truth under 24 px tall, over half occluded, "
+                    "cut by the frame's border, ignored by its file or with its "
+                    "bottom-centre in an ignore region is ignored and absorbs detections; "
+                    "detections with the bottom-centre in an ignore region are dropped"}
+    return out, {"fppi": ev["fppi"], "miss_rate": ev["miss_rate"], "lamr": ev["lamr"]}
 
 
 def person_heights(text):
@@ -106,6 +178,20 @@ def _frame_size_error(frame, stream, cam) -> str:
             f"{cam.image_size[1]}")
 
 
+def _calibration_import(path) -> dict | None:
+    """How an imported calibration (Tsai XML, OpenCV FileStorage) was read, or None."""
+    fmt = calibration_format(path)
+    if fmt is None:
+        return None
+    imported = read_imported_calibration(path, fmt)
+    out = {"format": {"tsai": "PETS 2009 / Tsai XML", "opencv": "OpenCV FileStorage"}[fmt]}
+    if imported.fit_error_px is not None:
+        out["lens_fit_max_error_px"] = round(imported.fit_error_px, 4)
+        out["lens_fit"] = ("Tsai's radial lens (distorted -> undistorted) fitted by OpenCV's "
+                           "k1, k2, k3 over a 30 x 20 grid of image points")
+    return out
+
+
 def _metadata(args, det, stream, writer, dist, correction, annotate, *, operator_seconds,
               seconds, cpu_seconds) -> dict:
     """metadata.json of a detect run: what ran on what, and how fast (``correction``:
@@ -117,11 +203,15 @@ def _metadata(args, det, stream, writer, dist, correction, annotate, *, operator
         input=stream.describe(), frames=writer.n_frames, detections=writer.n_detections,
         annotate=annotate, jobs=args.jobs, model=str(args.model),
         model_training=det.models.training,
+        calibration=str(args.calibration),
+        calibration_import=_calibration_import(args.calibration),
         undistortion=None if correction != "undistort" else {
             "dist": dist.tolist(),
             "method": "every frame remapped (cv2.remap, bilinear) with maps precomputed once "
-                      "by cv2.initUndistortRectifyMap, new camera matrix = K: boxes and "
-                      "annotations are in the undistorted frame's pixels"},
+                      "by cv2.initUndistortRectifyMap, new camera matrix = K; each box found "
+                      "there mapped back through the lens (its corners and edge midpoints, "
+                      "their bounding box): boxes and annotations are in the input frames' "
+                      "pixels"},
         lens_windows=None if correction != "windows" else {
             "dist": dist.tolist(),
             "method": "each candidate window's homography refitted to where the lens puts "
@@ -157,12 +247,18 @@ def cmd_detect(args) -> int:
     if args.model is None:
         args.model = shipped_model_path()
     models = SourceDetectors.load(args.model)
-    boxes = None
+    boxes = regions = None
+    if args.ignore is not None and args.boxes is None:
+        raise ValueError("--ignore needs --boxes (ignore regions are part of the evaluation)")
+    if args.bootstrap_block < 1:
+        raise ValueError(f"--bootstrap-block must be at least 1 frame, got "
+                         f"{args.bootstrap_block}")
     if args.boxes:
-        if stream.paths is None:
-            raise ValueError("--boxes needs image frames (ground truth is matched by file "
-                             "name); a video's frames have none")
-        boxes = read_boxes(args.boxes, stream.paths)
+        # images: by file name or the number a name ends in; a video: by frame index
+        boxes = read_boxes(args.boxes, stream.paths,
+                           n_frames=stream.n_total if stream.paths is None else None)
+    if args.ignore is not None:
+        regions = read_ignore_regions(args.ignore)
     frames = iter(stream)
     first = next(frames, None)
     if first is None:
@@ -172,11 +268,17 @@ def cmd_detect(args) -> int:
     if (first.image.shape[1], first.image.shape[0]) != tuple(cam.image_size):
         raise ValueError(_frame_size_error(first, stream, cam))
 
+    originals = {}          # frame index -> the input's image, while its undistorted copy is out
+
     def prepared(frames):
         for f in frames:
             if (f.image.shape[1], f.image.shape[0]) != tuple(cam.image_size):
                 raise ValueError(_frame_size_error(f, stream, cam))
-            yield f if undistort is None else f._replace(image=undistort(f.image))
+            if undistort is None:
+                yield f
+            else:
+                originals[f.index] = f.image
+                yield f._replace(image=undistort(f.image))
 
     annotate = args.annotate
     if annotate == "auto":
@@ -194,7 +296,7 @@ def cmd_detect(args) -> int:
     t0 = time.perf_counter()
     det.operator(args.detector)         # built (or read from the cache) before any output
     t_operator = time.perf_counter() - t0
-    dets, names = [], []
+    dets, truth = [], []
     t0, c0 = time.perf_counter(), time.process_time()
     with atomic_output_dir(args.out) as tmp:
         with DetectionWriter(tmp, annotate=annotate, fps=stream.fps,
@@ -204,21 +306,27 @@ def cmd_detect(args) -> int:
             # the next frames are read (and undistorted) in a second thread meanwhile
             for frame, found in detect_stream(prefetched(prepared(chain([first], frames))),
                                               spec, jobs=args.jobs, detector=det):
+                if undistort is not None:       # back to the input's frame and pixels
+                    frame = frame._replace(image=originals.pop(frame.index))
+                    found = found._replace(boxes=boxes_in_input_pixels(found.boxes, cam.K,
+                                                                       dist))
                 writer.write(frame, found)
                 if boxes is not None:
                     dets.append(found.boxes)
-                    names.append(frame.source)
+                    key = frame.source if stream.paths is not None else frame.index
+                    truth.append(boxes.get(key, FrameBoxes.empty()))
                 bar.update(1)
         seconds, cpu_seconds = time.perf_counter() - t0, time.process_time() - c0
         evaluation = None
         if boxes is not None:
-            truth = [(*boxes[n], cam.image_size) for n in names]
-            ev = evaluate_detections(dets, truth)
-            evaluation = {"lamr": ev["lamr"], "n_gt": int(sum(len(t[0]) for t in truth)),
-                          "fppi": ev["fppi"].tolist(), "miss_rate": ev["miss_rate"].tolist()}
+            evaluation, curve = evaluation_summary(dets, truth, cam.image_size, regions=regions,
+                                                   block=args.bootstrap_block, seed=args.seed)
+            evaluation = {"boxes": str(args.boxes), "ignore_regions":
+                          None if args.ignore is None else str(args.ignore)} | evaluation
             atomic_write_text(tmp / "evaluation.json", json.dumps(evaluation))
-            plot_det_figure({f"{args.detector}_adapted": ev}, tmp / "det",
-                            title=f"{len(names)} frames, {evaluation['n_gt']} persons")
+            plot_det_figure({f"{args.detector}_adapted": curve}, tmp / "det",
+                            title=f"{len(truth)} frames, {evaluation['n_gt']} persons counted "
+                                  f"({evaluation['n_gt_ignored']} ignored)")
         atomic_write_text(tmp / "metadata.json", json.dumps(_metadata(
             args, det, stream, writer, dist, correction, annotate, operator_seconds=t_operator,
             seconds=seconds, cpu_seconds=cpu_seconds), indent=2))
@@ -229,8 +337,12 @@ def cmd_detect(args) -> int:
           f"frames/s{_CORRECTION_NOTE[correction]}); wrote "
           f"{args.out}/{', '.join(wrote)}")
     if evaluation is not None:
-        print(f"against {evaluation['n_gt']} boxes of {args.boxes}: log-average miss rate "
-              f"{evaluation['lamr']:.3f} over 1e-2..1e0 FPPI (evaluation.json, det.png)")
+        lo, hi = evaluation["lamr_ci95"]
+        interval = f" (95% {lo:.3f}..{hi:.3f})" if lo is not None else ""
+        print(f"against {evaluation['n_gt']} counted boxes of {args.boxes} "
+              f"({evaluation['n_gt_ignored']} ignored): log-average miss rate "
+              f"{evaluation['lamr']:.3f}{interval} over 1e-2..1e0 FPPI (evaluation.json, "
+              "det.png)")
     return 0
 
 
@@ -243,7 +355,9 @@ def register(sub, common) -> None:
                     "camera. The calibration file is YAML or JSON with image_size and either "
                     "K, R, t (OpenCV convention, world Z up, ground Z = 0) or focal, height "
                     "(m), tilt (degrees below horizontal) [, principal_point, roll], and "
-                    "optionally dist (OpenCV lens distortion coefficients, see --lens). "
+                    "optionally dist (OpenCV lens distortion coefficients, see --lens); or a "
+                    "PETS 2009 / Tsai XML, or an OpenCV FileStorage file (camera_matrix, "
+                    "distortion_coefficients, image_width, image_height, rvec/tvec or R/t). "
                     "Frames are streamed from a video, a folder, a glob "
                     "pattern or image files. Writes detections.csv (frame, source, box, "
                     "score, ground position in metres), detections_coco.json (COCO "
@@ -265,7 +379,9 @@ def register(sub, common) -> None:
                         "(annotated/*.png) or none (default auto: video for a video input, "
                         "frames for images)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
-    p.add_argument("--calibration", type=Path, required=True, help="calibration YAML/JSON")
+    p.add_argument("--calibration", type=Path, required=True,
+                   help="calibration: the project's YAML/JSON, a PETS 2009 / Tsai XML or an "
+                        "OpenCV FileStorage YAML/XML")
     p.add_argument("--model", type=Path, default=None,
                    help="source detectors: models/source_detectors.npz written by `viewadapt "
                         "bench frames` (default: the models shipped with viewadapt, trained "
@@ -281,11 +397,12 @@ def register(sub, common) -> None:
                         "package; slower to build, cached)")
     p.add_argument("--lens", choices=LENS_CHOICES, default=DEFAULT_LENS,
                    help="with dist in the calibration: windows (map the candidate windows "
-                        "through the lens once and read the frames as they are; boxes in "
-                        "their pixels), undistort (remap every frame first; boxes in the "
-                        "undistorted frame's pixels) or auto: windows, undistort with "
-                        "--object-model body (default auto; docs/findings.md, lens "
-                        "distortion, has the measurement)")
+                        "through the lens once and read the frames as they are), undistort "
+                        "(remap every frame first, and the boxes found back through the "
+                        "lens) or auto: windows, undistort with "
+                        "--object-model body (default auto; the boxes are in the input's pixels "
+                        "in every mode; docs/findings.md, lens distortion, has the "
+                        "measurement)")
     p.add_argument("--threshold", type=float, default=0.0, help="score threshold (default 0)")
     p.add_argument("--heights", type=person_heights, default=(PERSON_HEIGHT_M,),
                    help="assumed person heights, metres, comma-separated (default 1.75)")
@@ -296,6 +413,17 @@ def register(sub, common) -> None:
                         f"{96 * UPSAMPLE_BELOW:.0f} px; 0 = never)")
     p.add_argument("--boxes", type=Path, default=None,
                    help="optional ground truth to evaluate against: CSV with frame,x,y,w,h"
-                        "[,occlusion] or COCO JSON; writes evaluation.json and det.png "
-                        "(miss rate vs FPPI, log-average miss rate)")
+                        "[,occlusion,ignore], COCO JSON, MOTChallenge gt.txt or CAVIAR XML, in "
+                        "the input's pixels (frames by file name or by number: the image "
+                        "whose name ends in it, or a video's frame); writes evaluation.json "
+                        "and det.png (miss rate vs FPPI, log-average miss rate with 95%% "
+                        "intervals)")
+    p.add_argument("--ignore", type=Path, default=None, metavar="REGIONS",
+                   help='with --boxes: JSON {"polygons": [[[x, y], ...], ...]} of image '
+                        "regions left out: detections whose bottom-centre lies in one are "
+                        "dropped, ground truth there is ignored")
+    p.add_argument("--bootstrap-block", type=int, default=BOOTSTRAP_BLOCK, metavar="N",
+                   help="with --boxes: the intervals resample blocks of N consecutive frames "
+                        f"({BOOTSTRAP_DRAWS} draws, seeded by --seed; default "
+                        f"{BOOTSTRAP_BLOCK})")
     p.set_defaults(func=cmd_detect)

@@ -21,6 +21,8 @@ Modules:
 * :mod:`~viewadapt.detect.frameview` -- training crops as the operators read them.
 * :mod:`~viewadapt.detect.kinds` -- one spec per adapted detector (HOG/SVM, ACF).
 * :mod:`~viewadapt.detect.detector` -- :class:`FrameDetector`, the detector a user calls.
+* :mod:`~viewadapt.detect.training` -- the source detectors (HOG/SVM, ACF trees) trained on
+  canonical windows and their frame-view copies.
 * :mod:`~viewadapt.detect.stream` -- detections with their ground positions over a stream
   of frames, in one process or several.
 * :mod:`~viewadapt.detect.evaluation` -- miss rate against false positives per image.

@@ -1,23 +1,39 @@
-"""Evaluating detections on frames: the Caltech protocol and its DET figure.
+"""Evaluating detections on frames: the Caltech protocol, its intervals and its DET figure.
 
 Miss rate against false positives per image and the log-average miss rate over
 ``1e-2..1e0`` FPPI (Dollár et al. 2012, as Wang et al. 2017, Fig. 3), after standardising
 every box to the pedestrian aspect 0.41 and ignoring ground truth that is too small, too
-occluded or cut by the frame's border.
+occluded or cut by the frame's border, that the ground truth itself marks ignored, or that
+stands in an ignore region (:func:`in_regions`; detections standing there are dropped
+before matching). Ignored ground truth absorbs the detections on it (Dollár's toolbox,
+:func:`viewadapt.metrics.match_detections`). :func:`block_bootstrap` gives the summaries
+95 % intervals over resamples of blocks of consecutive frames (consecutive frames of a
+clip are not independent).
 
 References
 ----------
 .. [1] P. Dollár, C. Wojek, B. Schiele, P. Perona, "Pedestrian Detection: An Evaluation of
    the State of the Art", IEEE TPAMI 34(4), 2012.
+.. [2] D. N. Politis and J. P. Romano, "A circular block-resampling procedure for
+   stationary data", in *Exploring the Limits of Bootstrap*, Wiley, 1992.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from ..metrics import evaluate_frames
+from ..metrics import (
+    accumulate_frames, evaluate_frames, log_average_miss_rate, match_detections, miss_rate_at,
+)
 
-__all__ = ["standardize_boxes", "ground_truth_rows", "evaluate_detections"]
+__all__ = ["standardize_boxes", "ground_truth_rows", "evaluate_detections", "in_regions",
+           "bottom_centres", "evaluation_rows", "block_length", "block_bootstrap",
+           "summary_numbers", "BOOTSTRAP_BLOCK", "BOOTSTRAP_DRAWS"]
+
+#: Frames per block of :func:`block_bootstrap`.
+BOOTSTRAP_BLOCK = 10
+#: Resamples of :func:`block_bootstrap`.
+BOOTSTRAP_DRAWS = 1000
 
 
 def standardize_boxes(boxes, aspect: float = 0.41) -> np.ndarray:
@@ -49,7 +65,75 @@ def ground_truth_rows(boxes, occlusion, image_size, *, min_height: float = 24.0,
     return np.c_[gt, ign.astype(float)]
 
 
-def evaluate_detections(detections, ground_truth, **kw) -> dict:
+def bottom_centres(boxes) -> np.ndarray:
+    """(N, 2) ``(x + w / 2, y + h)`` of (N, >=4) boxes ``(x, y, w, h, ...)``: where a
+    person's box meets the ground."""
+    b = np.asarray(boxes, float).reshape(-1, np.shape(boxes)[-1] if np.size(boxes) else 4)
+    return np.c_[b[:, 0] + b[:, 2] / 2, b[:, 1] + b[:, 3]]
+
+
+def in_regions(points, polygons) -> np.ndarray:
+    """(N,) bool: which of the (N, 2) points lie inside any of the polygons (each (M, 2)
+    vertices, pixels), by the even-odd rule (a ray crossing count)."""
+    p = np.asarray(points, float).reshape(-1, 2)
+    inside = np.zeros(len(p), bool)
+    px, py = p[:, 0:1], p[:, 1:2]
+    for poly in polygons or ():
+        v = np.asarray(poly, float).reshape(-1, 2)
+        x0, y0 = v[:, 0], v[:, 1]
+        x1, y1 = np.roll(x0, -1), np.roll(y0, -1)
+        straddles = (y0 > py) != (y1 > py)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            cross_x = x0 + (py - y0) * (x1 - x0) / (y1 - y0)
+        inside |= (np.count_nonzero(straddles & (px < cross_x), axis=1) % 2) == 1
+    return inside
+
+
+def evaluation_rows(detections, ground_truth, *, regions=None, **kw):
+    """The detections and ground truth of every frame as the matching reads them.
+
+    Parameters
+    ----------
+    detections : list of (D, 5) ndarray
+        Per frame, ``(x, y, w, h, score)``.
+    ground_truth : list of tuples
+        Per frame ``(boxes (G, 4), occlusion (G,), (width, height)[, ignore (G,)])``:
+        ``ignore`` marks the boxes the ground truth itself ignores.
+    regions : list of (M, 2) polygons, optional
+        Ignore regions: detections whose bottom-centre lies in one are dropped, ground
+        truth there ignored.
+    **kw
+        ``min_height``, ``max_occlusion`` of :func:`ground_truth_rows`.
+
+    Returns
+    -------
+    dts : list of (D', 5) ndarray
+        Standardised detections outside the regions.
+    gts : list of (G, 5) ndarray
+        Standardised ground truth, ``(x, y, w, h, ignore)``.
+    """
+    detections, ground_truth = list(detections), list(ground_truth)
+    if len(detections) != len(ground_truth):
+        raise ValueError(f"detections and ground truth have different lengths "
+                         f"({len(detections)} != {len(ground_truth)} frames)")
+    dts, gts = [], []
+    for d, t in zip(detections, ground_truth):
+        d = np.asarray(d, float).reshape(-1, 5)
+        if regions and len(d):
+            d = d[~in_regions(bottom_centres(d), regions)]
+        dts.append(np.c_[standardize_boxes(d[:, :4]), d[:, 4]] if len(d) else np.zeros((0, 5)))
+        boxes, occ, size = t[:3]
+        g = ground_truth_rows(boxes, occ, size, **kw)
+        if len(t) > 3 and len(g):
+            g[:, 4] = np.maximum(g[:, 4], np.asarray(t[3], float).reshape(-1))
+        if regions and len(g):
+            feet = bottom_centres(np.asarray(boxes, float).reshape(-1, 4))
+            g[in_regions(feet, regions), 4] = 1
+        gts.append(g)
+    return dts, gts
+
+
+def evaluate_detections(detections, ground_truth, *, regions=None, **kw) -> dict:
     """Miss rate vs FPPI and LAMR of detections on frames
     (:func:`viewadapt.metrics.evaluate_frames`).
 
@@ -57,14 +141,97 @@ def evaluate_detections(detections, ground_truth, **kw) -> dict:
     ----------
     detections : list of (D, 5) ndarray
         Per frame, ``(x, y, w, h, score)``.
-    ground_truth : list of ((G, 4) boxes, (G,) occlusion, (width, height)) tuples
-        Per frame: its ground-truth boxes, their hidden fractions and the frame's size.
+    ground_truth : list of tuples
+        Per frame: ``(boxes, occlusion, (width, height))`` or with a fourth item, the
+        boxes' ignore flags (see :func:`evaluation_rows`).
+    regions : list of polygons, optional
+        Ignore regions (:func:`evaluation_rows`).
     **kw
         ``min_height``, ``max_occlusion`` of :func:`ground_truth_rows`.
+
+    Returns
+    -------
+    dict
+        :func:`~viewadapt.metrics.evaluate_frames`'s ``fppi``, ``miss_rate``,
+        ``thresholds``, ``lamr``, and ``n_gt`` (counted ground truth), ``n_gt_ignored``.
     """
-    dts = [np.c_[standardize_boxes(d[:, :4]), d[:, 4]] if len(d) else np.zeros((0, 5))
-           for d in detections]
-    gts = [ground_truth_rows(b, o, size, **kw) for b, o, size in ground_truth]
-    return evaluate_frames(dts, gts)
+    dts, gts = evaluation_rows(detections, ground_truth, regions=regions, **kw)
+    ev = evaluate_frames(dts, gts)
+    ignored = int(sum(g[:, 4].sum() for g in gts))
+    ev["n_gt"] = int(sum(len(g) for g in gts)) - ignored
+    ev["n_gt_ignored"] = ignored
+    return ev
 
 
+def summary_numbers(fppi, miss_rate) -> dict:
+    """``lamr`` and the miss rates at 0.1 and 1 FPPI of a DET curve (``dbEval``'s rule,
+    :func:`~viewadapt.metrics.miss_rate_at`)."""
+    return {"lamr": log_average_miss_rate(fppi, miss_rate),
+            "miss_rate_at_0.1_fppi": miss_rate_at(fppi, miss_rate, 0.1),
+            "miss_rate_at_1_fppi": miss_rate_at(fppi, miss_rate, 1.0)}
+
+
+def block_length(block: int, n_frames: int) -> int:
+    """The block length :func:`block_bootstrap` uses on ``n_frames`` frames: ``block``, at
+    most half the frames (at least 1)."""
+    return max(1, min(int(block), n_frames // 2))
+
+
+def block_bootstrap(dts, gts, *, block: int = BOOTSTRAP_BLOCK, draws: int = BOOTSTRAP_DRAWS,
+                    seed: int = 0, level: float = 0.95) -> dict:
+    """Percentile intervals of :func:`summary_numbers` from a circular block bootstrap
+    over consecutive frames (Politis & Romano 1992).
+
+    Each resample joins ``ceil(n / L)`` runs of ``L`` consecutive frames that start at
+    uniformly drawn frames (wrapping around the end), cut to the ``n`` frames, and
+    evaluates them as one set (each frame matched once, its matches reused); ``L`` is
+    ``block``, or half the frames when there are fewer than two blocks' worth (a single
+    block of all frames would resample nothing). A resample without counted ground truth
+    is left out.
+
+    Parameters
+    ----------
+    dts, gts : lists
+        :func:`evaluation_rows`' output, frames in their order in the clip.
+    block : int
+        Frames per block (at least 1; at most ``n // 2`` is used, and at least 1).
+    draws : int
+        Resamples.
+    seed : int
+        Seed of ``numpy.random.default_rng``: the same inputs give the same intervals.
+    level : float
+        Coverage of the intervals.
+
+    Returns
+    -------
+    dict
+        Per summary name ``[low, high]``; ``"draws_used"``: resamples with ground truth;
+        ``"block_frames"``: the block length used.
+    """
+    if block < 1:
+        raise ValueError(f"the bootstrap block must be at least 1 frame, got {block}")
+    if draws < 1:
+        raise ValueError(f"the bootstrap needs at least 1 draw, got {draws}")
+    matches = [match_detections(d[:, :4], d[:, 4], g[:, :4], g[:, 4].astype(bool))
+               for d, g in zip(dts, gts)]
+    n = len(matches)
+    if n == 0:
+        raise ValueError("no frames to resample")
+    length = block_length(block, n)
+    rng = np.random.default_rng(seed)
+    starts = rng.integers(n, size=(int(draws), -(-n // length)))
+    idx = ((starts[:, :, None] + np.arange(length)) % n).reshape(int(draws), -1)[:, :n]
+    values = {k: [] for k in ("lamr", "miss_rate_at_0.1_fppi", "miss_rate_at_1_fppi")}
+    for sel in idx:
+        chosen = [matches[i] for i in sel]
+        if not any(m.n_positives for m in chosen):
+            continue
+        fppi, miss, _ = accumulate_frames(chosen)
+        for k, v in summary_numbers(fppi, miss).items():
+            values[k].append(v)
+    tail = 100 * (1 - level) / 2
+    out = {k: ([float(np.percentile(v, tail)), float(np.percentile(v, 100 - tail))]
+               if v else [None, None]) for k, v in values.items()}
+    out["draws_used"] = len(values["lamr"])
+    out["block_frames"] = length
+    return out

@@ -6,8 +6,12 @@
 * :mod:`~viewadapt.io.models` -- the source detectors a frame detector adapts
   (:class:`SourceDetectors`), and the models shipped in the package.
 * :mod:`~viewadapt.io.cache` -- the adapted operators of a camera, cached on disk.
-* :mod:`~viewadapt.io.calibration` -- camera calibration files (YAML or JSON).
-* :mod:`~viewadapt.io.boxes` -- ground-truth boxes for evaluation.
+* :mod:`~viewadapt.io.calibration` -- camera calibration files (YAML or JSON, and the
+  imported formats).
+* :mod:`~viewadapt.io.imports` -- other tools' calibrations (PETS 2009 / Tsai XML, OpenCV
+  FileStorage), and guarded readers (size, JSON depth, XML entities) of files from outside.
+* :mod:`~viewadapt.io.boxes` -- ground-truth boxes for evaluation (CSV, COCO, MOTChallenge,
+  CAVIAR) and ignore regions.
 * :mod:`~viewadapt.io.video` -- a camera's frames from a video, a folder, a glob pattern or
   image files.
 * :mod:`~viewadapt.io.outputs` -- the files ``viewadapt detect`` writes (CSV, COCO results,
@@ -23,8 +27,17 @@ from .cache import (
     DEFAULT_CACHE_LIMIT_GB, check_cache_limit, OPERATOR_FORMAT, OPERATOR_CLASSES,
     operator_to_arrays, operator_from_arrays, OperatorCache,
 )
+from .imports import (
+    MAX_INPUT_BYTES, MAX_JSON_DEPTH, TSAI_FIT_GRID, MAX_TSAI_FIT_ERROR_PX, ImportedCalibration,
+    read_limited_text, json_depth, parse_json, parse_xml, calibration_format,
+    read_imported_calibration, read_tsai_calibration, read_opencv_calibration, tsai_rotation,
+    tsai_distortion_to_opencv,
+)
 from .calibration import read_calibration, read_distortion
-from .boxes import read_boxes
+from .boxes import (
+    BOX_FORMATS, MOT_MIN_VISIBILITY, MOT_COUNTED_CLASSES, MOT_IGNORED_CLASSES, FrameBoxes,
+    boxes_format, read_boxes, read_ignore_regions, frame_number,
+)
 from .video import (
     IMAGE_SUFFIXES, Frame, FrameStream, open_frames, natural_sort_key, prefetched, read_frame,
 )
@@ -36,7 +49,13 @@ __all__ = [
     "ArrayFileError", "write_array_file", "read_array_file", "SOURCE_DETECTORS_FORMAT",
     "SOURCE_DETECTORS_VERSION", "SourceDetectors", "shipped_model_path", "DEFAULT_CACHE_LIMIT_GB",
     "check_cache_limit", "OPERATOR_FORMAT", "OPERATOR_CLASSES", "operator_to_arrays",
-    "operator_from_arrays", "OperatorCache", "read_calibration", "read_distortion", "read_boxes",
+    "operator_from_arrays", "OperatorCache", "MAX_INPUT_BYTES", "MAX_JSON_DEPTH", "TSAI_FIT_GRID",
+    "MAX_TSAI_FIT_ERROR_PX", "ImportedCalibration", "read_limited_text", "json_depth",
+    "parse_json", "parse_xml", "calibration_format", "read_imported_calibration",
+    "read_tsai_calibration", "read_opencv_calibration", "tsai_rotation",
+    "tsai_distortion_to_opencv", "read_calibration", "read_distortion", "BOX_FORMATS",
+    "MOT_MIN_VISIBILITY", "MOT_COUNTED_CLASSES", "MOT_IGNORED_CLASSES", "FrameBoxes",
+    "boxes_format", "read_boxes", "read_ignore_regions", "frame_number",
     "IMAGE_SUFFIXES", "Frame", "FrameStream", "open_frames", "natural_sort_key", "prefetched",
     "read_frame", "ANNOTATE_CHOICES", "CSV_COLUMNS", "DetectionWriter", "draw_detections",
     "plot_det_figure", "FAMILY_COLORS",

@@ -1,7 +1,8 @@
 """Camera calibration files, and the ground-point correspondences a calibration is made from.
 
 A calibrated camera is what turns the image search into a search over the ground plane
-(Wang et al. 2017, Sec. 5.1); :func:`read_calibration` reads one from YAML or JSON,
+(Wang et al. 2017, Sec. 5.1); :func:`read_calibration` reads one from the project's YAML or
+JSON, a PETS 2009 / Tsai XML or an OpenCV FileStorage file (:mod:`viewadapt.io.imports`),
 :func:`read_distortion` its optional lens distortion coefficients;
 :func:`read_correspondences` the image <-> ground points ``viewadapt calibrate`` fits a
 camera to.
@@ -18,14 +19,21 @@ import numpy as np
 from viewadapt.camera.checks import check_calibration
 from viewadapt.camera.distortion import DISTORTION_SIZES
 from viewadapt.geometry import Camera, camera_from_pose
+from viewadapt.io.imports import calibration_format, read_imported_calibration, read_limited_text
 
 __all__ = ["read_calibration", "read_distortion", "read_correspondences", "CORRESPONDENCE_COLUMNS"]
 
 
 def read_calibration(path) -> Camera:
-    """A camera from a YAML or JSON calibration file.
+    """A camera from a calibration file: the project's YAML or JSON, or another tool's.
 
-    Format (either form; lengths in metres, angles in degrees, pixels for focal and
+    Other tools' files (:func:`~viewadapt.io.imports.calibration_format` tells them apart:
+    an ``.xml`` by its root element, YAML or JSON by OpenCV's ``%YAML:`` header or
+    ``opencv-matrix`` types): a PETS 2009 / Tsai XML
+    (:func:`~viewadapt.io.imports.read_tsai_calibration`) or an OpenCV FileStorage YAML,
+    XML or JSON (:func:`~viewadapt.io.imports.read_opencv_calibration`).
+
+    The project's format (either form; lengths in metres, angles in degrees, pixels for focal and
     principal point)::
 
         image_size: [384, 288]        # width, height (required)
@@ -55,6 +63,9 @@ def read_calibration(path) -> Camera:
     ``reprojection_error_px``, ``camera_height_m`` and ``tilt_deg``.
     """
     path = Path(path)
+    fmt = _format(path)
+    if fmt is not None:
+        return read_imported_calibration(path, fmt).camera
     d = _read_mapping(path)
     if "image_size" not in d:
         raise ValueError(f"{path}: image_size [width, height] is missing")
@@ -86,6 +97,10 @@ def read_distortion(path) -> np.ndarray | None:
     flattened). The file's ``K`` is the camera matrix the coefficients refer to, and ``K,
     R, t`` describe the undistorted frame (:class:`~viewadapt.camera.distortion.Undistortion`).
 
+    A Tsai or OpenCV FileStorage file gives its own coefficients
+    (:func:`~viewadapt.io.imports.read_imported_calibration`: Tsai's lens fitted by
+    OpenCV's ``k1, k2, k3``).
+
     Returns
     -------
     (D,) float64 ndarray, or ``None`` when ``dist`` is absent, null or all zero.
@@ -97,6 +112,9 @@ def read_distortion(path) -> np.ndarray | None:
         non-finite values (and the parse errors of :func:`read_calibration`).
     """
     path = Path(path)
+    fmt = _format(path)
+    if fmt is not None:
+        return read_imported_calibration(path, fmt).dist
     d = _read_mapping(path)
     value = d.get("dist")
     if value is None:
@@ -125,12 +143,17 @@ def read_distortion(path) -> np.ndarray | None:
     return a if a.any() else None
 
 
+def _format(path):
+    """:func:`calibration_format`, with the missing file named as a calibration file."""
+    if not Path(path).is_file():
+        raise FileNotFoundError(f"calibration file {path} does not exist")
+    return calibration_format(path)
+
+
 def _read_mapping(path) -> dict:
     """The parsed YAML or JSON mapping of a calibration file (one-line errors)."""
     path = Path(path)
-    if not path.is_file():
-        raise FileNotFoundError(f"calibration file {path} does not exist")
-    text = path.read_text()
+    text = read_limited_text(path, "calibration file")
     try:
         if path.suffix.lower() == ".json":
             d = json.loads(text)

@@ -80,7 +80,8 @@ class FrameStream:
         The input as given (the video, folder or pattern; the first file of a list).
     fps : float
         Frame rate of the selected frames: a video's own rate over ``every``; 25 / ``every``
-        for images, which carry none.
+        for images, which carry none (the rate of an annotated video made of them;
+        :meth:`describe` records None).
     n_frames : int or None
         How many frames iteration yields: exact for images; for a video from the frame
         count its container states (None when it states none).
@@ -109,10 +110,12 @@ class FrameStream:
         self.n_frames = n
 
     def describe(self) -> dict:
-        """The input and the selection, JSON-ready (for a run's metadata)."""
+        """The input and the selection, JSON-ready (for a run's metadata); ``fps`` is a
+        video's rate of the selected frames, None for images (they carry none)."""
         return {"kind": self.kind, "input": self.name, "start": self.start,
                 "every": self.every, "max_frames": self.max_frames,
-                "frames_in_input": self.n_total, "fps": round(self.fps, 6)}
+                "frames_in_input": self.n_total,
+                "fps": round(self.fps, 6) if self.video is not None else None}
 
     def __iter__(self) -> Iterator[Frame]:
         if self.video is not None:

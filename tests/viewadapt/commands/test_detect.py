@@ -310,7 +310,10 @@ def test_jobs_2_writes_the_same_bytes_as_one_process(toy, detect):
 
 def test_distorted_frames_are_undistorted(toy, detect):
     """Frames through a strong barrel lens, with its coefficients in the calibration, give
-    the detections of the undistorted frames; without them the boxes are off."""
+    the detections of the undistorted frames, written in the input's (distorted) pixels;
+    without them the boxes are off."""
+    from viewadapt.commands.detect import boxes_in_input_pixels
+
     folder = toy.root / "distorted"
     folder.mkdir(exist_ok=True)
     for f in toy.frames:
@@ -321,6 +324,9 @@ def test_distorted_frames_are_undistorted(toy, detect):
     fixed = detect("distorted", "--annotate", "none", "--lens", "undistort", folder,
                    calibration=calib)
     raw = detect("distorted_raw", "--annotate", "none", folder)
+    ref = ref.copy()            # the pinhole frames' boxes, through the lens
+    ref[["x", "y", "w", "h"]] = boxes_in_input_pixels(
+        ref[["x", "y", "w", "h", "score"]].to_numpy(), toy.cam.K, DIST)[:, :4]
     fixed_iou, raw_iou = _best_iou(ref, _rows(fixed)), _best_iou(ref, _rows(raw))
     assert len(fixed_iou) >= 10 and (fixed_iou > 0.5).all()
     assert fixed_iou.mean() > 0.88 and fixed_iou.mean() > raw_iou.mean() + 0.03
@@ -395,7 +401,8 @@ def _bad_inputs(toy, d):
         "--max-frames 0": (["--max-frames", 0, toy.folder], "--max-frames must be at least 1"),
         "--start -1": (["--start", -1, toy.folder], "--start must be at least 0"),
         "--jobs 0": (["--jobs", 0, toy.folder], "--jobs must be at least 1"),
-        "--boxes with a video": (["--boxes", d / "small.png", toy.video], "--boxes needs"),
+        "--boxes not a text file": (["--boxes", d / "small.png", toy.video],
+                                    "not a UTF-8 text"),
     }
 
 
