@@ -16,9 +16,17 @@ from pathlib import Path
 __all__ = ["register", "cmd_generate", "cmd_verify", "cmd_preview", "parse_elevations"]
 
 
+#: two elevations closer than this (radians) are one view given twice
+SAME_ELEVATION = 1e-9
+
+
 def parse_elevations(text: str) -> tuple[float, ...]:
     """Elevations from ``"0,pi/8,pi/4"``, ``"0,22.5deg,45deg"`` or ``"0:pi/4:3"`` (a range:
-    start:stop:count, inclusive)."""
+    start:stop:count, inclusive). An empty list, or one naming an elevation twice (which
+    would render one view twice), is a ``ValueError``."""
+    if not text.strip():
+        raise ValueError("--elevations is empty; give e.g. 0,pi/8,pi/4 (or leave the option "
+                         "out for the preset's)")
     def one(tok: str) -> float:
         tok = tok.strip().lower()
         if not tok:
@@ -48,6 +56,10 @@ def parse_elevations(text: str) -> tuple[float, ...]:
     for v in vals:
         if not math.isfinite(v) or not 0 <= v < math.pi / 2:
             raise ValueError(f"--elevations: {v:.4f} rad is outside [0, pi/2)")
+    for i, v in enumerate(vals):
+        if any(abs(v - w) < SAME_ELEVATION for w in vals[:i]):
+            raise ValueError(f"--elevations {text}: {v:.4f} rad is given twice (each elevation "
+                             "is rendered once per instance)")
     return tuple(vals)
 
 
@@ -56,7 +68,7 @@ def cmd_generate(args) -> int:
     from .sampling import parse_shard, preset_config
 
     over = {"renderer": args.renderer}
-    if args.elevations:
+    if args.elevations is not None:
         over["elevations"] = parse_elevations(args.elevations)
     if args.framing:
         over["framing"] = args.framing
@@ -78,8 +90,11 @@ def cmd_generate(args) -> int:
 
 
 def cmd_verify(args) -> int:
+    from viewadapt.io.files import check_apart
+
     from .verify import verify_dataset
 
+    check_apart({"--json": args.json}, {"DIRECTORY": args.directory})
     rep = verify_dataset(args.directory, decode=not args.fast, check_plan=not args.no_plan,
                          check_hash=args.hash)
     print(rep.summary())
@@ -93,8 +108,11 @@ def cmd_verify(args) -> int:
 
 
 def cmd_preview(args) -> int:
+    from viewadapt.io.files import check_apart
+
     from .preview import preview_dataset
 
+    check_apart({"--out": args.out}, {"DIRECTORY": args.directory})
     paths = preview_dataset(args.directory, args.out, columns=args.columns, rows=args.rows,
                             boxes=args.boxes)
     for p in paths:
@@ -145,15 +163,18 @@ def register(subparsers, common_parser: argparse.ArgumentParser) -> None:
     dsub = d.add_subparsers(dest="dataset_command", metavar="ACTION", required=True)
     v = dsub.add_parser("verify", help="find missing, truncated or unreadable files",
                         description="Check every manifest row's image (exists, complete PNG, "
-                                    "decodes to the recorded size), stray files, and that "
-                                    "everything dataset.json plans was generated. Exit code 1 "
-                                    "if anything is wrong.")
+                                    "decodes to the recorded size), name every file anywhere "
+                                    "in the folder that the dataset does not hold, and check "
+                                    "that everything dataset.json plans was generated. Exit "
+                                    "code 1 if anything is wrong.")
     v.add_argument("directory", type=Path)
     v.add_argument("--fast", action="store_true", help="skip decoding the images")
     v.add_argument("--no-plan", action="store_true", help="skip re-planning the dataset")
     v.add_argument("--hash", action="store_true",
-                   help="also recompute the content hash (sha256 over every data file) and "
-                        "compare it with the one dataset.json records")
+                   help="also recompute the content hash (sha256 over the data files: the "
+                        "images and depth maps the manifest lists, the manifest, "
+                        "frames_coco.json; no other file) and compare it with the one "
+                        "dataset.json records")
     v.add_argument("--json", type=Path, help="also write the report as JSON")
     v.set_defaults(func=cmd_verify)
     pv = dsub.add_parser("preview", help="contact sheets (one block per elevation) as PNG")

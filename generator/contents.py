@@ -2,18 +2,65 @@
 
 Numpy only (the plan is re-made from ``dataset.json`` without rendering), shared by the
 pipeline that writes a dataset, the resume checks and ``dataset verify``.
+
+``dataset.json`` names the spec files a dataset was made from (``specs``) relative to the
+project (``"assets/scenes"``, ``"assets/persons.json"``) when they are the project's own,
+so the same seed gives the same bytes from any checkout; a folder elsewhere is named by
+its absolute path. Datasets of older versions name the project's assets by the absolute
+path of the checkout that made them: such a path is used while it exists, else the same
+file of this checkout's ``assets/``.
 """
 
 from __future__ import annotations
 
-from pathlib import Path
+import os
+from pathlib import Path, PurePosixPath
 
+from . import specs
 from .manifest import spec_hashes, versions
 from .sampling import GeneratorConfig, Plan, WorkUnit, image_relpath, plan_dataset
 from .specs import default_roster_path, default_scene_dir, load_roster, load_scenes
 
 __all__ = ["dataset_metadata", "planned_paths", "unit_paths", "unit_depth_paths",
-           "depth_relpath"]
+           "depth_relpath", "spec_path_record", "spec_path", "dataset_spec_paths", "replan"]
+
+
+def spec_path_record(path) -> str:
+    """How ``dataset.json`` names a spec file or folder: ``assets/...`` inside the
+    project's assets (:data:`generator.specs.ASSETS_DIR`), else the absolute path."""
+    path = Path(os.path.realpath(path))
+    assets = Path(os.path.realpath(specs.ASSETS_DIR))
+    if path == assets or assets in path.parents:
+        return (PurePosixPath(assets.name) / path.relative_to(assets).as_posix()).as_posix()
+    return str(path)
+
+
+def spec_path(recorded: str | None, default: Path) -> Path:
+    """The spec file or folder ``dataset.json`` names (``default`` if it names none): an
+    ``assets/...`` name lies in this project's assets; an absolute path is used while it
+    exists, else (a checkout since moved) its part from the last ``assets`` folder on
+    lies in this project's assets."""
+    if not recorded:
+        return Path(default)
+    p = Path(recorded)
+    if not p.is_absolute():
+        return Path(specs.ASSETS_DIR).parent / p
+    if p.exists():
+        return p
+    parts = p.parts
+    if "assets" in parts:
+        k = len(parts) - 1 - parts[::-1].index("assets")
+        moved = Path(specs.ASSETS_DIR).joinpath(*parts[k + 1:])
+        if moved.exists():
+            return moved
+    return p
+
+
+def dataset_spec_paths(meta: dict) -> tuple[Path, Path]:
+    """``(scene folder, roster)`` a dataset's ``dataset.json`` was made from."""
+    recorded = meta.get("specs") if isinstance(meta.get("specs"), dict) else {}
+    return (spec_path(recorded.get("scene_dir"), default_scene_dir()),
+            spec_path(recorded.get("roster"), default_roster_path()))
 
 
 def dataset_metadata(config: GeneratorConfig, seed: int, plan: Plan, scene_dir, roster) -> dict:
@@ -38,7 +85,8 @@ def dataset_metadata(config: GeneratorConfig, seed: int, plan: Plan, scene_dir, 
         "config": config.to_dict(),
         "persons": list(plan.persons),
         "scenes": list(plan.scenes),
-        "specs": {"scene_dir": str(scene_dir), "roster": str(roster),
+        "specs": {"scene_dir": spec_path_record(scene_dir),
+                  "roster": spec_path_record(roster),
                   "hashes": spec_hashes(sorted(scene_dir.glob("*.json")) + [Path(roster)])},
         "versions": versions(),
         "conventions": {
@@ -58,14 +106,17 @@ def dataset_metadata(config: GeneratorConfig, seed: int, plan: Plan, scene_dir, 
     }
 
 
-def planned_paths(meta: dict) -> list[str]:
-    """Every image path a dataset's ``dataset.json`` plans (re-planned in numpy)."""
+def replan(meta: dict) -> Plan:
+    """The plan of a dataset's ``dataset.json`` (re-made in numpy)."""
     config = GeneratorConfig.from_dict(meta["config"])
-    specs = meta.get("specs", {})
-    scene_dir = specs.get("scene_dir") or default_scene_dir()
-    roster = specs.get("roster") or default_roster_path()
-    plan = plan_dataset(config, meta["seed"], scenes=load_scenes(scene_dir),
+    scene_dir, roster = dataset_spec_paths(meta)
+    return plan_dataset(config, meta["seed"], scenes=load_scenes(scene_dir),
                         persons=load_roster(roster))
+
+
+def planned_paths(meta: dict, plan: Plan | None = None) -> list[str]:
+    """Every image path a dataset's ``dataset.json`` plans (``plan``: its plan, if made)."""
+    plan = plan if plan is not None else replan(meta)
     return [p for u in plan.units for p in unit_paths(u)]
 
 

@@ -35,7 +35,8 @@ from viewadapt.io.files import atomic_write_bytes, atomic_write_text
 __all__ = ["MANIFEST_COLUMNS", "INT_COLUMNS", "FLOAT_COLUMNS", "part_path", "read_part",
            "write_part", "png_is_complete", "assemble_manifest", "read_manifest",
            "json_matrix", "versions", "spec_hashes", "write_depth", "read_depth",
-           "depth_is_complete", "content_hash", "HASH_EXCLUDED"]
+           "depth_is_complete", "content_hash", "HASH_EXCLUDED", "DATA_FILES",
+           "dataset_files"]
 
 #: Column order of manifest.parquet / manifest.csv.
 MANIFEST_COLUMNS = [
@@ -258,32 +259,58 @@ def read_manifest(out):
 
 # --------------------------------------------------------------------------- content hash
 
+#: the files of a dataset directory besides the images and depth maps its manifest lists
+DATA_FILES = ("manifest.parquet", "manifest.csv", "frames_coco.json")
 #: files of a dataset directory its content hash leaves out: ``dataset.json`` (it records
-#: the hash, and the absolute spec paths and package versions of the machine), the
-#: ownership marker and every hidden file or folder (``.parts/``: the per-unit bookkeeping
-#: the manifest is assembled from; temporary files). No data file records a time: the PNGs
-#: carry no text or time chunks (generator.png); numpy writes the depth files' zip entries
-#: with a fixed time stamp.
-HASH_EXCLUDED = ("dataset.json", ".*")
+#: the hash and the package versions of the machine), the ownership marker and every
+#: hidden file or folder (``.parts/``: the per-unit bookkeeping the manifest is assembled
+#: from; temporary files; locks), and any file the manifest does not list (a file someone
+#: put there is no part of the data; ``dataset verify`` names it). No data file records a
+#: time: the PNGs carry no text or time chunks (generator.png); numpy writes the depth
+#: files' zip entries with a fixed time stamp.
+HASH_EXCLUDED = ("dataset.json", ".*", "files the manifest does not list")
 
 
-def content_hash(out) -> dict:
+def _inside(rel: str) -> bool:
+    """A manifest path naming a data file inside the dataset (relative, no ``..``, not
+    hidden)."""
+    p = Path(rel)
+    return bool(rel) and not p.is_absolute() and not any(
+        part == ".." or part.startswith(".") for part in p.parts)
+
+
+def dataset_files(out, manifest=None) -> list[str]:
+    """The data files of a dataset directory (relative POSIX paths, sorted): every image
+    and depth map its manifest lists and :data:`DATA_FILES`, those present. ``manifest``:
+    the manifest if already read (else read from ``out``; an unreadable one lists none)."""
+    out = Path(out)
+    if manifest is None:
+        try:
+            manifest = read_manifest(out)
+        except Exception:  # noqa: BLE001 - a missing or unreadable manifest lists nothing
+            manifest = None
+    listed = set(DATA_FILES)
+    if manifest is not None:
+        for col in ("path", "depth_path"):
+            if col in manifest.columns:
+                listed |= {str(v) for v in manifest[col] if isinstance(v, str) and _inside(v)}
+    return sorted(rel for rel in listed if (out / rel).is_file())
+
+
+def content_hash(out, manifest=None) -> dict:
     """The dataset's content hash: sha256 over the sorted ``(relative path, sha256)`` of
-    every data file (images, depth maps, manifest.parquet/.csv, frames_coco.json; not
-    :data:`HASH_EXCLUDED`). Returns ``{"sha256": ..., "n_files": ..., "excludes": ...}``."""
+    its data files (:func:`dataset_files`: the images and depth maps the manifest lists,
+    manifest.parquet/.csv, frames_coco.json; nothing of :data:`HASH_EXCLUDED`). Returns
+    ``{"sha256": ..., "n_files": ..., "excludes": ...}``."""
     out = Path(out)
     entries = []
-    for p in out.rglob("*"):
-        rel = p.relative_to(out)
-        if any(part.startswith(".") for part in rel.parts) or not p.is_file():
-            continue
-        if rel.as_posix() == "dataset.json":
-            continue
+    for rel in dataset_files(out, manifest):
+        p = out / rel
         h = hashlib.sha256()
         with open(p, "rb") as fh:
             for block in iter(lambda: fh.read(1 << 20), b""):
                 h.update(block)
-        entries.append((rel.as_posix(), h.hexdigest()))
+        entries.append((rel, h.hexdigest()))
     total = hashlib.sha256()
     for rel, digest in sorted(entries):
         total.update(f"{rel}\0{digest}\n".encode())

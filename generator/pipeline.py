@@ -33,6 +33,7 @@ import numpy as np
 
 from viewadapt.geometry import Camera, window_to_image_homography, window_to_plane
 from viewadapt.io.files import UserError, atomic_write_text, check_output_dir, write_marker
+from viewadapt.io.locks import hold_output_dir
 from viewadapt.surface import surface_depth
 
 from .contents import (
@@ -352,7 +353,8 @@ def generate(config: GeneratorConfig, seed: int, out, *, jobs: int = 1, shard=No
     complete dataset's ``dataset.json`` records its content hash
     (:func:`generator.manifest.content_hash`). An interrupted or failing run keeps what it
     rendered (a rerun resumes) and says so; it removes ``out`` if it made it and kept
-    nothing.
+    nothing. While it runs it holds ``out``'s lock (:mod:`viewadapt.io.locks`): a second
+    run into ``out`` is refused naming this one; the shards of one plan share the folder.
     """
     t0 = time.perf_counter()
     out = Path(out)
@@ -369,6 +371,17 @@ def generate(config: GeneratorConfig, seed: int, out, *, jobs: int = 1, shard=No
     plan = plan_dataset(config, seed, scenes=load_scenes(scene_dir),
                         persons=load_roster(roster))
     meta = dataset_metadata(config, seed, plan, scene_dir, roster)
+    check_output_dir(out, overwrite=overwrite, command="generate")
+    created = not out.exists()
+    with hold_output_dir(out, "generate", shard=shard):
+        return _generate_held(config, out, plan, meta, jobs=jobs, shard=shard,
+                              scheduler=scheduler, progress=progress, threads=threads,
+                              log=log, created=created, t0=t0)
+
+
+def _generate_held(config, out: Path, plan, meta: dict, *, jobs, shard, scheduler, progress,
+                   threads, log, created: bool, t0: float) -> GenerateResult:
+    """The rest of :func:`generate`, while it holds ``out``'s lock."""
     meta_p = out / "dataset.json"
     if meta_p.is_file():
         try:
@@ -377,9 +390,7 @@ def generate(config: GeneratorConfig, seed: int, out, *, jobs: int = 1, shard=No
             old = None
         if isinstance(old, dict) and str(old.get("format", "")).startswith("viewadapt"):
             check_resumable(old, meta, out)
-    check_output_dir(out, overwrite=overwrite)
     client = _dask_client(scheduler) if scheduler else None    # reachable, before writing
-    created = not out.exists()
     try:
         out.mkdir(parents=True, exist_ok=True)
         write_marker(out, "generate")
@@ -420,7 +431,7 @@ def generate(config: GeneratorConfig, seed: int, out, *, jobs: int = 1, shard=No
             client.close()
     df, missing = assemble_manifest(out, [u.uid for u in plan.units])
     if not missing:
-        atomic_write_text(meta_p, json.dumps(dict(meta, content_hash=content_hash(out)),
+        atomic_write_text(meta_p, json.dumps(dict(meta, content_hash=content_hash(out, df)),
                                              indent=2))
     return GenerateResult(out, len(plan.units), len(pending), plan.n_images, rendered,
                           kept + n_done_images, time.perf_counter() - t0, not missing,

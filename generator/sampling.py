@@ -107,8 +107,8 @@ class GeneratorConfig:
         check_field_types(self, bad)
         if self.instances < 1:
             bad(f"instances must be >= 1, got {self.instances}")
-        if not self.elevations:
-            bad("elevations is empty")
+        if not self.elevations or len(set(self.elevations)) < len(self.elevations):
+            bad(f"elevations must be distinct and not empty, got {tuple(self.elevations)}")
         for e in self.elevations:
             if not (0.0 <= float(e) < math.pi / 2):
                 bad(f"elevation {e!r} is outside [0, pi/2) radians")

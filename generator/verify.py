@@ -2,11 +2,18 @@
 
 The manifest has every column of :data:`generator.manifest.MANIFEST_COLUMNS` with its type;
 every row's image exists, is a complete PNG and decodes to the recorded size; every person
-crop has its depth map; no file is listed twice or lies there unlisted (leftover temporary
-files included); everything ``dataset.json`` plans was generated (re-planned in numpy by
-:func:`generator.contents.planned_paths`); every frame is in ``frames_coco.json``; with
-``check_hash``, the content hash recomputed (:func:`generator.manifest.content_hash`)
-equals the one ``dataset.json`` records.
+crop has its depth map; no file is listed twice; everything ``dataset.json`` plans was
+generated (re-planned in numpy by :func:`generator.contents.planned_paths`); every frame is
+in ``frames_coco.json``; with ``check_hash``, the content hash recomputed
+(:func:`generator.manifest.content_hash`) equals the one ``dataset.json`` records.
+
+Every file anywhere in the tree that the dataset does not hold is named (leftover
+temporary files, images the manifest does not list, anything put there): a dataset's files
+are ``dataset.json``, the manifest files, ``frames_coco.json``, the images and depth maps
+the manifest lists, and its bookkeeping (the ownership marker, a writer's lock, the
+``.parts/`` file of each work unit). The content hash covers the data files alone, so a
+foreign file never changes it (nor gets into the hash a rerun records), and ``verify``
+fails while one is there.
 """
 
 from __future__ import annotations
@@ -15,10 +22,12 @@ import json
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from .contents import planned_paths
+from viewadapt.io.files import MARKER, is_lock_file
+
+from .contents import planned_paths, replan
 from .manifest import (
-    FLOAT_COLUMNS, INT_COLUMNS, MANIFEST_COLUMNS, content_hash, png_is_complete, read_depth,
-    read_manifest,
+    DATA_FILES, FLOAT_COLUMNS, INT_COLUMNS, MANIFEST_COLUMNS, content_hash, part_path,
+    png_is_complete, read_depth, read_manifest,
 )
 from .png import png_problem
 
@@ -107,11 +116,46 @@ def _column_problems(df) -> list:
     return out
 
 
+#: the folders of a dataset's images and depth maps
+DATA_DIRS = ("person", "background", "frames", "depth")
+
+
+def _foreign_files(out: Path, df, part_names) -> list:
+    """``(relative path, what)`` of every file under ``out`` the dataset does not hold.
+    ``df``: the manifest (None: unreadable, so no image or depth map is expected);
+    ``part_names``: the ``.parts/`` files expected (None: any ``.json`` there)."""
+    expected = {"dataset.json", MARKER, *DATA_FILES}
+    if df is not None:
+        for col in ("path", "depth_path"):
+            if col in df.columns:
+                expected |= {v for v in df[col] if isinstance(v, str) and v}
+    found = []
+    for f in sorted(out.rglob("*")):
+        if not f.is_file():
+            continue
+        rel = f.relative_to(out)
+        r = rel.as_posix()
+        if r in expected or (len(rel.parts) == 1 and is_lock_file(f.name)):
+            continue
+        if rel.parts[0] == ".parts" and len(rel.parts) == 2 and (
+                r in part_names if part_names is not None else f.suffix == ".json"):
+            continue
+        if f.name.startswith("."):
+            what = "leftover temporary file"
+        elif rel.parts[0] in DATA_DIRS and len(rel.parts) > 1:
+            what = "not in the manifest"
+        else:
+            what = "not part of the dataset (viewadapt does not write it; move it away)"
+        found.append((r, what))
+    return found
+
+
 def verify_dataset(out, *, decode: bool = True, check_plan: bool = True,
                    check_hash: bool = False) -> VerifyReport:
     """Check a dataset directory: the manifest's columns and types; every row's image
-    exists and is a complete, intact PNG of the recorded size; no duplicate or stray
-    files; nothing planned is missing; with ``check_hash`` the content hash.
+    exists and is a complete, intact PNG of the recorded size; no duplicate file; no file
+    anywhere that the dataset does not hold; nothing planned is missing; with
+    ``check_hash`` the content hash (over the data files alone).
     """
     out = Path(out)
     if not out.is_dir():
@@ -138,6 +182,7 @@ def verify_dataset(out, *, decode: bool = True, check_plan: bool = True,
         rep.problems += [(f"manifest.parquet column {c!r}", m) for c, m in bad_cols]
         if {c for c, _ in bad_cols} & set(_ROW_COLUMNS):
             rep.n_rows = len(df)
+            rep.problems += _foreign_files(out, None, None)
             return rep                       # the row checks cannot read this manifest
     if df is not None:
         rep.n_rows = len(df)
@@ -164,33 +209,19 @@ def verify_dataset(out, *, decode: bool = True, check_plan: bool = True,
             if not _depth_ok(out, row, rep):
                 continue
             rep.n_ok += 1
-        listed = set(df["path"])
-        for sub in ("person", "background", "frames"):
-            d = out / sub
-            if not d.is_dir():
-                continue
-            for f in d.rglob("*"):
-                if f.is_file():
-                    rel = f.relative_to(out).as_posix()
-                    if rel not in listed:
-                        what = ("leftover temporary file" if f.name.startswith(".")
-                                else "not in the manifest")
-                        rep.problems.append((rel, what))
-        depths = set(df["depth_path"]) - {""} if "depth_path" in df.columns else set()
-        if (out / "depth").is_dir():
-            for f in (out / "depth").rglob("*"):
-                if f.is_file() and f.relative_to(out).as_posix() not in depths:
-                    rep.problems.append((f.relative_to(out).as_posix(),
-                                         "leftover temporary file" if f.name.startswith(".")
-                                         else "not in the manifest"))
+    part_names = None
     if check_plan and df is not None:
         try:
-            planned = planned_paths(meta)
+            plan = replan(meta)
+            planned = planned_paths(meta, plan)
+            part_names = {part_path(out, u.uid).relative_to(out).as_posix()
+                          for u in plan.units}
             rep.n_planned = len(planned)
             for p in sorted(set(planned) - set(df["path"])):
                 rep.problems.append((p, "planned but not generated"))
         except Exception as exc:  # noqa: BLE001
             rep.problems.append(("dataset.json", f"cannot re-plan the dataset: {exc}"))
+    rep.problems += _foreign_files(out, df, part_names)
     coco_p = out / "frames_coco.json"
     if df is not None and (df["kind"] == "frame").any():
         try:
@@ -208,7 +239,7 @@ def verify_dataset(out, *, decode: bool = True, check_plan: bool = True,
                                                  "unfinished, or made before hashes: rerun "
                                                  "`viewadapt generate` with the same --out)"))
         else:
-            got = content_hash(out)
+            got = content_hash(out, df)
             if got["sha256"] != want:
                 rep.problems.append(("dataset.json", f"content hash differs: recorded "
                                                      f"{want[:16]}…, the files give "

@@ -12,6 +12,7 @@ can add its own commands. Subcommands import their (heavier) modules lazily, so
 from __future__ import annotations
 
 import argparse
+import contextlib
 import sys
 from importlib.metadata import entry_points
 from pathlib import Path
@@ -19,9 +20,10 @@ from pathlib import Path
 from .commands.calibrate import register as register_calibrate
 from .commands.detect import register as register_detect
 from .io.files import (
-    FailedRunCleanup, RunError, UserError, check_output_dir, claim_output_dir,
+    FailedRunCleanup, RunError, UserError, check_apart, check_output_dir, claim_output_dir,
     clean_stale_partials, running_command,
 )
+from .io.locks import hold_output_dir
 from .version import __version__
 
 __all__ = ["main", "common_parser", "build_parser", "command_entry_points", "ENTRY_POINT_GROUP"]
@@ -78,6 +80,21 @@ def command_name(args) -> str:
                                      getattr(args, "dataset_command", None)) if v)
 
 
+#: the options of a command whose folders it writes, and those of the inputs it reads (an
+#: output may neither be, nor lie inside, nor hold an input)
+OUTPUT_OPTIONS = {"out": "--out", "cache": "--cache"}
+INPUT_OPTIONS = {"data": "--data", "inputs": "INPUT"}
+
+
+def check_folders_apart(args) -> None:
+    """Refuse (:class:`UserError`) a command whose ``--out`` or ``--cache`` overlaps its
+    ``--data`` or its ``INPUT`` files and folders."""
+    check_apart({opt: getattr(args, dest) for dest, opt in OUTPUT_OPTIONS.items()
+                 if getattr(args, dest, None) is not None},
+                {opt: getattr(args, dest) for dest, opt in INPUT_OPTIONS.items()
+                 if getattr(args, dest, None) is not None})
+
+
 def _close_progress_bars() -> None:
     """Close live progress bars, so an error line starts on a line of its own."""
     tq = sys.modules.get("tqdm.std")
@@ -98,13 +115,20 @@ def main(argv=None) -> int:
         parser.print_help()
         return 2
     name = command_name(args)
-    # the commands writing an --out directory (generate checks and marks its own)
+    # the commands writing an --out directory (generate checks, locks and marks its own)
     out = getattr(args, "out", None) if hasattr(args, "overwrite") else None
-    cleanup = None
+    cleanup = kept = None
+
+    def finish_failed(exc_type, exc, tb):
+        """After a failure, while the lock is still held: what the run kept."""
+        nonlocal kept
+        if exc_type is not None and cleanup is not None:
+            _close_progress_bars()
+            kept = cleanup.finish()
+        return False
 
     def fail(what: str, exc, rc: int) -> int:
         _close_progress_bars()
-        kept = cleanup.finish() if cleanup is not None else None
         msg = str(exc) or exc.__class__.__name__
         if kept and kept.startswith("kept"):
             msg += f" ({kept})"
@@ -112,11 +136,18 @@ def main(argv=None) -> int:
         return rc
 
     try:
-        with running_command(name):
+        with running_command(name), contextlib.ExitStack() as held:
+            if out is not None:
+                check_folders_apart(args)
             if out is not None and args.command != "generate":
                 clean_stale_partials(out)
                 check_output_dir(out, overwrite=args.overwrite)
-                cleanup = FailedRunCleanup(out, name)
+                pending = FailedRunCleanup(out, name)
+                # one writer at a time; a pipeline's stages run in this process and write
+                # folders of their own inside it
+                held.enter_context(hold_output_dir(out, name))
+                held.push(finish_failed)
+                cleanup = pending
                 # marked from the start: a run killed before its outputs (caches written
                 # meanwhile) leaves a directory its rerun accepts
                 claim_output_dir(out, overwrite=args.overwrite, command=name)
@@ -127,7 +158,6 @@ def main(argv=None) -> int:
         return fail("error", exc, 1)
     except KeyboardInterrupt as exc:
         _close_progress_bars()
-        kept = cleanup.finish() if cleanup is not None else None
         msg = str(exc) or kept or "nothing was written"
         print(f"viewadapt {name}: interrupted; {msg}", file=sys.stderr)
         return 130

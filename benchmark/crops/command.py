@@ -17,7 +17,8 @@ SCHEDULER_TIMEOUT_S = 10
 
 
 def _elevations(text: str) -> tuple:
-    """Parse '0,pi/8,pi/4' or radians '0,0.39' into floats."""
+    """Parse '0,pi/8,pi/4' or radians '0,0.39' into floats; an elevation given twice is
+    an error."""
     out = []
     for tok in text.split(","):
         tok = tok.strip().lower().replace("π", "pi")
@@ -33,6 +34,9 @@ def _elevations(text: str) -> tuple:
                                              "(use radians or forms like pi/8, 3pi/8)") from None
         if not np.isfinite(val):
             raise argparse.ArgumentTypeError(f"elevation {tok!r} is not a finite angle")
+        if any(abs(val - v) < 1e-9 for v in out):
+            raise argparse.ArgumentTypeError(f"elevation {tok!r} ({val:.4f} rad) is given "
+                                             "twice")
         out.append(val)
     return tuple(out)
 

@@ -12,14 +12,23 @@ cores with Cycles):
 3. ``--crossval-kills`` times (default 5): the same for ``bench crossval --quick``, into a
    fresh results directory (``run.json`` is left out of the comparison: it records the
    time and the seconds taken; ``SOURCE_DATE_EPOCH`` fixes the PDFs' creation dates);
-4. measures the peak memory of a ``--large`` image render against a ``--small`` one
+4. concurrent writers: ``generate`` and ``bench crossval`` each started twice into one
+   fresh folder, the second run ``--concurrent-delay`` s (default 1) after the first; the
+   second must be refused in one line naming the first (exit 2), the first must finish
+   with the reference's bytes;
+5. overlapping folders: ``bench crossval`` with ``--out`` the dataset, inside it, or
+   holding it, ``dataset preview`` into the dataset, and ``generate`` into a folder
+   ``bench crossval`` wrote; each must be refused in one line (exit 2) and leave every
+   folder as it was, and the dataset must still pass ``dataset verify --hash``;
+6. measures the peak memory of a ``--large`` image render against a ``--small`` one
    (the largest resident set of the ``generate`` process and its workers, ru_maxrss of
    the children, and the peak of their summed RSS sampled every 0.2 s), with
    ``--memory-renderer`` (pyrender by default: 2,000 Cycles images take ~25 min here).
 
 It prints how many reruns ended byte-identical to the reference (target: all), how many
 left stray files -- files the reference does not have, or anything but the output
-folder beside it, such as a ``.partial-*`` folder (target: none) -- and the two peaks
+folder beside it, such as a ``.partial-*`` folder (target: none) --, how many concurrent
+and overlapping cases were refused as they should be (target: all), and the two peaks
 (target: within 10 %).
 """
 
@@ -38,7 +47,10 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["main", "tree_hashes", "render_size", "compare"]
+from viewadapt.io.files import LOCK
+
+__all__ = ["main", "tree_hashes", "render_size", "compare", "concurrent_writers",
+           "overlapping_folders", "refused_in_one_line"]
 
 REPO = Path(__file__).resolve().parent.parent
 #: results files whose bytes record the time they were made (left out of the comparison)
@@ -96,6 +108,87 @@ def _run_killed(args, delay: float, log: Path) -> str:
             os.killpg(p.pid, signal.SIGKILL)
             p.wait()
             return f"killed at {delay:.1f} s"
+
+
+def refused_in_one_line(rc: int, err: str, want: str) -> bool:
+    """A command refused as it should be: exit 2, one line of stderr (no traceback) that
+    starts ``viewadapt`` and says ``want``."""
+    lines = [ln for ln in err.splitlines() if ln.strip() and "Warp CUDA warning" not in ln]
+    return (rc == 2 and len(lines) == 1 and lines[0].startswith("viewadapt ")
+            and want in lines[0] and "Traceback" not in err)
+
+
+def concurrent_writers(args: list, out: Path, ref_tree: dict, log: Path, delay: float,
+                       exclude=()) -> dict:
+    """Start ``viewadapt ARGS --out OUT`` twice, the second ``delay`` s after the first has
+    taken the folder's lock: the second must be refused naming the first (``is in use
+    by``, its pid), the first must finish and leave ``ref_tree``'s bytes (``exclude``
+    aside)."""
+    argv = args + ["--out", str(out)]
+    name = " ".join(args[:2]) if args[0] in ("bench", "dataset") else args[0]
+    with open(log, "ab") as fh:
+        first = subprocess.Popen(_cli(argv), cwd=REPO, env=_env(), stdout=fh, stderr=fh)
+        deadline = time.time() + 120
+        while first.poll() is None and not (out / LOCK).is_file() and time.time() < deadline:
+            time.sleep(0.02)
+        time.sleep(delay)
+        running = first.poll() is None
+        second = subprocess.run(_cli(argv), cwd=REPO, env=_env(), capture_output=True,
+                                text=True)
+        rc_first = first.wait()
+    refused = refused_in_one_line(second.returncode, second.stderr,
+                                  f"is in use by viewadapt {name}")
+    named = f"(pid {first.pid}," in second.stderr
+    got = tree_hashes(out, exclude) if out.is_dir() else {}
+    diff = sorted(f for f in set(ref_tree) | set(got) if ref_tree.get(f) != got.get(f))
+    ok = running and refused and named and rc_first == 0 and not diff
+    return {"command": name, "first_running": running,
+            "second_rc": second.returncode, "second_stderr": second.stderr.strip()[-400:],
+            "first_rc": rc_first, "differ": diff, "ok": ok}
+
+
+def overlapping_folders(data: Path, work: Path, gen: list, log: Path) -> list:
+    """Commands whose output folder overlaps an input, or was written by another command:
+    each must be refused in one line (exit 2) and change nothing (``data`` and every other
+    folder involved keep their files)."""
+    outer = work / "outer"
+    shutil.copytree(data, outer / "data")
+    results = work / "crossval_folder"
+    _run(["bench", "crossval", "--data", str(data), "--out", str(results)] + CROSSVAL_ARGS,
+         log)
+    cv = ["bench", "crossval"] + CROSSVAL_ARGS
+    cases = [
+        ("crossval --out = --data", cv + ["--data", str(data), "--out", str(data)],
+         "is the --data folder"),
+        ("crossval --out inside --data", cv + ["--data", str(data), "--out",
+                                               str(data / "results")], "lies inside --data"),
+        ("crossval --data inside --out", cv + ["--data", str(outer / "data"), "--out",
+                                               str(outer)], "lies inside --out"),
+        ("crossval --cache inside --data", cv + ["--data", str(data), "--out",
+                                                 str(work / "never"), "--cache",
+                                                 str(data / "cache")], "lies inside --data"),
+        ("preview into the dataset", ["dataset", "preview", str(data), "--out",
+                                      str(data / "sheet.png")], "lies inside DIRECTORY"),
+        ("generate into a crossval folder", gen + ["--out", str(results)],
+         "written by viewadapt bench crossval"),
+    ]
+    watched = (data, outer, results)
+    rows = []
+    for name, argv, want in cases:
+        before = [tree_hashes(d) for d in watched]
+        with open(log, "ab") as fh:
+            fh.write(f"\n$ viewadapt {' '.join(argv)}\n".encode())
+        p = subprocess.run(_cli(argv), cwd=REPO, env=_env(), capture_output=True, text=True)
+        unchanged = [tree_hashes(d) for d in watched] == before
+        refused = refused_in_one_line(p.returncode, p.stderr, want)
+        rows.append({"case": name, "rc": p.returncode, "stderr": p.stderr.strip()[-400:],
+                     "unchanged": unchanged and not (work / "never").exists(),
+                     "ok": refused and unchanged and not (work / "never").exists()})
+    v = subprocess.run(_cli(["dataset", "verify", str(data), "--hash"]), cwd=REPO, env=_env(),
+                       capture_output=True, text=True)
+    rows.append({"case": "dataset verify --hash afterwards", "rc": v.returncode,
+                 "stderr": v.stdout.strip()[-400:], "unchanged": True, "ok": v.returncode == 0})
+    return rows
 
 
 def render_size(persons: int, scenes: int, instances: int = 1, elevations: int = 3,
@@ -163,6 +256,8 @@ def main(argv=None) -> int:
     ap.add_argument("--large", type=int, default=2000, help="images of the large render")
     ap.add_argument("--memory-scenes", type=int, default=10)
     ap.add_argument("--memory-renderer", default="pyrender", choices=("cycles", "pyrender"))
+    ap.add_argument("--concurrent-delay", type=float, default=1.0,
+                    help="seconds between the two concurrent writers (default 1)")
     ap.add_argument("--skip-memory", action="store_true")
     ap.add_argument("--only-memory", action="store_true",
                     help="skip the kills: only the memory measurement")
@@ -234,6 +329,31 @@ def main(argv=None) -> int:
               f"{', '.join(TIMED_RESULTS)}), {c[3]}/{a.crossval_kills} with identical results "
               f"(the feature cache aside); {c[1]} left stray files", flush=True)
         (work / "faults.json").write_text(json.dumps(report, indent=1, default=str))
+
+        print(f"concurrent writers: each command started twice into one folder, "
+              f"{a.concurrent_delay:g} s apart", flush=True)
+        conc = [concurrent_writers(gen, work / "concurrent_generate" / "ds", ref_hashes, log,
+                                   a.concurrent_delay),
+                concurrent_writers(["bench", "crossval", "--data", str(ref)] + CROSSVAL_ARGS,
+                                   work / "concurrent_crossval" / "res", cv_hashes, log,
+                                   a.concurrent_delay, TIMED_RESULTS)]
+        for r in conc:
+            state = "still running" if r["first_running"] else "ALREADY DONE"
+            verdict = "ok" if r["ok"] else "NOT OK"
+            same = "byte-identical" if not r["differ"] else f"DIFFERS: {r['differ'][:5]}"
+            print(f"  {r['command']}: {verdict}; the first run was {state} when the second "
+                  f"started; second rc {r['second_rc']}, first rc {r['first_rc']}, {same}",
+                  flush=True)
+        report["concurrent"] = conc
+        over = overlapping_folders(ref, work / "overlap", gen, log)
+        for r in over:
+            print(f"  {r['case']}: {'ok' if r['ok'] else 'NOT OK'} (rc {r['rc']}"
+                  f"{'' if r['unchanged'] else ', FOLDERS CHANGED'})", flush=True)
+        report["overlapping"] = over
+        safe = sum(r["ok"] for r in conc) + sum(r["ok"] for r in over)
+        print(f"== concurrent writers and overlapping folders: {safe}/{len(conc) + len(over)} "
+              "cases refused in one line with nothing changed", flush=True)
+        (work / "faults.json").write_text(json.dumps(report, indent=1, default=str))
     if not a.skip_memory:
         s = a.memory_scenes
         mem = {}
@@ -257,7 +377,9 @@ def main(argv=None) -> int:
         report["memory"] = mem
     (work / "faults.json").write_text(json.dumps(report, indent=1, default=str))
     ok = g is None or (g[0] == a.generate_kills and c[0] == a.crossval_kills
-                       and not g[1] and not c[1])
+                       and not g[1] and not c[1]
+                       and all(r["ok"] for key in ("concurrent", "overlapping")
+                               for r in report[key]))
     return 0 if ok else 1
 
 

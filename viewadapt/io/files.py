@@ -10,7 +10,11 @@ Ownership: every output directory the project writes holds a marker file,
 files its atomic outputs moved in). A non-empty ``--out`` without it (and without the
 ``dataset.json`` / ``run.json`` / ``metadata.json`` of an output written before markers
 existed) is refused unless ``--overwrite`` is given, and files the project did not write
-are never deleted, ``--overwrite`` or not.
+are never deleted, ``--overwrite`` or not. A marked folder is reused only by the command
+that wrote it (or one of :data:`SHARED_OUTPUTS`): a ``bench crossval`` folder is no
+``generate`` folder. An output folder never overlaps an input folder
+(:func:`check_apart`). While a command writes a folder it holds the folder's lock,
+:data:`LOCK` (:mod:`viewadapt.io.locks`).
 
 Files are created with the permissions the process's umask allows (``0o666 & ~umask``,
 directories ``0o777 & ~umask``), like any ``open()``, not the 0600 of ``mkstemp``.
@@ -31,13 +35,19 @@ from pathlib import Path
 
 from viewadapt.version import __version__
 
-__all__ = ["UserError", "RunError", "MARKER", "atomic_path", "atomic_write_bytes",
-           "atomic_write_text", "atomic_output_dir", "check_output_dir", "claim_output_dir",
-           "is_project_output", "read_marker", "write_marker", "clean_stale_partials",
-           "current_command", "running_command", "umask", "run_metadata", "FailedRunCleanup"]
+__all__ = ["UserError", "RunError", "MARKER", "LOCK", "SHARED_OUTPUTS", "atomic_path",
+           "atomic_write_bytes", "atomic_write_text", "atomic_output_dir", "check_output_dir",
+           "claim_output_dir", "check_apart", "is_project_output", "is_lock_file",
+           "read_marker", "write_marker", "clean_stale_partials", "current_command",
+           "running_command", "umask", "run_metadata", "FailedRunCleanup"]
 
 #: the marker file in every output directory the project writes
 MARKER = ".viewadapt-output"
+#: the lock file of an output directory being written (``LOCK.shard-I-of-N`` per shard of a
+#: sharded ``generate``); :mod:`viewadapt.io.locks`
+LOCK = ".viewadapt-lock"
+#: groups of commands that write the same kind of folder and may reuse each other's
+SHARED_OUTPUTS = (frozenset({"bench crossval", "bench sweep"}),)
 
 #: the command being run (``"bench crossval"``), set by the command line for the markers
 _COMMAND: contextvars.ContextVar = contextvars.ContextVar("viewadapt_command", default=None)
@@ -169,8 +179,33 @@ def is_project_output(out) -> bool:
     return out.is_dir() and (read_marker(out) is not None or _legacy_output(out))
 
 
+def is_lock_file(name: str) -> bool:
+    """True for the name of an output folder's lock file (:data:`LOCK`, or a shard's)."""
+    return name == LOCK or name.startswith(LOCK + ".shard-")
+
+
 def _is_empty(out: Path) -> bool:
-    return not any(True for p in out.iterdir() if p.name != MARKER)
+    return not any(True for p in out.iterdir() if p.name != MARKER and not is_lock_file(p.name))
+
+
+def _shares_outputs(a: str, b: str) -> bool:
+    return a == b or any(a in g and b in g for g in SHARED_OUTPUTS)
+
+
+def _check_writer(out: Path, command: str) -> None:
+    """Refuse a marked folder that another command (not of :data:`SHARED_OUTPUTS`) wrote.
+    Outside the command line (``"viewadapt"``) any folder of the project's qualifies, and
+    a folder marked from outside it may be used by any command."""
+    if command == "viewadapt":
+        return
+    writers = [c for c in (read_marker(out) or {}).get("commands", []) if isinstance(c, str)]
+    if not writers or "viewadapt" in writers:
+        return
+    if not any(_shares_outputs(c, command) for c in writers):
+        raise UserError(f"--out {out} was written by viewadapt {' and '.join(writers)}, not by "
+                        f"{command}: a folder is reused only by the command that wrote it; "
+                        "choose another --out, or pass --overwrite (files of the same names "
+                        "are replaced, no other file is deleted)")
 
 
 def write_marker(out, command: str | None = None, files=()) -> None:
@@ -184,10 +219,11 @@ def write_marker(out, command: str | None = None, files=()) -> None:
          "files": listed}, indent=1) + "\n")
 
 
-def check_output_dir(out, *, overwrite: bool = False) -> None:
-    """Fail (:class:`UserError`) before any work if ``out`` cannot become this command's
-    output directory: it is a file, not writable, or a non-empty directory the project did
-    not write (unless ``overwrite``)."""
+def check_output_dir(out, *, overwrite: bool = False, command: str | None = None) -> None:
+    """Fail (:class:`UserError`) before any work if ``out`` cannot become the output
+    directory of ``command`` (default: the running command): it is a file, not writable, a
+    non-empty directory the project did not write, or one another command wrote (unless
+    ``overwrite``)."""
     out = Path(out)
     if out.exists() and not out.is_dir():
         raise UserError(f"--out {out} exists and is not a directory")
@@ -201,12 +237,42 @@ def check_output_dir(out, *, overwrite: bool = False) -> None:
         raise UserError(f"--out {out} is not empty and was not written by viewadapt (no "
                         f"{MARKER}); choose a new or empty directory, or pass --overwrite "
                         "(files of the same names are replaced, no other file is deleted)")
+    if out.is_dir() and not overwrite and not _is_empty(out):
+        _check_writer(out, command or current_command())
+
+
+def _inside(a: Path, b: Path) -> bool:
+    return a != b and b in a.parents
+
+
+def check_apart(outputs: dict, inputs: dict) -> None:
+    """Fail (:class:`UserError`) if an output folder is an input, lies inside an input
+    folder, or holds an input. ``outputs`` and ``inputs`` map an option's name
+    (``"--out"``, ``"--data"``) to a path or a list of paths; None is skipped. Paths are
+    compared with symbolic links resolved."""
+    def paths(d):
+        for opt, v in d.items():
+            for p in (v if isinstance(v, (list, tuple)) else [v]):
+                if p is not None and str(p) != "":
+                    yield opt, Path(p), Path(os.path.realpath(p))
+
+    for o_opt, o, ro in paths(outputs):
+        for i_opt, i, ri in paths(inputs):
+            if ro == ri:
+                raise UserError(f"{o_opt} {o} is the {i_opt} folder itself: its outputs would "
+                                f"be written into an input; choose another {o_opt}")
+            if _inside(ro, ri):
+                raise UserError(f"{o_opt} {o} lies inside {i_opt} {i}: its outputs would be "
+                                f"written into an input; choose a {o_opt} outside it")
+            if _inside(ri, ro):
+                raise UserError(f"{i_opt} {i} lies inside {o_opt} {o}: writing there could "
+                                f"change an input; choose a {o_opt} that does not hold it")
 
 
 def claim_output_dir(out, *, overwrite: bool = False, command: str | None = None) -> bool:
     """:func:`check_output_dir`, then create ``out`` and mark it; True if it was created."""
     out = Path(out)
-    check_output_dir(out, overwrite=overwrite)
+    check_output_dir(out, overwrite=overwrite, command=command)
     created = not out.exists()
     out.mkdir(parents=True, exist_ok=True)
     write_marker(out, command)
@@ -355,7 +421,8 @@ def run_metadata(seed=None, **extra) -> dict:
 def _files_under(d: Path) -> set:
     if not d.is_dir():
         return set()
-    return {p.relative_to(d).as_posix() for p in d.rglob("*") if p.is_file()}
+    return {p.relative_to(d).as_posix() for p in d.rglob("*")
+            if p.is_file() and not (p.parent == d and is_lock_file(p.name))}
 
 
 class FailedRunCleanup:
