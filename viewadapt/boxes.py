@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["check_boxes", "check_scores", "box_intersections", "safe_ratio"]
+__all__ = ["check_boxes", "check_scores", "box_intersections", "safe_ratio", "mapped_boxes"]
 
 
 def check_boxes(boxes, name: str = "boxes") -> np.ndarray:
@@ -64,3 +64,20 @@ def safe_ratio(num: np.ndarray, den: np.ndarray) -> np.ndarray:
     out = np.zeros(np.broadcast_shapes(num.shape, den.shape), dtype=np.float64)
     np.divide(num, den, out=out, where=den > 0)
     return out
+
+
+def mapped_boxes(detections, mapping) -> np.ndarray:
+    """Detections ``(x, y, w, h, score)`` (D, 5) through a point mapping: each box's corners
+    and edge midpoints mapped by ``mapping((P, 2) points) -> (P, 2) points``, their bounding
+    box kept, the score unchanged (e.g. boxes found on an undistorted frame back into the
+    distorted frame's pixels)."""
+    d = np.asarray(detections, dtype=np.float64).reshape(-1, 5)
+    if len(d) == 0:
+        return d.copy()
+    x, y, w, h = d[:, 0], d[:, 1], d[:, 2], d[:, 3]
+    u = np.array([0, 0.5, 1, 1, 1, 0.5, 0, 0])
+    v = np.array([0, 0, 0, 0.5, 1, 1, 1, 0.5])
+    pts = np.stack([x[:, None] + u * w[:, None], y[:, None] + v * h[:, None]], -1)
+    q = np.asarray(mapping(pts.reshape(-1, 2)), dtype=np.float64).reshape(-1, 8, 2)
+    lo, hi = q.min(axis=1), q.max(axis=1)
+    return np.c_[lo, hi - lo, d[:, 4]]

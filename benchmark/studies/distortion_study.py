@@ -77,6 +77,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from viewadapt.boxes import mapped_boxes
 from viewadapt.camera import Undistortion, check_distortion, distort_image
 from viewadapt.detect import FrameDetector
 from viewadapt.io import SourceDetectors, shipped_model_path
@@ -230,19 +231,9 @@ def invalid_box_fractions(boxes, valid) -> np.ndarray:
 
 def undistorted_boxes(dets, undistortion) -> np.ndarray:
     """Detections ``(x, y, w, h, score)`` in distorted-frame pixels -> the same in the
-    undistorted frame: each box's corners and edge midpoints undistorted
-    (:meth:`Undistortion.undistort_points <viewadapt.camera.Undistortion.undistort_points>`),
-    their bounding box kept, the score unchanged."""
-    d = np.asarray(dets, dtype=np.float64).reshape(-1, 5)
-    if len(d) == 0:
-        return d.copy()
-    x, y, w, h = d[:, 0], d[:, 1], d[:, 2], d[:, 3]
-    u = np.array([0, 0.5, 1, 1, 1, 0.5, 0, 0])
-    v = np.array([0, 0, 0, 0.5, 1, 1, 1, 0.5])
-    pts = np.stack([x[:, None] + u * w[:, None], y[:, None] + v * h[:, None]], -1)
-    q = undistortion.undistort_points(pts.reshape(-1, 2)).reshape(-1, 8, 2)
-    lo, hi = q.min(axis=1), q.max(axis=1)
-    return np.c_[lo, hi - lo, d[:, 4]]
+    undistorted frame (:func:`viewadapt.boxes.mapped_boxes` through
+    :meth:`Undistortion.undistort_points <viewadapt.camera.Undistortion.undistort_points>`)."""
+    return mapped_boxes(dets, undistortion.undistort_points)
 
 
 def group_by_scene(frames) -> dict:

@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
+from viewadapt.boxes import mapped_boxes
 from viewadapt.camera.distortion import Undistortion, distort_points
 from viewadapt.detect.detector import FrameDetector
 from viewadapt.detect.evaluation import (
@@ -57,19 +58,9 @@ def lens_correction(dist, lens: str, object_model: str):
 
 def boxes_in_input_pixels(boxes, K, dist) -> np.ndarray:
     """Detections ``(x, y, w, h, score)`` (D, 5) found on the undistorted frame -> the same
-    detections in the distorted input's pixels: each box's corners and edge midpoints
-    through the lens (:func:`~viewadapt.camera.distortion.distort_points`), their bounding
-    box kept, the score unchanged."""
-    d = np.asarray(boxes, dtype=np.float64).reshape(-1, 5)
-    if len(d) == 0:
-        return d.copy()
-    x, y, w, h = d[:, 0], d[:, 1], d[:, 2], d[:, 3]
-    u = np.array([0, 0.5, 1, 1, 1, 0.5, 0, 0])
-    v = np.array([0, 0, 0, 0.5, 1, 1, 1, 0.5])
-    pts = np.stack([x[:, None] + u * w[:, None], y[:, None] + v * h[:, None]], -1)
-    q = distort_points(pts.reshape(-1, 2), K, dist).reshape(-1, 8, 2)
-    lo, hi = q.min(axis=1), q.max(axis=1)
-    return np.c_[lo, hi - lo, d[:, 4]]
+    detections in the distorted input's pixels (:func:`viewadapt.boxes.mapped_boxes`
+    through :func:`~viewadapt.camera.distortion.distort_points`)."""
+    return mapped_boxes(boxes, lambda p: distort_points(p, K, dist))
 
 
 def evaluation_summary(detections, truth, image_size, *, regions=None,

@@ -22,6 +22,7 @@ from viewadapt.io import (
     SourceDetectors, natural_sort_key, open_frames, prefetched, read_calibration, shipped_model_path,
 )
 from tests.toy_frames import TOY_FRAME_SIZE, small_toy_frames
+from tests.box_iou import iou as box_iou
 
 N_FRAMES = 6
 SIZE = TOY_FRAME_SIZE
@@ -45,24 +46,13 @@ def _write_video(path, images, size=SIZE):
     return path
 
 
-def _iou(a, b):
-    """(A, B) IoU of (A, 4) and (B, 4) boxes x, y, w, h."""
-    a, b = np.asarray(a, float)[:, None], np.asarray(b, float)[None]
-    iw = np.minimum(a[..., 0] + a[..., 2], b[..., 0] + b[..., 2]) - np.maximum(a[..., 0],
-                                                                               b[..., 0])
-    ih = np.minimum(a[..., 1] + a[..., 3], b[..., 1] + b[..., 3]) - np.maximum(a[..., 1],
-                                                                               b[..., 1])
-    inter = np.clip(iw, 0, None) * np.clip(ih, 0, None)
-    return inter / (a[..., 2] * a[..., 3] + b[..., 2] * b[..., 3] - inter)
-
-
 def _best_iou(ref, other):
     """For each detection of ``ref`` with a positive score, its best IoU in ``other`` (the
     same frame)."""
     out = []
     for f, a in ref[ref.score > 0].groupby("frame"):
         b = other[other.frame == f]
-        m = _iou(a[["x", "y", "w", "h"]], b[["x", "y", "w", "h"]]) if len(b) else \
+        m = box_iou(a[["x", "y", "w", "h"]], b[["x", "y", "w", "h"]]) if len(b) else \
             np.zeros((len(a), 1))
         out += list(m.max(axis=1))
     return np.array(out)
@@ -190,7 +180,7 @@ def test_ground_positions_are_those_of_the_windows(toy):
         feet = np.array([toy.cam.project(np.r_[g, 0.0]) for g in found.ground_xy])
         assert np.allclose(feet, det.windows.feet[found.window], atol=1e-6)
         anns = [a for a in coco["annotations"] if a["image_id"] == f.image_id]
-        m = _iou(found.boxes[:, :4], [a["bbox"] for a in anns])
+        m = box_iou(found.boxes[:, :4], [a["bbox"] for a in anns])
         for i in np.flatnonzero((found.boxes[:, 4] > 0) & (m.max(axis=1) > 0.5)):
             truth = anns[int(m[i].argmax())]["ground_xy"]
             errors.append(np.hypot(*(found.ground_xy[i] - truth)))

@@ -24,6 +24,7 @@ from viewadapt.detect.evaluation import (
     block_bootstrap, evaluate_detections, evaluation_rows, in_regions,
 )
 from tests.toy_frames import small_toy_frames
+from tests.box_iou import iou as box_iou
 
 N_FRAMES = 6
 DIST = [-0.35, 0.0, 0.0, 0.0, 0.0]          # strong barrel: corners move ~ a quarter radius
@@ -245,7 +246,7 @@ def test_undistorted_detection_is_scored_in_the_input_pixels(toy, tmp_path):
     for name, r in ref[ref.score > 0].groupby("source"):
         b = dets[dets.source == name][["x", "y", "w", "h"]].to_numpy()
         seen = _distorted_boxes(r[["x", "y", "w", "h"]].to_numpy(), toy.cam.K)
-        ref_iou += list(_iou(seen, b).max(1)) if len(b) else [0.0] * len(r)
+        ref_iou += list(box_iou(seen, b).max(1)) if len(b) else [0.0] * len(r)
     ref_iou = np.array(ref_iou)
     assert len(ref_iou) >= 10 and (ref_iou > 0.5).all() and ref_iou.mean() > 0.85, ref_iou
     # ... so they find the distorted ground truth at least as often as the pinhole boxes
@@ -259,13 +260,13 @@ def test_undistorted_detection_is_scored_in_the_input_pixels(toy, tmp_path):
         b = dets[(dets.source == name) & (dets.score > 0)][["x", "y", "w", "h"]].to_numpy()
         r = ref[(ref.source == name) & (ref.score > 0)][["x", "y", "w", "h"]].to_numpy()
         if len(b):
-            found += int((_iou(t, b).max(1) > 0.5).sum())
+            found += int((box_iou(t, b).max(1) > 0.5).sum())
             lo = und.undistort_points(b[:, :2])
             hi = und.undistort_points(b[:, :2] + b[:, 2:])
-            iou_written += list(_iou(t, b).max(1))
-            iou_undistorted += list(_iou(t, np.c_[lo, hi - lo]).max(1))
+            iou_written += list(box_iou(t, b).max(1))
+            iou_undistorted += list(box_iou(t, np.c_[lo, hi - lo]).max(1))
         if len(r):
-            found_pinhole += int((_iou(f.gt, r).max(1) > 0.5).sum())
+            found_pinhole += int((box_iou(f.gt, r).max(1) > 0.5).sum())
     assert found_pinhole >= 8 and found >= found_pinhole - 1, (found, found_pinhole)
     assert np.mean(iou_written) > np.mean(iou_undistorted) + 0.03
     # ... and score as they do
@@ -281,16 +282,6 @@ def test_undistorted_detection_is_scored_in_the_input_pixels(toy, tmp_path):
     shown = cv2.imread(str(out / "annotated" / "00000_000001.png")).astype(int)
     given = cv2.imread(str(folder / "000001.png")).astype(int)
     assert np.mean(np.all(shown == given, axis=2)) > 0.8
-
-
-def _iou(a, b):
-    a, b = np.asarray(a, float)[:, None], np.asarray(b, float)[None]
-    iw = np.minimum(a[..., 0] + a[..., 2], b[..., 0] + b[..., 2]) - np.maximum(a[..., 0],
-                                                                               b[..., 0])
-    ih = np.minimum(a[..., 1] + a[..., 3], b[..., 1] + b[..., 3]) - np.maximum(a[..., 1],
-                                                                               b[..., 1])
-    inter = np.clip(iw, 0, None) * np.clip(ih, 0, None)
-    return inter / (a[..., 2] * a[..., 3] + b[..., 2] * b[..., 3] - inter)
 
 
 def test_a_tsai_calibration_runs_like_its_json(toy, tmp_path):
