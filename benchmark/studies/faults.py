@@ -20,16 +20,21 @@ cores with Cycles):
    holding it, ``dataset preview`` into the dataset, and ``generate`` into a folder
    ``bench crossval`` wrote; each must be refused in one line (exit 2) and leave every
    folder as it was, and the dataset must still pass ``dataset verify --hash``;
-6. measures the peak memory of a ``--large`` image render against a ``--small`` one
+6. malformed inputs: ``detect`` given a calibration with a misspelled key, a YAML alias
+   bomb (a few hundred bytes that expand to billions of strings), an OpenCV FileStorage
+   file nested 100,000 levels deep (``cv2.FileStorage`` crashes on it) or one over 1 MB,
+   and ``detect`` and ``calibrate`` given a broken symbolic link as ``--out``; each must be
+   refused in one line (exit 2) within :data:`MALFORMED_SECONDS`, writing nothing;
+7. measures the peak memory of a ``--large`` image render against a ``--small`` one
    (the largest resident set of the ``generate`` process and its workers, ru_maxrss of
    the children, and the peak of their summed RSS sampled every 0.2 s), with
    ``--memory-renderer`` (pyrender by default: 2,000 Cycles images take ~25 min here).
 
 It prints how many reruns ended byte-identical to the reference (target: all), how many
 left stray files -- files the reference does not have, or anything but the output
-folder beside it, such as a ``.partial-*`` folder (target: none) --, how many concurrent
-and overlapping cases were refused as they should be (target: all), and the two peaks
-(target: within 10 %).
+folder beside it, such as a ``.partial-*`` folder (target: none) --, how many concurrent,
+overlapping and malformed-input cases were refused as they should be (target: all), and
+the two peaks (target: within 10 %).
 """
 
 from __future__ import annotations
@@ -47,10 +52,11 @@ from pathlib import Path
 
 import numpy as np
 
+from viewadapt.geometry import camera_from_pose
 from viewadapt.io.files import LOCK
 
 __all__ = ["main", "tree_hashes", "render_size", "compare", "concurrent_writers",
-           "overlapping_folders", "refused_in_one_line"]
+           "overlapping_folders", "malformed_inputs", "refused_in_one_line"]
 
 REPO = Path(__file__).resolve().parent.parent
 #: results files whose bytes record the time they were made (left out of the comparison)
@@ -58,6 +64,8 @@ TIMED_RESULTS = ("run.json",)
 #: the cross-validation the faults run (small enough to be killed and rerun five times)
 CROSSVAL_ARGS = ["--quick", "--detectors", "hog", "acf", "--sources", "0",
                  "--object-models", "plane", "--no-upper-bound"]
+#: the longest a malformed input may take to be refused (seconds, the process start included)
+MALFORMED_SECONDS = 30.0
 
 
 def tree_hashes(root: Path, exclude=()) -> dict:
@@ -188,6 +196,77 @@ def overlapping_folders(data: Path, work: Path, gen: list, log: Path) -> list:
                        capture_output=True, text=True)
     rows.append({"case": "dataset verify --hash afterwards", "rc": v.returncode,
                  "stderr": v.stdout.strip()[-400:], "unchanged": True, "ok": v.returncode == 0})
+    return rows
+
+
+def _malformed_files(d: Path) -> dict:
+    """The inputs of :func:`malformed_inputs`, written into ``d``."""
+    import cv2
+
+    pose = "image_size: [384, 288]\nfocal: 350\nheight: 4.5\ntilt: 35\n"
+    bomb = ['a0: &a0 ["x", "x", "x", "x", "x", "x", "x", "x", "x"]']
+    bomb += [f"a{i}: &a{i} [" + ", ".join([f"*a{i - 1}"] * 9) + "]" for i in range(1, 9)]
+    head = ("%YAML:1.0\n---\nimage_width: 384\nimage_height: 288\ncamera_matrix: "
+            "!!opencv-matrix\n   rows: 3\n   cols: 3\n   dt: d\n   data: [ 350., 0., 191.5, "
+            "0., 350., 143.5, 0., 0., 1. ]\nrvec: [1.9, 0.0, 0.0]\ntvec: [0.0, 2.6, 3.7]\n")
+    texts = {"misspelled.yaml": pose + "rol: 2\n",
+             "bomb.yaml": "\n".join(bomb) + "\n" + pose.replace("[384, 288]", "*a8"),
+             "deep.yml": head + "deep: " + "[" * 100_000 + "]" * 100_000 + "\n",
+             "large.yml": head + "# " + "x" * 2 ** 21 + "\n"}
+    for name, text in texts.items():
+        (d / name).write_text(text)
+    cv2.imwrite(str(d / "frame.png"), np.zeros((288, 384, 3), np.uint8))
+    cam = camera_from_pose(focal=350.0, principal_point=(191.5, 143.5), height=4.5,
+                           tilt=np.radians(35), image_size=(384, 288))
+    uv = np.array([(u, v) for v in (120.0, 270.0) for u in (40.0, 190.0, 340.0)])
+    rays = (np.c_[uv, np.ones(len(uv))] @ np.linalg.inv(cam.K).T) @ cam.R
+    XY = (cam.center + (-cam.center[2] / rays[:, 2])[:, None] * rays)[:, :2]
+    (d / "points.csv").write_text("u,v,X,Y\n" + "".join(
+        f"{a!r},{b!r},{x!r},{y!r}\n" for (a, b), (x, y) in zip(uv, XY)))
+    for link in ("out_link", "cam_link.yaml"):
+        os.symlink(d / f"missing_{link}", d / link)
+    return {n: d / n for n in (*texts, "frame.png", "points.csv", "out_link", "cam_link.yaml")}
+
+
+def malformed_inputs(work: Path, log: Path) -> list:
+    """Inputs a user can get wrong: each must be refused in one line (exit 2) within
+    :data:`MALFORMED_SECONDS`, leave no output (a broken ``--out`` link stays a link to
+    nothing)."""
+    work.mkdir(parents=True, exist_ok=True)
+    f = _malformed_files(work)
+    never = work / "never"
+
+    def detect(calibration, out=never):
+        return ["detect", "--calibration", str(calibration), "--out", str(out),
+                str(f["frame.png"])]
+
+    cases = [
+        ("calibration with a misspelled key", detect(f["misspelled.yaml"]),
+         "unknown key 'rol' (did you mean 'roll'?)"),
+        ("calibration: a YAML alias bomb", detect(f["bomb.yaml"]), "YAML anchors and aliases"),
+        ("OpenCV FileStorage nested 100,000 levels", detect(f["deep.yml"]),
+         "nested more than the 16 levels"),
+        ("OpenCV FileStorage over 1 MB", detect(f["large.yml"]), "is over the 1 MB"),
+        ("detect --out a broken symbolic link", detect(f["misspelled.yaml"], f["out_link"]),
+         "is a broken symbolic link"),
+        ("calibrate --out a broken symbolic link",
+         ["calibrate", str(f["points.csv"]), "--image-size", "384,288", "--out",
+          str(f["cam_link.yaml"])], "is a broken symbolic link"),
+    ]
+    rows = []
+    for name, argv, want in cases:
+        with open(log, "ab") as fh:
+            fh.write(f"\n$ viewadapt {' '.join(argv)}\n".encode())
+        t0 = time.perf_counter()
+        p = subprocess.run(_cli(argv), cwd=REPO, env=_env(), capture_output=True, text=True,
+                           timeout=600)
+        seconds = time.perf_counter() - t0
+        untouched = (not never.exists() and all(
+            f[k].is_symlink() and not f[k].exists() for k in ("out_link", "cam_link.yaml")))
+        refused = refused_in_one_line(p.returncode, p.stderr, want)
+        rows.append({"case": name, "rc": p.returncode, "stderr": p.stderr.strip()[-400:],
+                     "seconds": round(seconds, 2), "unchanged": untouched,
+                     "ok": refused and untouched and seconds <= MALFORMED_SECONDS})
     return rows
 
 
@@ -350,9 +429,16 @@ def main(argv=None) -> int:
             print(f"  {r['case']}: {'ok' if r['ok'] else 'NOT OK'} (rc {r['rc']}"
                   f"{'' if r['unchanged'] else ', FOLDERS CHANGED'})", flush=True)
         report["overlapping"] = over
-        safe = sum(r["ok"] for r in conc) + sum(r["ok"] for r in over)
-        print(f"== concurrent writers and overlapping folders: {safe}/{len(conc) + len(over)} "
-              "cases refused in one line with nothing changed", flush=True)
+        bad = malformed_inputs(work / "malformed", log)
+        for r in bad:
+            print(f"  {r['case']}: {'ok' if r['ok'] else 'NOT OK'} (rc {r['rc']}, "
+                  f"{r['seconds']:.1f} s{'' if r['unchanged'] else ', FILES CHANGED'})",
+                  flush=True)
+        report["malformed"] = bad
+        safe = sum(r["ok"] for r in conc + over + bad)
+        print(f"== concurrent writers, overlapping folders and malformed inputs: {safe}/"
+              f"{len(conc) + len(over) + len(bad)} cases refused in one line with nothing "
+              "changed", flush=True)
         (work / "faults.json").write_text(json.dumps(report, indent=1, default=str))
     if not a.skip_memory:
         s = a.memory_scenes
@@ -378,7 +464,7 @@ def main(argv=None) -> int:
     (work / "faults.json").write_text(json.dumps(report, indent=1, default=str))
     ok = g is None or (g[0] == a.generate_kills and c[0] == a.crossval_kills
                        and not g[1] and not c[1]
-                       and all(r["ok"] for key in ("concurrent", "overlapping")
+                       and all(r["ok"] for key in ("concurrent", "overlapping", "malformed")
                                for r in report[key]))
     return 0 if ok else 1
 

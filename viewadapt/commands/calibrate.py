@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import errno
 import importlib.util
 import json
+import os
 import sys
 from pathlib import Path
 
@@ -12,7 +14,7 @@ import numpy as np
 from viewadapt.camera.calibrate import GroundCalibration, calibrate_from_ground_points
 from viewadapt.camera.distortion import check_distortion
 from viewadapt.io.calibration import read_correspondences
-from viewadapt.io.files import UserError, atomic_write_text
+from viewadapt.io.files import RunError, UserError, atomic_write_text, check_broken_link
 
 __all__ = ["register", "cmd_calibrate", "calibration_text"]
 
@@ -62,18 +64,46 @@ def _numbers(text, option: str, counts, what: str) -> tuple:
 
 
 def _output_path(out: Path, overwrite: bool) -> tuple[Path, str]:
+    """``out`` and its suffix, if the calibration file can be written there (one-line
+    errors, before any work): a known suffix, not a directory, not a broken symbolic link,
+    not an existing file without ``overwrite``, and the nearest existing folder above it a
+    writable folder (missing folders are made)."""
     suffix = out.suffix.lower()
     if suffix not in (".yaml", ".yml", ".json"):
         raise ValueError(f"--out {out}: the calibration file must end in .yaml, .yml or .json")
+    check_broken_link(out)
     if out.is_dir():
         raise ValueError(f"--out {out} is a directory; give a file name (.yaml or .json)")
     if out.exists() and not overwrite:
         raise UserError(f"--out {out} exists; pass --overwrite to replace it")
+    parent = out.parent
+    while not parent.exists():
+        parent = parent.parent
+    if not parent.is_dir():
+        raise UserError(f"cannot write {out}: {parent} is a file, not a folder")
+    if not os.access(parent, os.W_OK):
+        raise UserError(f"cannot write {out}: permission denied ({parent} is not writable)")
     if suffix != ".json":
         if importlib.util.find_spec("yaml") is None:
             raise ValueError("writing YAML needs PyYAML (pip install pyyaml); or write --out "
                              "as .json")
     return out, suffix
+
+
+#: errors writing a file that the path given causes (exit 2); others (a full disk) exit 1
+_PATH_ERRORS = {errno.EACCES: "permission denied", errno.EPERM: "permission denied",
+                errno.EROFS: "read-only file system"}
+
+
+def _write_error(out: Path, exc: OSError) -> Exception:
+    """The one-line error of a failed write of ``out`` (no errno, no temporary name)."""
+    why = _PATH_ERRORS.get(exc.errno)
+    if why is not None:
+        return UserError(f"cannot write {out}: {why}")
+    if exc.errno in (errno.ENOENT, errno.ENOTDIR, errno.EEXIST):
+        return UserError(f"cannot write {out}: its folder cannot be made or does not accept "
+                         f"files ({(exc.strerror or str(exc)).lower()})")
+    return RunError(f"cannot write {out}: {(exc.strerror or str(exc)).lower()}")
 
 
 def cmd_calibrate(args) -> int:
@@ -113,7 +143,11 @@ def cmd_calibrate(args) -> int:
                                               principal_point=pp, dist=dist)
     except ValueError as exc:
         raise ValueError(f"{args.points}: {exc}") from None
-    atomic_write_text(out, calibration_text(result, suffix, len(uv)))
+    text = calibration_text(result, suffix, len(uv))
+    try:
+        atomic_write_text(out, text)
+    except OSError as exc:
+        raise _write_error(out, exc) from None
     fx, fy = result.focal_px
     focal_text = f"{fx:.1f}" if fx == fy else f"{fx:.1f},{fy:.1f}"
     print(f"camera {result.camera_height_m:.3f} m above the ground, tilted "

@@ -8,8 +8,10 @@
 * :mod:`~viewadapt.io.cache` -- the adapted operators of a camera, cached on disk.
 * :mod:`~viewadapt.io.calibration` -- camera calibration files (YAML or JSON, and the
   imported formats).
+* :mod:`~viewadapt.io.bounded` -- the guarded readers of files from outside (size, JSON and
+  YAML nesting, no YAML aliases, no XML entities).
 * :mod:`~viewadapt.io.imports` -- other tools' calibrations (PETS 2009 / Tsai XML, OpenCV
-  FileStorage), and guarded readers (size, JSON depth, XML entities) of files from outside.
+  FileStorage).
 * :mod:`~viewadapt.io.boxes` -- ground-truth boxes for evaluation (CSV, COCO, MOTChallenge,
   CAVIAR) and ignore regions.
 * :mod:`~viewadapt.io.video` -- a camera's frames from a video, a folder, a glob pattern or
@@ -27,13 +29,16 @@ from .cache import (
     DEFAULT_CACHE_LIMIT_GB, check_cache_limit, OPERATOR_FORMAT, OPERATOR_CLASSES,
     operator_to_arrays, operator_from_arrays, OperatorCache,
 )
-from .imports import (
-    MAX_INPUT_BYTES, MAX_JSON_DEPTH, TSAI_FIT_GRID, MAX_TSAI_FIT_ERROR_PX, ImportedCalibration,
-    read_limited_text, json_depth, parse_json, parse_xml, calibration_format,
-    read_imported_calibration, read_tsai_calibration, read_opencv_calibration, tsai_rotation,
-    tsai_distortion_to_opencv,
+from .bounded import (
+    MAX_INPUT_BYTES, MAX_JSON_DEPTH, MAX_CALIBRATION_BYTES, MAX_CALIBRATION_DEPTH,
+    read_limited_text, json_depth, check_json_depth, parse_json, parse_yaml, check_yaml, parse_xml,
 )
-from .calibration import read_calibration, read_distortion
+from .imports import (
+    TSAI_FIT_GRID, MAX_TSAI_FIT_ERROR_PX, ImportedCalibration, read_calibration_text,
+    check_filestorage_text, calibration_format, read_imported_calibration, read_tsai_calibration,
+    read_opencv_calibration, tsai_rotation, tsai_distortion_to_opencv,
+)
+from .calibration import CALIBRATION_KEYS, read_calibration, read_distortion
 from .boxes import (
     BOX_FORMATS, MOT_MIN_VISIBILITY, MOT_COUNTED_CLASSES, MOT_IGNORED_CLASSES, FrameBoxes,
     boxes_format, read_boxes, read_ignore_regions, frame_number,
@@ -49,11 +54,14 @@ __all__ = [
     "ArrayFileError", "write_array_file", "read_array_file", "SOURCE_DETECTORS_FORMAT",
     "SOURCE_DETECTORS_VERSION", "SourceDetectors", "shipped_model_path", "DEFAULT_CACHE_LIMIT_GB",
     "check_cache_limit", "OPERATOR_FORMAT", "OPERATOR_CLASSES", "operator_to_arrays",
-    "operator_from_arrays", "OperatorCache", "MAX_INPUT_BYTES", "MAX_JSON_DEPTH", "TSAI_FIT_GRID",
-    "MAX_TSAI_FIT_ERROR_PX", "ImportedCalibration", "read_limited_text", "json_depth",
-    "parse_json", "parse_xml", "calibration_format", "read_imported_calibration",
+    "operator_from_arrays", "OperatorCache", "MAX_INPUT_BYTES", "MAX_JSON_DEPTH",
+    "MAX_CALIBRATION_BYTES", "MAX_CALIBRATION_DEPTH", "read_limited_text", "json_depth",
+    "check_json_depth", "parse_json", "parse_yaml", "check_yaml", "parse_xml", "TSAI_FIT_GRID",
+    "MAX_TSAI_FIT_ERROR_PX", "ImportedCalibration", "read_calibration_text",
+    "check_filestorage_text", "calibration_format", "read_imported_calibration",
     "read_tsai_calibration", "read_opencv_calibration", "tsai_rotation",
-    "tsai_distortion_to_opencv", "read_calibration", "read_distortion", "BOX_FORMATS",
+    "tsai_distortion_to_opencv", "CALIBRATION_KEYS", "read_calibration", "read_distortion",
+    "BOX_FORMATS",
     "MOT_MIN_VISIBILITY", "MOT_COUNTED_CLASSES", "MOT_IGNORED_CLASSES", "FrameBoxes",
     "boxes_format", "read_boxes", "read_ignore_regions", "frame_number",
     "IMAGE_SUFFIXES", "Frame", "FrameStream", "open_frames", "natural_sort_key", "prefetched",

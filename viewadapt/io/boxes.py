@@ -27,8 +27,8 @@ counted, and a detection on it is neither a hit nor a false positive.
 alike -- are left out (a box is in a polygon when its bottom-centre is).
 
 Every bad file is a one-line ``ValueError`` naming the file and the line or field; files
-over :data:`~viewadapt.io.imports.MAX_INPUT_BYTES` and JSON nested deeper than
-:data:`~viewadapt.io.imports.MAX_JSON_DEPTH` levels are refused.
+over :data:`~viewadapt.io.bounded.MAX_INPUT_BYTES` and JSON nested deeper than
+:data:`~viewadapt.io.bounded.MAX_JSON_DEPTH` levels are refused (:mod:`viewadapt.io.bounded`).
 
 References
 ----------
@@ -49,7 +49,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from viewadapt.io.imports import parse_json, parse_xml, read_limited_text
+from viewadapt.io.bounded import parse_json, parse_xml, read_limited_text
 
 __all__ = ["BOX_FORMATS", "MOT_MIN_VISIBILITY", "MOT_COUNTED_CLASSES", "MOT_IGNORED_CLASSES",
            "FrameBoxes", "boxes_format", "read_boxes", "read_ignore_regions", "frame_number"]

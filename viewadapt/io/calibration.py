@@ -11,7 +11,7 @@ camera to.
 from __future__ import annotations
 
 import csv
-import json
+import difflib
 from pathlib import Path
 
 import numpy as np
@@ -19,9 +19,25 @@ import numpy as np
 from viewadapt.camera.checks import check_calibration
 from viewadapt.camera.distortion import DISTORTION_SIZES
 from viewadapt.geometry import Camera, camera_from_pose
-from viewadapt.io.imports import calibration_format, read_imported_calibration, read_limited_text
+from viewadapt.io.bounded import MAX_CALIBRATION_DEPTH, parse_json, parse_yaml, read_limited_text
+from viewadapt.io.imports import (
+    calibration_format, read_calibration_text, read_imported_calibration,
+)
 
-__all__ = ["read_calibration", "read_distortion", "read_correspondences", "CORRESPONDENCE_COLUMNS"]
+__all__ = ["read_calibration", "read_distortion", "read_correspondences", "CORRESPONDENCE_COLUMNS",
+           "CALIBRATION_KEYS"]
+
+#: The keys of the project's calibration files, by what reads or writes them: the matrix
+#: form, the pose form, the lens (:func:`read_distortion`), and the informational keys
+#: ``viewadapt calibrate`` adds (there ``focal`` is ``"estimated"`` or ``"given"``). Any
+#: other key is refused, with the closest of these suggested.
+CALIBRATION_KEYS = {
+    "matrix": ("image_size", "K", "R", "t"),
+    "pose": ("image_size", "focal", "principal_point", "height", "tilt", "roll"),
+    "lens": ("dist",),
+    "written by viewadapt calibrate": ("reprojection_error_px", "camera_height_m", "tilt_deg",
+                                       "focal", "correspondences"),
+}
 
 
 def read_calibration(path) -> Camera:
@@ -57,10 +73,16 @@ def read_calibration(path) -> Camera:
     1e-6, re-orthonormalised, ``det R = +1``); ``t`` three numbers; the camera centre
     above the ground plane. Every mistake is a one-line ``ValueError`` naming the field.
 
-    Other keys are ignored here: OpenCV lens distortion coefficients ``dist: [k1, k2, p1,
+    Other keys are not used here: OpenCV lens distortion coefficients ``dist: [k1, k2, p1,
     p2, k3]`` are read by :func:`read_distortion` (``K, R, t`` then describe the
     undistorted frame), and ``viewadapt calibrate`` adds the informational
-    ``reprojection_error_px``, ``camera_height_m`` and ``tilt_deg``.
+    ``reprojection_error_px``, ``camera_height_m``, ``tilt_deg``, ``focal`` and
+    ``correspondences``. A key that is none of these (:data:`CALIBRATION_KEYS`) is refused,
+    naming the closest known one: ``calibration cam.yaml: unknown key 'rol' (did you mean
+    'roll'?)``.
+
+    Every file is read within bounds (:mod:`viewadapt.io.bounded`): at most 1 MB (refused
+    before it is read), nested at most 16 levels, YAML without anchors or aliases.
     """
     path = Path(path)
     fmt = _format(path)
@@ -151,28 +173,39 @@ def _format(path):
 
 
 def _read_mapping(path) -> dict:
-    """The parsed YAML or JSON mapping of a calibration file (one-line errors)."""
+    """The parsed YAML or JSON mapping of a calibration file, every key known (one-line
+    errors)."""
     path = Path(path)
-    text = read_limited_text(path, "calibration file")
-    try:
-        if path.suffix.lower() == ".json":
-            d = json.loads(text)
-        else:
-            try:
-                import yaml
-            except ImportError:
-                raise ValueError(f"{path}: reading YAML needs PyYAML (pip install pyyaml); "
-                                 "or write the calibration as JSON") from None
-            d = yaml.safe_load(text)
-    except ValueError as exc:
-        if "PyYAML" in str(exc):
-            raise
-        raise ValueError(f"{path} cannot be parsed: {exc}") from None
-    except Exception as exc:  # yaml raises its own error types
-        raise ValueError(f"{path} cannot be parsed: {exc}") from None
+    text = read_calibration_text(path)
+    if path.suffix.lower() == ".json":
+        d = parse_json(text, path, MAX_CALIBRATION_DEPTH)
+    else:
+        d = parse_yaml(text, path, MAX_CALIBRATION_DEPTH)
     if not isinstance(d, dict):
         raise ValueError(f"{path}: expected a mapping with K, R, t or focal, height, tilt")
+    _check_keys(d, path)
     return d
+
+
+def _check_keys(d: dict, path) -> None:
+    """Refuse keys not in :data:`CALIBRATION_KEYS`, suggesting the closest known ones."""
+    known = list(dict.fromkeys(k for keys in CALIBRATION_KEYS.values() for k in keys))
+    unknown = [k for k in d if k not in known]
+    if not unknown:
+        return
+    by_lower = {k.lower(): k for k in known}
+    shown, unmatched = [], False
+    for key in unknown[:5]:
+        close = difflib.get_close_matches(str(key).lower(), list(by_lower), n=1)
+        shown.append(f"{str(key)!r}" + (f" (did you mean {by_lower[close[0]]!r}?)" if close
+                                        else ""))
+        unmatched |= not close
+    more = f" and {len(unknown) - 5} more" if len(unknown) > 5 else ""
+    msg = (f"calibration {path}: unknown key{'s' if len(unknown) > 1 else ''} "
+           f"{', '.join(shown)}{more}")
+    if unmatched:
+        msg += f" (the keys read are {', '.join(repr(k) for k in known)})"
+    raise ValueError(msg)
 
 
 def _number(value, field, path, unit) -> float:
@@ -221,13 +254,8 @@ def read_correspondences(path) -> tuple[np.ndarray, np.ndarray]:
         One line: missing columns, an empty or non-numeric cell, NaN or infinity.
     """
     path = Path(path)
-    if not path.is_file():
-        raise FileNotFoundError(f"correspondences file {path} does not exist")
-    try:
-        lines = [ln for ln in path.read_text(encoding="utf-8-sig").splitlines()
-                 if ln.strip() and not ln.lstrip().startswith("#")]
-    except UnicodeDecodeError:
-        raise ValueError(f"{path}: not a text CSV file") from None
+    lines = [ln for ln in read_limited_text(path, "correspondences file").splitlines()
+             if ln.strip() and not ln.lstrip().startswith("#")]
     rows = list(csv.reader(lines, skipinitialspace=True))
     if not rows:
         raise ValueError(f"{path}: empty; expected a CSV with the columns u, v, X, Y "

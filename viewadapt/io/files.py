@@ -37,8 +37,8 @@ from viewadapt.version import __version__
 
 __all__ = ["UserError", "RunError", "MARKER", "LOCK", "SHARED_OUTPUTS", "atomic_path",
            "atomic_write_bytes", "atomic_write_text", "atomic_output_dir", "check_output_dir",
-           "claim_output_dir", "check_apart", "is_project_output", "is_lock_file",
-           "read_marker", "write_marker", "clean_stale_partials", "current_command",
+           "claim_output_dir", "check_broken_link", "check_apart", "is_project_output",
+           "is_lock_file", "read_marker", "write_marker", "clean_stale_partials", "current_command",
            "running_command", "umask", "run_metadata", "FailedRunCleanup"]
 
 #: the marker file in every output directory the project writes
@@ -153,7 +153,7 @@ def read_marker(out) -> dict | None:
     p = Path(out) / MARKER
     try:
         d = json.loads(p.read_text())
-    except (OSError, ValueError):
+    except (OSError, ValueError, RecursionError):     # nested too deep for json: not ours
         return None
     return d if isinstance(d, dict) else None
 
@@ -165,7 +165,7 @@ def _legacy_output(out: Path) -> bool:
                       ("metadata.json", "viewadapt")):
         try:
             d = json.loads((out / name).read_text())
-        except (OSError, ValueError):
+        except (OSError, ValueError, RecursionError):
             continue
         if isinstance(d, dict) and (str(d.get(key, "")).startswith("viewadapt")
                                     if key == "format" else key in d):
@@ -221,15 +221,19 @@ def write_marker(out, command: str | None = None, files=()) -> None:
 
 def check_output_dir(out, *, overwrite: bool = False, command: str | None = None) -> None:
     """Fail (:class:`UserError`) before any work if ``out`` cannot become the output
-    directory of ``command`` (default: the running command): it is a file, not writable, a
-    non-empty directory the project did not write, or one another command wrote (unless
-    ``overwrite``)."""
+    directory of ``command`` (default: the running command): it or a folder above it is a
+    broken symbolic link (:func:`check_broken_link`), it is a file or lies under one, it is
+    not writable, a non-empty directory the project did not write, or one another command
+    wrote (unless ``overwrite``)."""
     out = Path(out)
+    check_broken_link(out)
     if out.exists() and not out.is_dir():
         raise UserError(f"--out {out} exists and is not a directory")
     parent = out.parent if not out.exists() else out
     while not parent.exists():
         parent = parent.parent
+    if not parent.is_dir():
+        raise UserError(f"--out {out}: {parent} is a file, not a folder")
     if not os.access(parent, os.W_OK):
         raise UserError(f"--out {out}: {parent} is not writable")
     if (out.is_dir() and not overwrite and not _is_empty(out)
@@ -239,6 +243,19 @@ def check_output_dir(out, *, overwrite: bool = False, command: str | None = None
                         "(files of the same names are replaced, no other file is deleted)")
     if out.is_dir() and not overwrite and not _is_empty(out):
         _check_writer(out, command or current_command())
+
+
+def check_broken_link(path, option: str = "--out") -> None:
+    """Fail (:class:`UserError`) if ``path`` or a folder above it is a symbolic link to
+    nothing: nothing can be written through it, and replacing it would lose where it
+    pointed. The message names the link and its target (``--out X is a broken symbolic
+    link (to Y); remove it or choose another --out``)."""
+    path = Path(path)
+    for p in (path, *path.parents):
+        if p.is_symlink() and not p.exists():
+            where = f"{option} {path} is" if p == path else f"{option} {path}: {p} is"
+            raise UserError(f"{where} a broken symbolic link (to {os.readlink(p)}); remove it "
+                            f"or choose another {option}")
 
 
 def _inside(a: Path, b: Path) -> bool:

@@ -11,10 +11,11 @@ Calibrations (:func:`read_imported_calibration`, used by
   ``cv::FileStorage`` writes it (OpenCV's calibration samples): ``camera_matrix``,
   ``distortion_coefficients``, ``image_width``, ``image_height`` and the ground pose.
 
-Files from outside are read with limits (:func:`read_limited_text`, :func:`parse_json`,
-:func:`parse_xml`): at most :data:`MAX_INPUT_BYTES`, JSON nested at most
-:data:`MAX_JSON_DEPTH` levels, XML without a document type (no entities to expand); every
-violation is a one-line ``ValueError`` naming the file.
+Calibration files are read with the bounds of :mod:`viewadapt.io.bounded` (whose readers
+are also importable from here): at most :data:`~viewadapt.io.bounded.MAX_CALIBRATION_BYTES`,
+nested at most :data:`~viewadapt.io.bounded.MAX_CALIBRATION_DEPTH` levels (``cv2.FileStorage``
+crashes on deep nesting), no YAML anchors or aliases, XML without a document type (no
+entities to expand); every violation is a one-line ``ValueError`` naming the file.
 
 References
 ----------
@@ -28,9 +29,7 @@ References
 
 from __future__ import annotations
 
-import json
 import re
-import xml.etree.ElementTree as ET
 from pathlib import Path
 from typing import NamedTuple
 
@@ -38,22 +37,23 @@ import numpy as np
 
 from viewadapt.camera.checks import check_calibration
 from viewadapt.geometry import Camera
+from viewadapt.io.bounded import (
+    MAX_CALIBRATION_BYTES, MAX_CALIBRATION_DEPTH, MAX_INPUT_BYTES, MAX_JSON_DEPTH,
+    check_json_depth, check_yaml, json_depth, parse_json, parse_xml, read_limited_text,
+)
 
-__all__ = ["MAX_INPUT_BYTES", "MAX_JSON_DEPTH", "TSAI_FIT_GRID", "MAX_TSAI_FIT_ERROR_PX",
-           "ImportedCalibration", "read_limited_text", "parse_json", "parse_xml",
-           "calibration_format", "read_imported_calibration", "read_tsai_calibration",
-           "read_opencv_calibration", "tsai_rotation", "tsai_distortion_to_opencv", "json_depth"]
+__all__ = ["TSAI_FIT_GRID", "MAX_TSAI_FIT_ERROR_PX", "ImportedCalibration",
+           "read_calibration_text", "check_filestorage_text", "calibration_format",
+           "read_imported_calibration", "read_tsai_calibration", "read_opencv_calibration",
+           "tsai_rotation", "tsai_distortion_to_opencv",
+           # the bounded readers, from viewadapt.io.bounded
+           "MAX_INPUT_BYTES", "MAX_JSON_DEPTH", "read_limited_text", "parse_json", "parse_xml",
+           "json_depth"]
 
-#: The largest ground-truth, ignore-region or calibration file read (bytes): 50 MB.
-MAX_INPUT_BYTES = 50 * 2 ** 20
-#: The deepest nesting of JSON arrays and objects read.
-MAX_JSON_DEPTH = 64
 #: Distorted image points (columns, rows) over which Tsai's lens is fitted by OpenCV's.
 TSAI_FIT_GRID = (30, 20)
 #: The largest error (pixels) of that fit that is accepted.
 MAX_TSAI_FIT_ERROR_PX = 0.5
-
-_JSON_STRING = re.compile(r'"(?:[^"\\]|\\.)*"', re.DOTALL)
 
 
 class ImportedCalibration(NamedTuple):
@@ -77,64 +77,35 @@ class ImportedCalibration(NamedTuple):
     fit_error_px: float | None
 
 
-# --------------------------------------------------------------------------- guarded reading
+# --------------------------------------------------------------------------- bounds
 
 
-def read_limited_text(path, what: str = "file") -> str:
-    """The text (UTF-8) of ``path``, refused with one line if over :data:`MAX_INPUT_BYTES`.
+def read_calibration_text(path) -> str:
+    """The text of a calibration file (any format), refused in one line over
+    :data:`~viewadapt.io.bounded.MAX_CALIBRATION_BYTES` before it is read
+    (:func:`~viewadapt.io.bounded.read_limited_text`)."""
+    return read_limited_text(path, "calibration file", MAX_CALIBRATION_BYTES)
 
-    Raises
-    ------
-    FileNotFoundError
-        ``path`` is not a file (``"{what} {path} does not exist"``).
-    ValueError
-        Over the size limit, or not UTF-8 text.
+
+def check_filestorage_text(text: str, path) -> None:
+    """Refuse (one-line ``ValueError``) an OpenCV FileStorage text ``cv2.FileStorage``
+    should not parse: nested deeper than :data:`~viewadapt.io.bounded.MAX_CALIBRATION_DEPTH`
+    levels (OpenCV's parser recurses, and crashes the process on deep nesting), YAML with
+    anchors or aliases, XML with a document type.
+
+    XML and JSON by their first character, anything else as YAML
+    (:func:`~viewadapt.io.bounded.check_yaml`); YAML that PyYAML cannot parse is bounded by
+    its brackets instead (:func:`~viewadapt.io.bounded.json_depth`: the flow nesting; block
+    nesting needs one more column of indent a level, so the size limit bounds it to about
+    1,400 levels, which OpenCV reads) and left to OpenCV to report.
     """
-    path = Path(path)
-    if not path.is_file():
-        raise FileNotFoundError(f"{what} {path} does not exist")
-    size = path.stat().st_size
-    if size > MAX_INPUT_BYTES:
-        raise ValueError(f"{path}: {size / 2 ** 20:.1f} MB is over the "
-                         f"{MAX_INPUT_BYTES // 2 ** 20} MB a {what} may have")
-    try:
-        return path.read_bytes().decode("utf-8-sig")
-    except UnicodeDecodeError as exc:
-        raise ValueError(f"{path}: not a UTF-8 text file (byte {exc.start})") from None
-
-
-def json_depth(text: str) -> int:
-    """How deep the arrays and objects of the JSON ``text`` nest (strings skipped)."""
-    bare = _JSON_STRING.sub('""', text).encode()
-    a = np.frombuffer(bare, dtype=np.uint8)
-    step = (np.isin(a, (ord("["), ord("{"))).astype(np.int64)
-            - np.isin(a, (ord("]"), ord("}"))))
-    return int(np.cumsum(step).max()) if len(step) else 0
-
-
-def parse_json(text: str, path):
-    """``json.loads(text)`` with one-line errors naming ``path``: nesting deeper than
-    :data:`MAX_JSON_DEPTH` is refused before parsing (so no ``RecursionError``)."""
-    depth = json_depth(text)
-    if depth > MAX_JSON_DEPTH:
-        raise ValueError(f"{path}: JSON nested {depth} levels deep, more than the "
-                         f"{MAX_JSON_DEPTH} read")
-    try:
-        return json.loads(text)
-    except (ValueError, RecursionError) as exc:
-        raise ValueError(f"{path}: not valid JSON ({exc})") from None
-
-
-def parse_xml(text: str, path) -> ET.Element:
-    """The root element of the XML ``text``; a document type (``<!DOCTYPE``, entity
-    declarations) is refused, and parse errors are one line naming ``path``."""
-    if re.search(r"<!\s*(DOCTYPE|ENTITY)", text, re.IGNORECASE):
-        raise ValueError(f"{path}: XML with a document type or entity declarations is not "
-                         "read")
-    try:
-        return ET.fromstring(text)
-    except (ET.ParseError, RecursionError) as exc:
-        raise ValueError(f"{path}: not well-formed XML ({exc})") from None
+    head = text.lstrip()
+    if head.startswith("<"):
+        parse_xml(text, path, MAX_CALIBRATION_DEPTH)
+    elif head.startswith(("{", "[")):
+        check_json_depth(text, path, MAX_CALIBRATION_DEPTH)
+    elif not check_yaml(text, path, MAX_CALIBRATION_DEPTH):
+        check_json_depth(text, path, MAX_CALIBRATION_DEPTH)
 
 
 # --------------------------------------------------------------------------- dispatch
@@ -149,10 +120,10 @@ def calibration_format(path) -> str | None:
     or holds an ``opencv-matrix``. Any other XML root is a one-line ``ValueError``.
     """
     path = Path(path)
-    text = read_limited_text(path, "calibration file")
+    text = read_calibration_text(path)
     head = text.lstrip()
     if path.suffix.lower() == ".xml" or head.startswith("<"):
-        root = parse_xml(text, path)
+        root = parse_xml(text, path, MAX_CALIBRATION_DEPTH)
         if root.tag == "opencv_storage":
             return "opencv"
         if root.tag == "Camera":
@@ -281,7 +252,7 @@ def read_tsai_calibration(path) -> ImportedCalibration:
         follow.
     """
     path = Path(path)
-    root = parse_xml(read_limited_text(path, "calibration file"), path)
+    root = parse_xml(read_calibration_text(path), path, MAX_CALIBRATION_DEPTH)
     if root.tag != "Camera":
         raise ValueError(f"{path}: a Tsai calibration has the root <Camera>, not "
                          f"<{root.tag}>")
@@ -364,17 +335,21 @@ def read_opencv_calibration(path) -> ImportedCalibration:
     the ground ``Z = 0``. ``K, R, t`` are checked as the project's own files are
     (:func:`~viewadapt.camera.checks.check_calibration`).
 
+    The file is bounded first (:func:`check_filestorage_text`): size, nesting, no YAML
+    aliases.
+
     Raises
     ------
     ValueError
-        One line: a file OpenCV cannot parse, a missing key, values of the wrong shape.
+        One line: out of those bounds, a file OpenCV cannot parse, a missing key, values of
+        the wrong shape.
     """
     import cv2
 
     from viewadapt.camera.distortion import check_distortion
 
     path = Path(path)
-    read_limited_text(path, "calibration file")
+    check_filestorage_text(read_calibration_text(path), path)
     try:
         fs = cv2.FileStorage(str(path), cv2.FILE_STORAGE_READ)
     except (cv2.error, SystemError) as exc:          # SystemError: cv2's parse errors
