@@ -13,7 +13,8 @@ from viewadapt.boxes import mapped_boxes
 from viewadapt.camera.distortion import Undistortion, distort_points
 from viewadapt.detect.detector import FrameDetector
 from viewadapt.detect.evaluation import (
-    BOOTSTRAP_BLOCK, BOOTSTRAP_DRAWS, block_bootstrap, evaluation_rows, summary_numbers,
+    BOOTSTRAP_BLOCK, BOOTSTRAP_DRAWS, block_bootstrap, evaluation_rows, ground_truth_counts,
+    summary_numbers,
 )
 from viewadapt.detect.kinds import DETECTOR_KINDS
 from viewadapt.detect.layers import UPSAMPLE_BELOW
@@ -21,8 +22,7 @@ from viewadapt.detect.stream import DetectorSpec, detect_stream
 from viewadapt.geometry import PERSON_HEIGHT_M
 from viewadapt.io.boxes import FrameBoxes, read_boxes, read_ignore_regions
 from viewadapt.io.cache import DEFAULT_CACHE_LIMIT_GB, check_cache_limit
-from viewadapt.io.calibration import read_calibration, read_distortion
-from viewadapt.io.imports import calibration_format, read_imported_calibration
+from viewadapt.io.calibration import read_calibration_file
 from viewadapt.io.files import atomic_output_dir, atomic_write_text, check_output_dir, run_metadata
 from viewadapt.io.models import SourceDetectors, shipped_model_path
 from viewadapt.io.outputs import ANNOTATE_CHOICES, DetectionWriter, plot_det_figure
@@ -88,8 +88,7 @@ def evaluation_summary(detections, truth, image_size, *, regions=None,
 
     gt = [(t.boxes, t.occlusion, image_size, t.ignore) for t in truth]
     dts, gts = evaluation_rows(detections, gt, regions=regions)
-    n_ignored = int(sum(g[:, 4].sum() for g in gts))
-    n_gt = int(sum(len(g) for g in gts)) - n_ignored
+    n_gt, n_ignored = ground_truth_counts(gts)
     if n_gt == 0:
         raise ValueError(f"no ground-truth box is counted in the {len(gts)} frames detected "
                          f"({n_ignored} ignored): nothing to evaluate")
@@ -169,13 +168,12 @@ def _frame_size_error(frame, stream, cam) -> str:
             f"{cam.image_size[1]}")
 
 
-def _calibration_import(path) -> dict | None:
+def _calibration_import(imported) -> dict | None:
     """How an imported calibration (Tsai XML, OpenCV FileStorage) was read, or None."""
-    fmt = calibration_format(path)
-    if fmt is None:
+    if imported is None:
         return None
-    imported = read_imported_calibration(path, fmt)
-    out = {"format": {"tsai": "PETS 2009 / Tsai XML", "opencv": "OpenCV FileStorage"}[fmt]}
+    out = {"format": {"tsai": "PETS 2009 / Tsai XML",
+                      "opencv": "OpenCV FileStorage"}[imported.format]}
     if imported.fit_error_px is not None:
         out["lens_fit_max_error_px"] = round(imported.fit_error_px, 4)
         out["lens_fit"] = ("Tsai's radial lens (distorted -> undistorted) fitted by OpenCV's "
@@ -183,8 +181,8 @@ def _calibration_import(path) -> dict | None:
     return out
 
 
-def _metadata(args, det, stream, writer, dist, correction, annotate, *, operator_seconds,
-              seconds, cpu_seconds) -> dict:
+def _metadata(args, det, stream, writer, dist, correction, annotate, *, imported,
+              operator_seconds, seconds, cpu_seconds) -> dict:
     """metadata.json of a detect run: what ran on what, and how fast (``correction``:
     :func:`lens_correction`'s)."""
     return run_metadata(
@@ -195,7 +193,7 @@ def _metadata(args, det, stream, writer, dist, correction, annotate, *, operator
         annotate=annotate, jobs=args.jobs, model=str(args.model),
         model_training=det.models.training,
         calibration=str(args.calibration),
-        calibration_import=_calibration_import(args.calibration),
+        calibration_import=_calibration_import(imported),
         undistortion=None if correction != "undistort" else {
             "dist": dist.tolist(),
             "method": "every frame remapped (cv2.remap, bilinear) with maps precomputed once "
@@ -228,8 +226,8 @@ def cmd_detect(args) -> int:
 
     check_output_dir(args.out, overwrite=args.overwrite)
     check_frame_selection(args)
-    cam = read_calibration(args.calibration)
-    dist = read_distortion(args.calibration)
+    calibration = read_calibration_file(args.calibration)
+    cam, dist = calibration.camera, calibration.dist
     correction = lens_correction(dist, args.lens, args.object_model)
     undistort = Undistortion(cam.K, dist, cam.image_size) \
         if correction == "undistort" else None
@@ -319,7 +317,8 @@ def cmd_detect(args) -> int:
                             title=f"{len(truth)} frames, {evaluation['n_gt']} persons counted "
                                   f"({evaluation['n_gt_ignored']} ignored)")
         atomic_write_text(tmp / "metadata.json", json.dumps(_metadata(
-            args, det, stream, writer, dist, correction, annotate, operator_seconds=t_operator,
+            args, det, stream, writer, dist, correction, annotate,
+            imported=calibration.imported, operator_seconds=t_operator,
             seconds=seconds, cpu_seconds=cpu_seconds), indent=2))
     wrote = ["detections.csv", "detections_coco.json", "det.txt"] + {
         "video": ["annotated.mp4"], "frames": ["annotated/"], "none": []}[annotate]

@@ -27,8 +27,8 @@ from ..metrics import (
 )
 
 __all__ = ["standardize_boxes", "ground_truth_rows", "evaluate_detections", "in_regions",
-           "bottom_centres", "evaluation_rows", "block_length", "block_bootstrap",
-           "summary_numbers", "BOOTSTRAP_BLOCK", "BOOTSTRAP_DRAWS"]
+           "bottom_centres", "evaluation_rows", "ground_truth_counts", "block_length",
+           "block_bootstrap", "summary_numbers", "BOOTSTRAP_BLOCK", "BOOTSTRAP_DRAWS"]
 
 #: Frames per block of :func:`block_bootstrap`.
 BOOTSTRAP_BLOCK = 10
@@ -68,7 +68,8 @@ def ground_truth_rows(boxes, occlusion, image_size, *, min_height: float = 24.0,
 def bottom_centres(boxes) -> np.ndarray:
     """(N, 2) ``(x + w / 2, y + h)`` of (N, >=4) boxes ``(x, y, w, h, ...)``: where a
     person's box meets the ground."""
-    b = np.asarray(boxes, float).reshape(-1, np.shape(boxes)[-1] if np.size(boxes) else 4)
+    b = np.asarray(boxes, float)
+    b = b.reshape(-1, b.shape[-1]) if b.size else np.zeros((0, 4))
     return np.c_[b[:, 0] + b[:, 2] / 2, b[:, 1] + b[:, 3]]
 
 
@@ -157,10 +158,14 @@ def evaluate_detections(detections, ground_truth, *, regions=None, **kw) -> dict
     """
     dts, gts = evaluation_rows(detections, ground_truth, regions=regions, **kw)
     ev = evaluate_frames(dts, gts)
-    ignored = int(sum(g[:, 4].sum() for g in gts))
-    ev["n_gt"] = int(sum(len(g) for g in gts)) - ignored
-    ev["n_gt_ignored"] = ignored
+    ev["n_gt"], ev["n_gt_ignored"] = ground_truth_counts(gts)
     return ev
+
+
+def ground_truth_counts(gts) -> tuple[int, int]:
+    """(counted, ignored) ground-truth boxes of :func:`evaluation_rows`' ``gts``."""
+    ignored = int(sum(g[:, 4].sum() for g in gts))
+    return int(sum(len(g) for g in gts)) - ignored, ignored
 
 
 def summary_numbers(fppi, miss_rate) -> dict:

@@ -38,7 +38,10 @@ from .imports import (
     check_filestorage_text, calibration_format, read_imported_calibration, read_tsai_calibration,
     read_opencv_calibration, tsai_rotation, tsai_distortion_to_opencv,
 )
-from .calibration import CALIBRATION_KEYS, read_calibration, read_distortion
+from .calibration import (
+    CalibrationFile, read_calibration_file, read_calibration, read_distortion,
+    read_correspondences, CORRESPONDENCE_COLUMNS, CALIBRATION_KEYS,
+)
 from .boxes import (
     BOX_FORMATS, MOT_MIN_VISIBILITY, MOT_COUNTED_CLASSES, MOT_IGNORED_CLASSES, FrameBoxes,
     boxes_format, read_boxes, read_ignore_regions, frame_number,
@@ -60,10 +63,10 @@ __all__ = [
     "MAX_TSAI_FIT_ERROR_PX", "ImportedCalibration", "read_calibration_text",
     "check_filestorage_text", "calibration_format", "read_imported_calibration",
     "read_tsai_calibration", "read_opencv_calibration", "tsai_rotation",
-    "tsai_distortion_to_opencv", "CALIBRATION_KEYS", "read_calibration", "read_distortion",
-    "BOX_FORMATS",
-    "MOT_MIN_VISIBILITY", "MOT_COUNTED_CLASSES", "MOT_IGNORED_CLASSES", "FrameBoxes",
-    "boxes_format", "read_boxes", "read_ignore_regions", "frame_number",
+    "tsai_distortion_to_opencv", "CalibrationFile", "read_calibration_file", "read_calibration",
+    "read_distortion", "read_correspondences", "CORRESPONDENCE_COLUMNS", "CALIBRATION_KEYS",
+    "BOX_FORMATS", "MOT_MIN_VISIBILITY", "MOT_COUNTED_CLASSES", "MOT_IGNORED_CLASSES",
+    "FrameBoxes", "boxes_format", "read_boxes", "read_ignore_regions", "frame_number",
     "IMAGE_SUFFIXES", "Frame", "FrameStream", "open_frames", "natural_sort_key", "prefetched",
     "read_frame", "ANNOTATE_CHOICES", "CSV_COLUMNS", "DetectionWriter", "draw_detections",
     "plot_det_figure", "FAMILY_COLORS",

@@ -13,6 +13,7 @@ from __future__ import annotations
 import csv
 import difflib
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 
@@ -21,11 +22,30 @@ from viewadapt.camera.distortion import DISTORTION_SIZES
 from viewadapt.geometry import Camera, camera_from_pose
 from viewadapt.io.bounded import MAX_CALIBRATION_DEPTH, parse_json, parse_yaml, read_limited_text
 from viewadapt.io.imports import (
-    calibration_format, read_calibration_text, read_imported_calibration,
+    ImportedCalibration, calibration_format, read_calibration_text, read_imported_calibration,
 )
 
-__all__ = ["read_calibration", "read_distortion", "read_correspondences", "CORRESPONDENCE_COLUMNS",
-           "CALIBRATION_KEYS"]
+__all__ = ["CalibrationFile", "read_calibration_file", "read_calibration", "read_distortion",
+           "read_correspondences", "CORRESPONDENCE_COLUMNS", "CALIBRATION_KEYS"]
+
+
+class CalibrationFile(NamedTuple):
+    """A calibration file as :func:`read_calibration_file` reads it.
+
+    Attributes
+    ----------
+    camera : Camera
+    dist : (D,) ndarray or None
+        OpenCV lens distortion coefficients of ``camera.K`` (:func:`read_distortion`).
+    imported : ImportedCalibration or None
+        How another tool's file (Tsai XML, OpenCV FileStorage) was read; None for the
+        project's own format.
+    """
+
+    camera: Camera
+    dist: np.ndarray | None
+    imported: ImportedCalibration | None
+
 
 #: The keys of the project's calibration files, by what reads or writes them: the matrix
 #: form, the pose form, the lens (:func:`read_distortion`), and the informational keys
@@ -88,26 +108,7 @@ def read_calibration(path) -> Camera:
     fmt = _format(path)
     if fmt is not None:
         return read_imported_calibration(path, fmt).camera
-    d = _read_mapping(path)
-    if "image_size" not in d:
-        raise ValueError(f"{path}: image_size [width, height] is missing")
-    size = _image_size(d["image_size"], path)
-    if all(k in d for k in ("K", "R", "t")):
-        return check_calibration(d["K"], d["R"], d["t"], size, name=f"calibration {path}")
-    if all(k in d for k in ("focal", "height", "tilt")):
-        pp = d.get("principal_point", ((size[0] - 1) / 2, (size[1] - 1) / 2))
-        tilt = _number(d["tilt"], "tilt", path, "degrees below the horizontal")
-        if not 0 <= tilt < 90:              # reported in the degrees the file is written in
-            raise ValueError(f"{path}: tilt must lie in [0, 90) degrees below the horizontal, "
-                             f"got {tilt:g}")
-        height = _number(d["height"], "height", path, "metres above the ground")
-        roll = _number(d.get("roll", 0.0), "roll", path, "degrees")
-        focal = d["focal"]
-        focal = ([_number(f, "focal", path, "pixels") for f in focal]
-                 if isinstance(focal, (list, tuple)) else _number(focal, "focal", path, "pixels"))
-        return camera_from_pose(focal=focal, principal_point=pp, height=height,
-                                tilt=np.radians(tilt), roll=np.radians(roll), image_size=size)
-    raise ValueError(f"{path}: give either K, R, t or focal, height, tilt")
+    return _camera_of(_read_mapping(path), path)
 
 
 def read_distortion(path) -> np.ndarray | None:
@@ -137,7 +138,45 @@ def read_distortion(path) -> np.ndarray | None:
     fmt = _format(path)
     if fmt is not None:
         return read_imported_calibration(path, fmt).dist
+    return _dist_of(_read_mapping(path), path)
+
+
+def read_calibration_file(path) -> CalibrationFile:
+    """A calibration file read once: its camera (:func:`read_calibration`), its lens
+    (:func:`read_distortion`) and, for another tool's file, how it was imported -- the
+    same checks and errors as the two readers, in that order."""
+    path = Path(path)
+    fmt = _format(path)
+    if fmt is not None:
+        imported = read_imported_calibration(path, fmt)
+        return CalibrationFile(imported.camera, imported.dist, imported)
     d = _read_mapping(path)
+    return CalibrationFile(_camera_of(d, path), _dist_of(d, path), None)
+
+
+def _camera_of(d: dict, path: Path) -> Camera:
+    if "image_size" not in d:
+        raise ValueError(f"{path}: image_size [width, height] is missing")
+    size = _image_size(d["image_size"], path)
+    if all(k in d for k in ("K", "R", "t")):
+        return check_calibration(d["K"], d["R"], d["t"], size, name=f"calibration {path}")
+    if all(k in d for k in ("focal", "height", "tilt")):
+        pp = d.get("principal_point", ((size[0] - 1) / 2, (size[1] - 1) / 2))
+        tilt = _number(d["tilt"], "tilt", path, "degrees below the horizontal")
+        if not 0 <= tilt < 90:              # reported in the degrees the file is written in
+            raise ValueError(f"{path}: tilt must lie in [0, 90) degrees below the horizontal, "
+                             f"got {tilt:g}")
+        height = _number(d["height"], "height", path, "metres above the ground")
+        roll = _number(d.get("roll", 0.0), "roll", path, "degrees")
+        focal = d["focal"]
+        focal = ([_number(f, "focal", path, "pixels") for f in focal]
+                 if isinstance(focal, (list, tuple)) else _number(focal, "focal", path, "pixels"))
+        return camera_from_pose(focal=focal, principal_point=pp, height=height,
+                                tilt=np.radians(tilt), roll=np.radians(roll), image_size=size)
+    raise ValueError(f"{path}: give either K, R, t or focal, height, tilt")
+
+
+def _dist_of(d: dict, path: Path) -> np.ndarray | None:
     value = d.get("dist")
     if value is None:
         return None

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from viewadapt.io import FrameBoxes, boxes_format, read_boxes, read_ignore_regions
-from viewadapt.io.imports import MAX_INPUT_BYTES, MAX_JSON_DEPTH, json_depth
+from viewadapt.io.bounded import MAX_INPUT_BYTES, MAX_JSON_DEPTH, json_depth
 
 FRAMES = [f"img1/{k:06d}.jpg" for k in (1, 3, 5)]
 
