@@ -16,6 +16,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from viewadapt.io.bounded import MAX_INPUT_BYTES, check_json_depth, read_limited_text
+
 __all__ = ["DatasetError", "Dataset", "load_dataset", "read_image", "read_json", "read_depth_map",
            "manifest_camera", "missing_planned_images",
            "REQUIRED_COLUMNS"]
@@ -25,6 +27,12 @@ REQUIRED_COLUMNS = ("path", "kind", "person_id", "scene_id", "instance", "elevat
 #: the required columns that must hold numbers (the rest hold strings)
 NUMERIC_COLUMNS = ("instance", "elevation", "elevation_index", "width", "height")
 KINDS = ("person", "background", "frame")
+#: the largest JSON file :func:`read_json` reads by default (bytes): 256 MB. It reads a
+#: dataset's ``frames_coco.json`` (every frame and every person in one: about 1 KB a frame
+#: and 0.7 KB a person) and a ``bench frames`` run's ``detections.json`` (every detection
+#: of every frame), both growing with the number of frames; a dataset's ``dataset.json`` is
+#: read with :data:`~viewadapt.io.bounded.MAX_INPUT_BYTES`, as ``generate`` reads it
+MAX_JSON_BYTES = 256 * 2 ** 20
 
 
 class DatasetError(ValueError):
@@ -112,12 +120,25 @@ def read_depth_map(root, row) -> np.ndarray:
         raise DatasetError(str(exc)) from None
 
 
-def read_json(path, *, error=ValueError):
-    """The JSON document in ``path``; invalid JSON raises ``error`` naming the file."""
+def read_json(path, *, error=ValueError, max_bytes: int = MAX_JSON_BYTES) -> dict:
+    """The JSON object in ``path``, read within bounds: a file over ``max_bytes`` (refused
+    from its size), nested deeper than :data:`~viewadapt.io.bounded.MAX_JSON_DEPTH`
+    (measured before parsing), not UTF-8, not valid JSON or no JSON object raises ``error``
+    naming the file (every JSON file the benchmark reads holds an object)."""
     try:
-        return json.loads(Path(path).read_text())
+        text = read_limited_text(path, "JSON file", max_bytes)
+        check_json_depth(text, path)
+    except FileNotFoundError:
+        raise
+    except ValueError as exc:
+        raise error(str(exc)) from None
+    try:
+        doc = json.loads(text)
     except json.JSONDecodeError as exc:
         raise error(f"{path} is not valid JSON: {exc}") from None
+    if not isinstance(doc, dict):
+        raise error(f"{path}: expected a JSON object, got a {type(doc).__name__}")
+    return doc
 
 
 def _fingerprint(manifest: pd.DataFrame, config: dict) -> str:
@@ -144,7 +165,7 @@ def load_dataset(root, *, check_files: bool = True) -> Dataset:
     if not cfg_path.is_file():
         raise DatasetError(f"{root} is not a dataset: {cfg_path.name} is missing "
                            "(generate one with `viewadapt generate`)")
-    config = read_json(cfg_path, error=DatasetError)
+    config = read_json(cfg_path, error=DatasetError, max_bytes=MAX_INPUT_BYTES)
     man_path = root / "manifest.parquet"
     if man_path.is_file():
         try:

@@ -30,13 +30,21 @@ from pathlib import Path
 
 import numpy as np
 
+from viewadapt.io.bounded import MAX_INPUT_BYTES, parse_json, read_limited_text
 from viewadapt.io.files import atomic_write_bytes, atomic_write_text
 
 __all__ = ["MANIFEST_COLUMNS", "INT_COLUMNS", "FLOAT_COLUMNS", "part_path", "read_part",
            "write_part", "png_is_complete", "assemble_manifest", "read_manifest",
            "json_matrix", "versions", "spec_hashes", "write_depth", "read_depth",
            "depth_is_complete", "content_hash", "HASH_EXCLUDED", "DATA_FILES",
-           "dataset_files"]
+           "dataset_files", "MAX_COCO_BYTES"]
+
+#: the largest ``frames_coco.json`` read back (bytes): 256 MB. It lists every frame (about
+#: 1 KB each) and every person in one (about 0.7 KB each), growing with ``--frames``; the
+#: ``paper`` preset's 26 frames take about 0.1 MB. A part file (one work unit's rows, 1.2-1.7
+#: KB each, 21 at most in ``paper``) and ``dataset.json`` (3-4 KB) are read back with
+#: :data:`~viewadapt.io.bounded.MAX_INPUT_BYTES`
+MAX_COCO_BYTES = 256 * 2 ** 20
 
 #: Column order of manifest.parquet / manifest.csv.
 MANIFEST_COLUMNS = [
@@ -65,14 +73,18 @@ def write_part(out, uid: str, rows: list[dict], coco: dict | None = None) -> Non
 
 
 def read_part(out, uid: str) -> dict | None:
+    """The part file of unit ``uid`` (a dict), or None: absent, over
+    :data:`~viewadapt.io.bounded.MAX_INPUT_BYTES`, nested deeper than
+    :data:`~viewadapt.io.bounded.MAX_JSON_DEPTH` (both refused before parsing), not UTF-8
+    JSON, no JSON object or another unit's; the unit is then rendered again."""
     p = part_path(out, uid)
     if not p.is_file():
         return None
     try:
-        d = json.loads(p.read_text())
-    except (json.JSONDecodeError, OSError):
+        d = parse_json(read_limited_text(p, "part file", MAX_INPUT_BYTES), p)
+    except (ValueError, OSError):
         return None
-    return d if d.get("unit") == uid else None
+    return d if isinstance(d, dict) and d.get("unit") == uid else None
 
 
 _PNG_SIG = b"\x89PNG\r\n\x1a\n"

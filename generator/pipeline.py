@@ -32,6 +32,7 @@ from pathlib import Path
 import numpy as np
 
 from viewadapt.geometry import Camera, window_to_image_homography, window_to_plane
+from viewadapt.io.bounded import MAX_INPUT_BYTES, check_json_depth, read_limited_text
 from viewadapt.io.files import UserError, atomic_write_text, check_output_dir, write_marker
 from viewadapt.io.locks import hold_output_dir
 from viewadapt.surface import surface_depth
@@ -384,8 +385,11 @@ def _generate_held(config, out: Path, plan, meta: dict, *, jobs, shard, schedule
     """The rest of :func:`generate`, while it holds ``out``'s lock."""
     meta_p = out / "dataset.json"
     if meta_p.is_file():
+        # bounded: too large, too deeply nested or not UTF-8 is a one-line error naming it
+        text = read_limited_text(meta_p, "dataset.json", MAX_INPUT_BYTES)
+        check_json_depth(text, meta_p)
         try:
-            old = json.loads(meta_p.read_text())
+            old = json.loads(text)
         except json.JSONDecodeError:
             old = None
         if isinstance(old, dict) and str(old.get("format", "")).startswith("viewadapt"):

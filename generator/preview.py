@@ -15,9 +15,10 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from viewadapt.io.bounded import parse_json, read_limited_text
 from viewadapt.io.files import atomic_write_bytes
 
-from .manifest import read_manifest
+from .manifest import MAX_COCO_BYTES, read_manifest
 
 __all__ = ["contact_sheet", "background_sheet", "frame_sheet", "preview_dataset"]
 
@@ -128,7 +129,9 @@ def frame_sheet(out, *, columns: int = 3, max_frames: int = 6) -> np.ndarray | N
     p = Path(out) / "frames_coco.json"
     if not p.is_file():
         return None
-    coco = json.loads(p.read_text())
+    coco = parse_json(read_limited_text(p, "frames_coco.json", MAX_COCO_BYTES), p)
+    if not isinstance(coco, dict):
+        raise ValueError(f"{p}: expected a JSON object, got a {type(coco).__name__}")
     imgs = coco["images"][:max_frames]
     if not imgs:
         return None

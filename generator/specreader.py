@@ -13,7 +13,14 @@ import math
 from pathlib import Path
 from typing import Any
 
-__all__ = ["check_field_types", "SpecError", "SpecReader", "read_json"]
+from viewadapt.io.bounded import check_json_depth, read_limited_text
+
+__all__ = ["check_field_types", "SpecError", "SpecReader", "read_json", "MAX_SPEC_BYTES"]
+
+#: the largest scene spec or person roster read (bytes): 16 MB. The project's own are
+#: 6-49 KB (``assets/persons.json``, 68 persons, is the largest): room for a roster of
+#: thousands of persons or a scene of thousands of objects
+MAX_SPEC_BYTES = 16 * 2 ** 20
 
 
 class SpecError(ValueError):
@@ -137,12 +144,21 @@ class SpecReader:
 
 
 def read_json(path) -> Any:
-    """The JSON content of a spec file (``SpecError`` if it is not valid JSON)."""
+    """The JSON content of a spec file, read within bounds: over :data:`MAX_SPEC_BYTES`
+    (refused from its size), nested deeper than :data:`~viewadapt.io.bounded.MAX_JSON_DEPTH`
+    (measured before parsing), not UTF-8 or not valid JSON is a ``SpecError`` naming it."""
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"spec file not found: {path}")
     try:
-        return json.loads(path.read_text())
+        text = read_limited_text(path, "spec file", MAX_SPEC_BYTES)
+        check_json_depth(text, path)
+    except FileNotFoundError:
+        raise
+    except ValueError as exc:
+        raise SpecError(str(exc)) from None
+    try:
+        return json.loads(text)
     except json.JSONDecodeError as exc:
         raise SpecError(f"{path}: not valid JSON: {exc}") from None
 

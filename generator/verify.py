@@ -22,12 +22,13 @@ import json
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from viewadapt.io.bounded import MAX_INPUT_BYTES, check_json_depth, read_limited_text
 from viewadapt.io.files import MARKER, is_lock_file
 
 from .contents import planned_paths, replan
 from .manifest import (
-    DATA_FILES, FLOAT_COLUMNS, INT_COLUMNS, MANIFEST_COLUMNS, content_hash, part_path,
-    png_is_complete, read_depth, read_manifest,
+    DATA_FILES, FLOAT_COLUMNS, INT_COLUMNS, MANIFEST_COLUMNS, MAX_COCO_BYTES, content_hash,
+    part_path, png_is_complete, read_depth, read_manifest,
 )
 from .png import png_problem
 
@@ -150,6 +151,16 @@ def _foreign_files(out: Path, df, part_names) -> list:
     return found
 
 
+def _read_json(path: Path, max_bytes: int):
+    """The JSON of a dataset file, read within bounds: over ``max_bytes`` (refused from its
+    size), nested deeper than :data:`~viewadapt.io.bounded.MAX_JSON_DEPTH` (measured before
+    parsing) or not UTF-8 is a ``ValueError`` naming it; invalid JSON a
+    ``json.JSONDecodeError``."""
+    text = read_limited_text(path, "file", max_bytes)
+    check_json_depth(text, path)
+    return json.loads(text)
+
+
 def verify_dataset(out, *, decode: bool = True, check_plan: bool = True,
                    check_hash: bool = False) -> VerifyReport:
     """Check a dataset directory: the manifest's columns and types; every row's image
@@ -165,9 +176,12 @@ def verify_dataset(out, *, decode: bool = True, check_plan: bool = True,
         raise FileNotFoundError(f"{out}: no dataset.json; not a dataset directory")
     rep = VerifyReport(str(out))
     try:
-        meta = json.loads(meta_p.read_text())
+        meta = _read_json(meta_p, MAX_INPUT_BYTES)
     except json.JSONDecodeError as exc:
         rep.problems.append(("dataset.json", f"unreadable JSON: {exc}"))
+        return rep
+    except ValueError as exc:                # too large, too deep, not UTF-8
+        rep.problems.append(("dataset.json", f"unreadable: {exc}"))
         return rep
     try:
         df = read_manifest(out)
@@ -225,15 +239,18 @@ def verify_dataset(out, *, decode: bool = True, check_plan: bool = True,
     coco_p = out / "frames_coco.json"
     if df is not None and (df["kind"] == "frame").any():
         try:
-            coco = json.loads(coco_p.read_text())
+            coco = _read_json(coco_p, MAX_COCO_BYTES)
             names = {im["file_name"] for im in coco["images"]}
             for p in df.loc[df["kind"] == "frame", "path"]:
                 if p not in names:
                     rep.problems.append((p, "frame missing from frames_coco.json"))
-        except (OSError, json.JSONDecodeError, KeyError) as exc:
+        except (OSError, ValueError, KeyError, TypeError) as exc:
+            # ValueError: invalid JSON, too large, too deep, not UTF-8; TypeError: no
+            # object of images with file names
             rep.problems.append(("frames_coco.json", f"unreadable: {exc}"))
     if check_hash:
-        want = (meta.get("content_hash") or {}).get("sha256") if isinstance(meta, dict) else None
+        recorded = meta.get("content_hash") if isinstance(meta, dict) else None
+        want = recorded.get("sha256") if isinstance(recorded, dict) else None
         if not want:
             rep.problems.append(("dataset.json", "records no content hash (generation "
                                                  "unfinished, or made before hashes: rerun "

@@ -10,6 +10,8 @@ from pathlib import Path
 
 import numpy as np
 
+from viewadapt.io.bounded import MAX_INPUT_BYTES, check_json_depth, read_limited_text
+
 __all__ = ["register", "check_results_dir"]
 
 #: how long ``--scheduler`` waits for the Dask scheduler before giving up
@@ -41,14 +43,26 @@ def _elevations(text: str) -> tuple:
     return tuple(out)
 
 
+def _read_run(run: Path) -> dict:
+    """The ``run.json`` of a results directory, read within bounds (its size, then its
+    nesting, before parsing); anything but a JSON object is a one-line ``ValueError``."""
+    text = read_limited_text(run, "run.json", MAX_INPUT_BYTES)
+    check_json_depth(text, run)
+    try:
+        old = json.loads(text)
+    except json.JSONDecodeError:
+        raise ValueError(f"{run} is corrupt; remove it or use another --out") from None
+    if not isinstance(old, dict):
+        raise ValueError(f"{run} is corrupt (a JSON {type(old).__name__}, not an object); "
+                         "remove it or use another --out")
+    return old
+
+
 def check_results_dir(out: Path, fingerprint: str) -> None:
     """Refuse to mix results of two datasets in one directory."""
     run = Path(out) / "run.json"
     if run.is_file():
-        try:
-            old = json.loads(run.read_text())
-        except json.JSONDecodeError:
-            raise ValueError(f"{run} is corrupt; remove it or use another --out") from None
+        old = _read_run(run)
         if old.get("fingerprint") != fingerprint:
             raise ValueError(f"{out} holds results of another dataset ({old.get('data')}, "
                              f"fingerprint {old.get('fingerprint')}); use another --out")
@@ -262,7 +276,7 @@ def cmd_sweep(args) -> int:
         save_figure(fig, tmp / "sweep")
         plt.close(fig)
         run_path = Path(args.out) / "run.json"
-        run = json.loads(run_path.read_text()) if run_path.is_file() else _run_json(ds, args)
+        run = _read_run(run_path) if run_path.is_file() else _run_json(ds, args)
         run["sweep"] = {"detector": args.detector, "source": args.source, "step": args.step,
                         "sigma": args.sigma, "seconds": round(time.perf_counter() - t0, 1),
                         "incomplete_dataset": incomplete}

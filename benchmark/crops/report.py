@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from viewadapt.io.bounded import MAX_INPUT_BYTES, check_json_depth, read_limited_text
 from viewadapt.metrics import det_curve_windows
 
 from benchmark.crops.summarize import PAPER_MISS_RATES
@@ -175,13 +176,29 @@ def _fmt(v, nd=3):
 INCOMPLETE_NOTE = "> **Warning: computed on an incomplete dataset (--allow-incomplete):** "
 
 
+def _read_run(path: Path) -> dict:
+    """``run.json`` read within bounds (size, then nesting, before parsing); one-line
+    ``ValueError`` naming it if it is no JSON object."""
+    text = read_limited_text(path, "run.json", MAX_INPUT_BYTES)
+    check_json_depth(text, path)
+    try:
+        run = json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise ValueError(f"{path} is not valid JSON: {exc}") from None
+    if not isinstance(run, dict):
+        raise ValueError(f"{path}: expected a JSON object, got a {type(run).__name__}")
+    return run
+
+
 def write_report(out: Path) -> Path:
     """Write ``report.md`` for a results directory (crossval and/or sweep outputs)."""
     out = Path(out)
-    run = json.loads((out / "run.json").read_text()) if (out / "run.json").is_file() else {}
+    run = _read_run(out / "run.json") if (out / "run.json").is_file() else {}
     lines = ["# viewadapt benchmark report", ""]
+    sweep = run.get("sweep")
     notes = [n for n in (run.get("incomplete_dataset"),
-                         (run.get("sweep") or {}).get("incomplete_dataset")) if n]
+                         sweep.get("incomplete_dataset") if isinstance(sweep, dict) else None)
+             if n]
     if notes:                 # results of a dataset run with --allow-incomplete
         lines += [INCOMPLETE_NOTE + n for n in dict.fromkeys(notes)] + [""]
     if run:

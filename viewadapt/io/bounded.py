@@ -30,8 +30,8 @@ from pathlib import Path
 import numpy as np
 
 __all__ = ["MAX_INPUT_BYTES", "MAX_JSON_DEPTH", "MAX_CALIBRATION_BYTES",
-           "MAX_CALIBRATION_DEPTH", "read_limited_text", "json_depth", "check_json_depth",
-           "parse_json", "parse_yaml", "check_yaml", "parse_xml"]
+           "MAX_CALIBRATION_DEPTH", "size_words", "read_limited_text", "json_depth",
+           "check_json_depth", "parse_json", "parse_yaml", "check_yaml", "parse_xml"]
 
 #: The largest ground-truth or ignore-region file read (bytes): 50 MB.
 MAX_INPUT_BYTES = 50 * 2 ** 20
@@ -49,7 +49,8 @@ class _Refused(ValueError):
     """A document outside the bounds (told apart from a parser's own errors)."""
 
 
-def _size_words(n: int) -> str:
+def size_words(n: int) -> str:
+    """A byte count as a message says it: ``"16 MB"``, ``"12.5 MB"``, ``"4,096 bytes"``."""
     if n % 2 ** 20 == 0:
         return f"{n // 2 ** 20} MB"
     return f"{n / 2 ** 20:.1f} MB" if n >= 10 * 2 ** 20 else f"{n:,} bytes"
@@ -73,7 +74,7 @@ def read_limited_text(path, what: str = "file", max_bytes: int = MAX_INPUT_BYTES
         raise FileNotFoundError(f"{what} {path} does not exist")
     size = path.stat().st_size
     if size > max_bytes:
-        raise ValueError(f"{path}: {_size_words(size)} is over the {_size_words(max_bytes)} "
+        raise ValueError(f"{path}: {size_words(size)} is over the {size_words(max_bytes)} "
                          f"a {what} may have")
     try:
         return path.read_bytes().decode("utf-8-sig")

@@ -1,6 +1,7 @@
 """Writing outputs safely: atomic files and output folders, output checks, run metadata.
 
-One leaf module (it imports nothing else of the project but the version) that the library,
+One leaf module (it imports nothing else of the project but the version and the bounded
+readers of :mod:`viewadapt.io.bounded`) that the library,
 the generator, the benchmark and the command line all use, so every file is written the
 same way: into a temporary file or folder beside its destination, moved into place only
 when complete. An interrupted or failing run leaves the destination as it was.
@@ -33,19 +34,23 @@ import threading
 import time
 from pathlib import Path
 
+from viewadapt.io.bounded import MAX_INPUT_BYTES, parse_json, read_limited_text
 from viewadapt.version import __version__
 
 __all__ = ["UserError", "RunError", "MARKER", "LOCK", "SHARED_OUTPUTS", "atomic_path",
            "atomic_write_bytes", "atomic_write_text", "atomic_output_dir", "check_output_dir",
            "claim_output_dir", "check_broken_link", "check_apart", "is_project_output",
            "is_lock_file", "read_marker", "write_marker", "clean_stale_partials", "current_command",
-           "running_command", "umask", "run_metadata", "FailedRunCleanup"]
+           "running_command", "umask", "run_metadata", "FailedRunCleanup", "MAX_MARKER_BYTES"]
 
 #: the marker file in every output directory the project writes
 MARKER = ".viewadapt-output"
 #: the lock file of an output directory being written (``LOCK.shard-I-of-N`` per shard of a
 #: sharded ``generate``); :mod:`viewadapt.io.locks`
 LOCK = ".viewadapt-lock"
+#: the largest marker, or ``dataset.json`` / ``run.json`` / ``metadata.json`` of an older
+#: output, read back to tell whose a folder is (bytes); a larger one is not the project's
+MAX_MARKER_BYTES = MAX_INPUT_BYTES
 #: groups of commands that write the same kind of folder and may reuse each other's
 SHARED_OUTPUTS = (frozenset({"bench crossval", "bench sweep"}),)
 
@@ -148,13 +153,21 @@ def running_command(name: str):
         _COMMAND.reset(token)
 
 
-def read_marker(out) -> dict | None:
-    """The marker of an output directory, or None (absent or unreadable)."""
-    p = Path(out) / MARKER
+def _read_back(p: Path):
+    """The JSON of a file the project wrote into an output folder, or None if it is absent,
+    not a regular file (a FIFO is never opened), over :data:`MAX_MARKER_BYTES` (refused
+    from its size), nested deeper than :data:`~viewadapt.io.bounded.MAX_JSON_DEPTH`
+    (measured before parsing) or not valid UTF-8 JSON: none of these is the project's."""
     try:
-        d = json.loads(p.read_text())
-    except (OSError, ValueError, RecursionError):     # nested too deep for json: not ours
+        return parse_json(read_limited_text(p, "file", MAX_MARKER_BYTES), p)
+    except (OSError, ValueError):
         return None
+
+
+def read_marker(out) -> dict | None:
+    """The marker of an output directory, or None (absent, unreadable or out of bounds:
+    :func:`_read_back`)."""
+    d = _read_back(Path(out) / MARKER)
     return d if isinstance(d, dict) else None
 
 
@@ -163,10 +176,7 @@ def _legacy_output(out: Path) -> bool:
     ``dataset.json``, or the ``run.json`` / ``metadata.json`` of a command."""
     for name, key in (("dataset.json", "format"), ("run.json", "viewadapt"),
                       ("metadata.json", "viewadapt")):
-        try:
-            d = json.loads((out / name).read_text())
-        except (OSError, ValueError, RecursionError):
-            continue
+        d = _read_back(out / name)
         if isinstance(d, dict) and (str(d.get(key, "")).startswith("viewadapt")
                                     if key == "format" else key in d):
             return True

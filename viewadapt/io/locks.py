@@ -26,10 +26,12 @@ import errno
 import json
 import os
 import socket
+import stat
 import threading
 import time
 from pathlib import Path
 
+from .bounded import parse_json, read_limited_text
 from .files import LOCK, UserError, umask
 
 __all__ = ["hold_output_dir"]
@@ -39,6 +41,8 @@ _HELD: dict = {}
 _HELD_GUARD = threading.Lock()
 #: a lock file of another host, without flock, older than this no longer holds its folder
 _FOREIGN_LOCK_AGE_S = 24 * 3600
+#: the largest lock file read (bytes; one is a line of about 100): larger records no holder
+MAX_LOCK_BYTES = 64 * 2 ** 10
 
 
 def _flock():
@@ -60,8 +64,12 @@ def _pid_alive(pid: int) -> bool:
 
 
 def _read_info(path: Path) -> dict | None:
+    """The holder ``path`` records, or None. A file that is absent, not a regular file,
+    over :data:`MAX_LOCK_BYTES` (refused from its size, before it is read), nested deeper
+    than :data:`~viewadapt.io.bounded.MAX_JSON_DEPTH` (measured before it is parsed) or not
+    valid JSON records no holder, like a corrupt one: never an exception."""
     try:
-        d = json.loads(path.read_text())
+        d = parse_json(read_limited_text(path, "lock file", MAX_LOCK_BYTES), path)
     except (OSError, ValueError):
         return None
     return d if isinstance(d, dict) and isinstance(d.get("pid"), int) else None
@@ -113,15 +121,32 @@ def _stale_by_pid(path: Path) -> bool:
     return not _pid_alive(info["pid"])
 
 
+def _not_a_lock(out: Path, path: Path) -> UserError:
+    """The error of something else than a regular file where ``out``'s lock file belongs
+    (it is neither written through nor removed)."""
+    what = ("a symbolic link" if path.is_symlink() else "a folder" if path.is_dir()
+            else "not a regular file")
+    return UserError(f"{out}: {path.name} is {what}, not a lock file viewadapt wrote; remove "
+                     "it or choose another --out")
+
+
 def _take(out: Path, path: Path, shared: bool, record: dict | None) -> int:
     """Open ``path`` and lock it (shared or exclusive, never waiting); the file descriptor.
     Retries when the file was removed by its last holder between the open and the lock,
     and (shared) for a moment while a shard that ends holds it exclusively to remove it."""
     fcntl = _flock()
     for attempt in range(50):
-        fd = os.open(path, os.O_RDWR | os.O_CREAT | getattr(os, "O_CLOEXEC", 0),
-                     0o666 & ~umask())
+        try:                                      # a symbolic link is never followed
+            fd = os.open(path, os.O_RDWR | os.O_CREAT | getattr(os, "O_CLOEXEC", 0)
+                         | getattr(os, "O_NOFOLLOW", 0), 0o666 & ~umask())
+        except OSError as exc:
+            if path.is_symlink() or path.is_dir() or exc.errno in (errno.ELOOP, errno.EISDIR,
+                                                                   errno.ENXIO):
+                raise _not_a_lock(out, path) from None
+            raise
         try:
+            if not stat.S_ISREG(os.fstat(fd).st_mode):
+                raise _not_a_lock(out, path)
             if fcntl is not None:
                 try:
                     fcntl.flock(fd, (fcntl.LOCK_SH if shared else fcntl.LOCK_EX)
