@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import argparse
 import copy
-import dataclasses
 import json
 import time
 from pathlib import Path
@@ -24,7 +23,8 @@ from benchmark.frames.methods import NEGATIVE_CHOICES
 from benchmark.frames.report import (
     accuracy_targets, phase_gap_lines, phase_table, plot_seed_figure, seed_summary, summary_table,
 )
-from benchmark.frames.spec import DEFAULT_METHODS, FrameMethod
+from benchmark.footage.command import register_footage
+from benchmark.frames.spec import DEFAULT_METHODS, FrameMethod, expand_adapted
 
 __all__ = ["register", "cmd_bench_frames", "cmd_bench_runtime", "plot_det_figure"]
 
@@ -204,23 +204,6 @@ def _method_arg(text) -> FrameMethod:
         return FrameMethod.parse(text)
     except ValueError as exc:
         raise argparse.ArgumentTypeError(str(exc)) from None
-
-
-def expand_adapted(methods, rules=None, object_models=None) -> list:
-    """``methods`` (:class:`~benchmark.frames.spec.FrameMethod` s) with each adapted method
-    replaced by one per object model and rule (each object model's rules in turn; a method's
-    own rule or object model where ``rules`` or ``object_models`` is None), duplicates
-    dropped; unchanged when both are None."""
-    if not rules and not object_models:
-        return list(methods)
-    out = []
-    for m in methods:
-        if m.how != "adapted":
-            out.append(m)
-            continue
-        out += [dataclasses.replace(m, rule=rule, object_model=model)
-                for model in object_models or (m.object_model,) for rule in rules or (m.rule,)]
-    return list(dict.fromkeys(out))
 
 
 def cmd_bench_frames(args) -> int:
@@ -419,7 +402,8 @@ def _all_cores_common(common) -> argparse.ArgumentParser:
 
 
 def register(sub, common) -> None:
-    """Add ``bench frames`` and ``bench runtime`` to the ``viewadapt`` parser."""
+    """Add ``bench frames``, ``bench runtime`` and ``bench footage`` to the ``viewadapt``
+    parser."""
     bsub = _bench_subparsers(sub, common)
     opts = _frame_options()
     p = bsub.add_parser("frames", parents=[common, opts],
@@ -491,3 +475,4 @@ def register(sub, common) -> None:
                    help="windows timed for the image-warping methods, extrapolated to all "
                         "(default 1000)")
     p.set_defaults(func=cmd_bench_runtime)
+    register_footage(bsub, common)

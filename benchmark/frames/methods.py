@@ -22,7 +22,11 @@ Methods (Wang et al. 2017, Sec. 5.2 and Table 1), all on the same frames:
     for Object Detection"); :mod:`benchmark.frames.pyramids` holds the pyramid code;
 ``opencv``
     ``cv2.HOGDescriptor.detectMultiScale`` with OpenCV's default people detector on the
-    4x-upsampled frame (``opencv_native``: on the frame as it is).
+    4x-upsampled frame (``opencv_2x``: 2x; ``opencv_native``: on the frame as it is);
+    ``opencv_adapted`` / ``opencv_warp``: the same detector adapted, or over warped windows;
+``...[ground]``
+    a pyramid whose boxes pass the ground-plane filter (:func:`ground_plane_filter`): the
+    calibration used without adaptation.
 
 Each method is a :class:`benchmark.frames.spec.FrameMethod`, its name parsed once where it
 enters.
@@ -51,7 +55,8 @@ from viewadapt.nms import detections_from_scores
 __all__ = ["FrameRecord", "load_frames", "train_source_detectors", "dataset_provenance",
            "NEGATIVE_CHOICES", "FrameMethods",
            "evaluate_method", "PAPER_FPS", "warp_scores", "pyramid_scales", "hog_pyramid_detect",
-           "acf_pyramid_detect", "acf_pyramid_fast_detect", "ACF_PYRAMID_LAMBDAS", "opencv_detect"]
+           "acf_pyramid_detect", "acf_pyramid_fast_detect", "ACF_PYRAMID_LAMBDAS", "opencv_detect",
+           "GROUND_FILTER_TOLERANCE", "ground_plane_filter"]
 
 #: Table 1 of the paper: frames per second on one Intel Core i7 core, CAVIAR 384x288.
 #: ``acf_pyramid_fast`` is what the paper timed as the ACF pyramid (Dollár's toolbox, fast
@@ -223,6 +228,7 @@ class FrameMethods:
         self.models = models
         self._camera, self._kw = camera, kw
         self._variants = {("covariant", "plane"): self.adapted}
+        self._undistortion = None
 
     @property
     def windows(self):
@@ -256,17 +262,31 @@ class FrameMethods:
         :class:`~benchmark.frames.spec.FrameMethod` or its name) on ``image``."""
         check_frame(image, self.adapted.size)
         m = frame_method(method)
-        if m.kind == "opencv":
-            return opencv_detect(image, upsample=m.upsample)
         kind = m.detector
         if m.how == "adapted":
             return self.detector(m.rule, m.object_model).detect(image, kind.name)
         if m.how == "warp":
             s = warp_scores(image, self.windows.homographies, self.models, kind)
             return _nms(person_boxes(self.windows.homographies), s, self.thr[kind.name], kind)
-        detect = {"pyramid": hog_pyramid_detect if kind is HOG_DETECTOR else acf_pyramid_detect,
-                  "pyramid_fast": acf_pyramid_fast_detect}[m.how]
-        return detect(image, self.models, upsample=m.upsample, threshold=self.thr[kind.name])
+        if m.kind == "opencv":
+            dets = opencv_detect(image, upsample=m.upsample)
+        else:
+            detect = {"pyramid": hog_pyramid_detect if kind is HOG_DETECTOR
+                      else acf_pyramid_detect, "pyramid_fast": acf_pyramid_fast_detect}[m.how]
+            dets = detect(image, self.models, upsample=m.upsample,
+                          threshold=self.thr[kind.name])
+        return self.on_ground(dets) if m.ground else dets
+
+    def on_ground(self, detections) -> np.ndarray:
+        """The detections that pass :func:`ground_plane_filter` on this camera (through
+        its lens, if the windows are) for the assumed person heights."""
+        lens = self.adapted.params.get("lens")
+        if lens is not None and self._undistortion is None:
+            from viewadapt.camera.distortion import Undistortion
+            self._undistortion = Undistortion(self._camera.K, lens, self.adapted.size)
+        return ground_plane_filter(detections, self._camera,
+                                   heights=self.adapted.params["person_heights"],
+                                   undistortion=self._undistortion)
 
 
 def warp_scores(image, homographies, models, kind, *, chunk: int = 512) -> np.ndarray:
@@ -310,6 +330,60 @@ def opencv_detect(image, *, upsample: int = 4, hit_threshold: float = -0.5) -> n
     boxes = np.stack([r[:, 0] + (x0 + 0.5) * s, r[:, 1] + (y0 + 0.5) * s, (x1 - x0) * s,
                       (y1 - y0) * s], 1)
     return _nms(boxes, np.asarray(weights, float).ravel(), hit_threshold, HOG_DETECTOR)
+
+
+#: Relative height mismatch beyond which :func:`ground_plane_filter` drops a box.
+GROUND_FILTER_TOLERANCE = 0.2
+
+
+def ground_plane_filter(detections, camera, *, heights, undistortion=None,
+                        tolerance: float = GROUND_FILTER_TOLERANCE) -> np.ndarray:
+    """The detections whose box height agrees with a person standing at their foot point.
+
+    Each box's bottom centre is taken as the feet on the ground plane ``Z = 0``
+    (undistorted first when ``undistortion`` -- a
+    :class:`viewadapt.camera.distortion.Undistortion` -- is given); a person of each
+    assumed height standing there is projected (and distorted back); a box is kept when
+    its height is within ``tolerance`` (relative) of one of those persons' heights in
+    pixels. Boxes whose feet lie above the horizon are dropped. This uses the calibration
+    without adapting the detector: the baseline that isolates what adaptation adds.
+
+    Parameters
+    ----------
+    detections : (D, 5) array_like ``(x, y, w, h, score)``
+    camera : Camera
+    heights : sequence of float, metres
+    undistortion : Undistortion or None
+    tolerance : float
+
+    Returns
+    -------
+    (D', 5) ndarray, the kept rows in their order.
+    """
+    from viewadapt.camera.distortion import distort_points
+
+    d = np.asarray(detections, np.float64).reshape(-1, 5)
+    if not len(d):
+        return d
+    feet = np.c_[d[:, 0] + d[:, 2] / 2, d[:, 1] + d[:, 3]]
+    pin = feet if undistortion is None else undistortion.undistort_points(feet)
+    Hg = camera.K @ np.c_[camera.R[:, :2], camera.t]          # ground (X, Y, 1) -> pixels
+    g = np.linalg.solve(Hg, np.c_[pin, np.ones(len(pin))].T).T
+    ok = np.abs(g[:, 2]) > 1e-12
+    ground = g[:, :2] / np.where(ok, g[:, 2], 1.0)[:, None]
+    # the ground point must lie in front of the camera
+    cam_z = (camera.R @ np.c_[ground, np.zeros(len(ground))].T).T[:, 2] + camera.t[2]
+    ok &= cam_z > 0
+    keep = np.zeros(len(d), bool)
+    at = np.flatnonzero(ok)
+    for h in heights:
+        head = camera.project(np.c_[ground[at], np.full(len(at), float(h))])
+        if undistortion is not None:
+            head = distort_points(head, undistortion.K, undistortion.dist)
+        want = feet[at, 1] - head[:, 1]
+        fits = (want > 0) & (np.abs(d[at, 3] / np.where(want > 0, want, 1.0) - 1) <= tolerance)
+        keep[at[fits]] = True
+    return d[keep]
 
 
 # --------------------------------------------------------------------------- evaluation

@@ -11,24 +11,31 @@ rule and object model (:data:`RULE_TAGS`, :data:`OBJECT_MODEL_TAGS`,
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import dataclasses
+from dataclasses import dataclass, replace
 
-from viewadapt.detect import DETECTOR_KINDS, detector_kind
+from viewadapt.detect import DETECTOR_KINDS, PRETRAINED_KINDS, detector_kind
 
-__all__ = ["RULE_TAGS", "OBJECT_MODEL_TAGS", "variant_label", "FrameMethod", "FRAME_METHODS",
-           "DEFAULT_METHODS", "frame_method"]
+__all__ = ["RULE_TAGS", "OBJECT_MODEL_TAGS", "OPENCV_NAMES", "GROUND_TAG", "variant_label",
+           "FrameMethod", "FRAME_METHODS", "DEFAULT_METHODS", "expand_adapted", "frame_method"]
 
 #: angle rule -> its tag in a variant's label (none for the default, covariant rule)
 RULE_TAGS = {"covariant": "", "none": "S only", "paper": "paper eq.3"}
 #: object model -> its tag in a variant's label (none for the default, the person plane)
 OBJECT_MODEL_TAGS = {"plane": "", "body": "body"}
-#: how a method detects -> the detector kinds that have it
-HOWS = {"adapted": tuple(DETECTOR_KINDS), "warp": tuple(DETECTOR_KINDS),
-        "pyramid": (*DETECTOR_KINDS, "opencv"), "pyramid_fast": ("acf",)}
-#: upsampling factors of the frame under a pyramid: the paper's 4x; OpenCV's also the frame
-#: as it is (``opencv_native``)
-UPSAMPLES = {"opencv": (4, 1)}
+#: how a method detects -> the detector kinds that have it (``opencv``'s pyramid is OpenCV's
+#: own ``detectMultiScale``; its adapted and warp methods read the same weights)
+_WINDOW_KINDS = (*DETECTOR_KINDS, *PRETRAINED_KINDS)
+HOWS = {"adapted": _WINDOW_KINDS, "warp": _WINDOW_KINDS, "pyramid": (*DETECTOR_KINDS, "opencv"),
+        "pyramid_fast": ("acf",)}
+#: upsampling factors of the frame under a pyramid: the paper's 4x; OpenCV's also 2x
+#: (``opencv_2x``) and the frame as it is (``opencv_native``)
+UPSAMPLES = {"opencv": (4, 2, 1)}
 PYRAMID_UPSAMPLE = 4
+#: OpenCV's method names by upsampling
+OPENCV_NAMES = {4: "opencv", 2: "opencv_2x", 1: "opencv_native"}
+#: the tag of a pyramid whose boxes pass the ground-plane filter
+GROUND_TAG = "ground"
 
 
 def variant_label(base: str, rule: str | None = None, object_model: str | None = None, *,
@@ -50,7 +57,8 @@ class FrameMethod:
     ----------
     kind : str
         ``"hog"``, ``"acf"`` (the source detectors, :data:`viewadapt.detect.DETECTOR_KINDS`)
-        or ``"opencv"`` (OpenCV's default people detector).
+        or ``"opencv"`` (OpenCV's default people detector,
+        :data:`viewadapt.detect.PRETRAINED_KINDS`).
     how : str
         ``"adapted"`` (the viewpoint-adapted detector on the candidate windows),
         ``"warp"`` (every candidate window warped into the canonical view), ``"pyramid"``
@@ -61,8 +69,13 @@ class FrameMethod:
         ``"covariant"``) and object model (of :data:`OBJECT_MODEL_TAGS`, default
         ``"plane"``); None for the other methods.
     upsample : int or None
-        The pyramids' upsampling of the frame (default 4; OpenCV's also 1); None for the
-        methods on the candidate windows.
+        The pyramids' upsampling of the frame (default 4; OpenCV's also 2 and 1); None for
+        the methods on the candidate windows.
+    ground : bool
+        A pyramid's boxes pass the ground-plane filter
+        (:func:`benchmark.frames.methods.ground_plane_filter`): only those whose height
+        agrees with an assumed person height standing at their foot point are kept -- the
+        calibration used without adaptation. Only for the pyramids.
 
     Raises
     ------
@@ -75,6 +88,7 @@ class FrameMethod:
     rule: str | None = None
     object_model: str | None = None
     upsample: int | None = None
+    ground: bool = False
 
     def __post_init__(self):
         if self.kind not in HOWS.get(self.how, ()):
@@ -96,6 +110,9 @@ class FrameMethod:
         if self.upsample not in ups:
             raise ValueError(f"{self.kind}_{self.how} upsamples by one of {ups}, got "
                              f"{self.upsample!r}")
+        if self.ground not in (False, True) or (self.ground and not pyramid):
+            raise ValueError(f"only the pyramids take the ground-plane filter, got "
+                             f"{self.how!r} with ground={self.ground!r}")
 
     def _fill(self, **defaults):
         for field, value in defaults.items():
@@ -115,15 +132,17 @@ class FrameMethod:
     @property
     def name(self) -> str:
         """The method's name in the outputs, e.g. ``"hog_adapted[body, paper eq.3]"``,
-        ``"acf_pyramid_fast"``; OpenCV's ``"opencv"`` (4x) and ``"opencv_native"``."""
-        if self.kind == "opencv":
-            return "opencv" if self.upsample == PYRAMID_UPSAMPLE else "opencv_native"
-        return f"{self.kind}_{variant_label(self.how, self.rule, self.object_model)}"
+        ``"acf_pyramid_fast"``, ``"opencv_adapted"``; OpenCV's ``detectMultiScale``:
+        ``"opencv"`` (4x), ``"opencv_2x"``, ``"opencv_native"``; a pyramid with the
+        ground-plane filter, e.g. ``"opencv_2x[ground]"``."""
+        extra = GROUND_TAG if self.ground else ""
+        if self.kind == "opencv" and self.how == "pyramid":
+            return variant_label(OPENCV_NAMES[self.upsample], extra=extra)
+        return f"{self.kind}_{variant_label(self.how, self.rule, self.object_model, extra=extra)}"
 
     @property
     def detector(self):
-        """The :class:`~viewadapt.detect.DetectorKind` of a HOG or ACF method (ValueError
-        for OpenCV's)."""
+        """The :class:`~viewadapt.detect.DetectorKind` of the method's detector."""
         return detector_kind(self.kind)
 
     @property
@@ -141,13 +160,14 @@ class FrameMethod:
 
 def _all_methods():
     out = []
-    for kind in DETECTOR_KINDS:
+    for kind in (*DETECTOR_KINDS, *PRETRAINED_KINDS):
         out += [FrameMethod(kind, "adapted", rule, model)
                 for model in OBJECT_MODEL_TAGS for rule in RULE_TAGS]
         out += [FrameMethod(kind, how) for how in ("warp", "pyramid", "pyramid_fast")
-                if kind in HOWS[how]]
-    return tuple(out) + tuple(FrameMethod("opencv", "pyramid", upsample=u)
-                              for u in UPSAMPLES["opencv"])
+                if kind in HOWS[how] and (kind, how) != ("opencv", "pyramid")]
+    # OpenCV's own detectMultiScale at each of its upsamplings
+    out += [FrameMethod("opencv", "pyramid", upsample=u) for u in UPSAMPLES["opencv"]]
+    return tuple(out) + tuple(replace(m, ground=True) for m in out if m.how.startswith("pyramid"))
 
 
 #: every method of the frames benchmark
@@ -157,6 +177,23 @@ _BY_NAME = {m.name: m for m in FRAME_METHODS}
 DEFAULT_METHODS = tuple(FrameMethod.parse(n) for n in (
     "hog_adapted", "hog_warp", "hog_pyramid", "opencv", "acf_adapted", "acf_warp",
     "acf_pyramid", "acf_pyramid_fast"))
+
+
+def expand_adapted(methods, rules=None, object_models=None) -> list:
+    """``methods`` (:class:`~benchmark.frames.spec.FrameMethod` s) with each adapted method
+    replaced by one per object model and rule (each object model's rules in turn; a method's
+    own rule or object model where ``rules`` or ``object_models`` is None), duplicates
+    dropped; unchanged when both are None."""
+    if not rules and not object_models:
+        return list(methods)
+    out = []
+    for m in methods:
+        if m.how != "adapted":
+            out.append(m)
+            continue
+        out += [dataclasses.replace(m, rule=rule, object_model=model)
+                for model in object_models or (m.object_model,) for rule in rules or (m.rule,)]
+    return list(dict.fromkeys(out))
 
 
 def frame_method(method) -> FrameMethod:

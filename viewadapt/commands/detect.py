@@ -11,12 +11,12 @@ import numpy as np
 
 from viewadapt.boxes import mapped_boxes
 from viewadapt.camera.distortion import Undistortion, distort_points
-from viewadapt.detect.detector import FrameDetector
+from viewadapt.detect.detector import DEFAULT_THRESHOLD, FrameDetector
 from viewadapt.detect.evaluation import (
     BOOTSTRAP_BLOCK, BOOTSTRAP_DRAWS, block_bootstrap, evaluation_rows, ground_truth_counts,
     summary_numbers,
 )
-from viewadapt.detect.kinds import DETECTOR_KINDS
+from viewadapt.detect.kinds import DETECTOR_KINDS, PRETRAINED_KINDS
 from viewadapt.detect.layers import UPSAMPLE_BELOW
 from viewadapt.detect.stream import DetectorSpec, detect_stream
 from viewadapt.geometry import PERSON_HEIGHT_M
@@ -181,6 +181,11 @@ def _calibration_import(imported) -> dict | None:
     return out
 
 
+#: what each pretrained detector's model is (metadata.json's ``model``)
+_PRETRAINED_MODELS = {"opencv": "OpenCV's HOGDescriptor_getDefaultPeopleDetector (INRIA Person, "
+                                "Dalal & Triggs 2005)"}
+
+
 def _metadata(args, det, stream, writer, dist, correction, annotate, *, imported,
               operator_seconds, seconds, cpu_seconds) -> dict:
     """metadata.json of a detect run: what ran on what, and how fast (``correction``:
@@ -190,8 +195,10 @@ def _metadata(args, det, stream, writer, dist, correction, annotate, *, imported
         object_model=args.object_model, threshold=args.threshold,
         person_heights=list(det.params["person_heights"]), windows=len(det.windows),
         input=stream.describe(), frames=writer.n_frames, detections=writer.n_detections,
-        annotate=annotate, jobs=args.jobs, model=str(args.model),
-        model_training=det.models.training,
+        annotate=annotate, jobs=args.jobs,
+        model=_PRETRAINED_MODELS[args.detector] if args.detector in PRETRAINED_KINDS
+        else str(args.model),
+        model_training=None if args.detector in PRETRAINED_KINDS else det.models.training,
         calibration=str(args.calibration),
         calibration_import=_calibration_import(imported),
         undistortion=None if correction != "undistort" else {
@@ -226,6 +233,8 @@ def cmd_detect(args) -> int:
 
     check_output_dir(args.out, overwrite=args.overwrite)
     check_frame_selection(args)
+    if args.threshold is None:
+        args.threshold = DEFAULT_THRESHOLD if args.boxes else 0.0
     calibration = read_calibration_file(args.calibration)
     cam, dist = calibration.camera, calibration.dist
     correction = lens_correction(dist, args.lens, args.object_model)
@@ -376,8 +385,10 @@ def register(sub, common) -> None:
                    help="source detectors: models/source_detectors.npz written by `viewadapt "
                         "bench frames` (default: the models shipped with viewadapt, trained "
                         "on the paper preset's elevation-0 crops)")
-    p.add_argument("--detector", choices=list(DETECTOR_KINDS), default="hog",
-                   help="the adapted detector (default hog: HOG/SVM; acf: boosted trees on ACF)")
+    p.add_argument("--detector", choices=list(DETECTOR_KINDS | PRETRAINED_KINDS), default="hog",
+                   help="the adapted detector (default hog: HOG/SVM; acf: boosted trees on ACF; "
+                        "both trained on renders, --model; opencv: OpenCV's INRIA-trained "
+                        "HOG/SVM people detector, adapted the same way)")
     p.add_argument("--rule", choices=list(ANGLE_RULES), default="covariant",
                    help="angle rule of A: covariant (default, J^-T), paper (the literal eq. 3) "
                         "or none (S only)")
@@ -393,7 +404,10 @@ def register(sub, common) -> None:
                         "--object-model body (default auto; the boxes are in the input's pixels "
                         "in every mode; docs/findings.md, lens distortion, has the "
                         "measurement)")
-    p.add_argument("--threshold", type=float, default=0.0, help="score threshold (default 0)")
+    p.add_argument("--threshold", type=float, default=None,
+                   help="score threshold of the detections kept (default 0; with --boxes "
+                        f"{DEFAULT_THRESHOLD:g}, low enough that the DET curve reaches 1 false "
+                        "positive per image)")
     p.add_argument("--heights", type=person_heights, default=(PERSON_HEIGHT_M,),
                    help="assumed person heights, metres, comma-separated (default 1.75)")
     add_cache_options(p)

@@ -11,15 +11,19 @@ Modules:
 * :mod:`~viewadapt.detect.windows` -- candidate windows over the ground plane (Sec. 5.1).
 * :mod:`~viewadapt.detect.channels` -- frame features: per-pixel channels once, cell maps
   at every size the windows need; the same features of a canonical window.
+* :mod:`~viewadapt.detect.opencv_cells` -- OpenCV's HOG descriptor (Dalal & Triggs) as
+  block-normalised cells of the frame's grid, and OpenCV's detectors over them.
 * :mod:`~viewadapt.detect.templates` -- windows grouped into shared templates.
 * :mod:`~viewadapt.detect.frame_remap` -- the frame ``G`` of a template, for any object
-  model; :mod:`~viewadapt.detect.features` -- the feature families (HOG, ACF) the
-  operators read.
+  model; :mod:`~viewadapt.detect.features` -- the feature families (HOG, OpenCV's HOG,
+  ACF) the operators read.
+* :mod:`~viewadapt.detect.renorm` -- the adapted OpenCV detector's per-window
+  normalisation stage.
 * :mod:`~viewadapt.detect.linear`, :mod:`~viewadapt.detect.trees` -- the adapted HOG/SVM
-  and ACF operators.
+  (ours and OpenCV's) and ACF operators.
 * :mod:`~viewadapt.detect.layers` -- small persons' windows on an upsampled frame band.
 * :mod:`~viewadapt.detect.frameview` -- training crops as the operators read them.
-* :mod:`~viewadapt.detect.kinds` -- one spec per adapted detector (HOG/SVM, ACF).
+* :mod:`~viewadapt.detect.kinds` -- one spec per adapted detector (HOG/SVM, ACF, OpenCV's).
 * :mod:`~viewadapt.detect.detector` -- :class:`FrameDetector`, the detector a user calls.
 * :mod:`~viewadapt.detect.training` -- the source detectors (HOG/SVM, ACF trees) trained on
   canonical windows and their frame-view copies.
@@ -48,27 +52,42 @@ from .channels import (
     orientation_cell_maps, channel_slices3, correlate_slices, block_normalize_cells,
     hog_window_features, acf_window_features, hog_frame_features, acf_frame_features,
 )
+from .opencv_cells import (
+    OPENCV_CHANNELS, OPENCV_WEIGHT_SHAPE, OPENCV_L2HYS_CLIP, opencv_cell_weights,
+    opencv_descriptor_weights, opencv_default_people_detector, opencv_gradients,
+    opencv_block_cells, raw_cell_maps, opencv_window_features, OpenCVFrameFeatures,
+    opencv_frame_features,
+)
 from .templates import (
     FRAME_CELL_SIZES, CELLS_PER_SOURCE_CELL, HOG_TOLERANCE, ACF_TOLERANCE, choose_cell_sizes,
     group_windows, patch_grid, TemplateGroup, build_template_groups, required_padding,
     check_windows, SnappedBoxes, TemplateOperator,
 )
 from .frame_remap import (
-    SOURCE_DISTANCE_M, resolve_object_model, window_mapping, hog_frame_remap, acf_frame_remap,
-    acf_gradient_rows,
+    SOURCE_DISTANCE_M, patch_cell_grid, resolve_object_model, window_mapping, hog_frame_remap,
+    cell_hog_remap, opencv_frame_remap, acf_frame_remap, acf_gradient_rows,
 )
 from .features import (
-    FeatureKind, HOG_FEATURES, ACF_FEATURES, FEATURE_MAKERS, feature_maker_to_dict,
-    feature_maker_from_dict,
+    FeatureKind, HOG_FEATURES, OPENCV_FEATURES, ACF_FEATURES, FEATURE_MAKERS, FEATURE_CHANNELS,
+    feature_maker_to_dict, feature_maker_from_dict,
 )
-from .linear import AdaptedLinearOperator, build_adapted_linear_operator
+from .renorm import (
+    RENORM_CELLS_PER_SOURCE_CELL, VERIFY_THRESHOLD, OPENCV_DESCRIPTOR_SIZE, stage_cell_sizes,
+    RenormStage,
+)
+from .linear import (
+    AdaptedLinearOperator, build_adapted_linear_operator, build_adapted_opencv_operator,
+)
 from .trees import AdaptedTreesOperator, build_adapted_trees_operator
 from .layers import (
     UPSAMPLE_BELOW, UPSAMPLE_FACTOR, frame_to_band, upsampled_windows, upsampled_band,
     MultiResolutionOperator, build_multiresolution_operator,
 )
 from .frameview import FRAME_VIEW_SCALES, frame_view, frame_view_features, frame_view_copies
-from .kinds import DetectorKind, HOG_DETECTOR, ACF_DETECTOR, DETECTOR_KINDS, detector_kind
+from .kinds import (
+    DetectorKind, HOG_DETECTOR, ACF_DETECTOR, OPENCV_DETECTOR, DETECTOR_KINDS, PRETRAINED_KINDS,
+    detector_kind,
+)
 from .detector import DEFAULT_THRESHOLD, FrameDetections, FrameDetector
 from .training import FRAME_VIEW_CHOICES, DEFAULT_FRAME_VIEW, check_frame_view, train_on_windows
 from .stream import DetectorSpec, detect_stream
@@ -83,18 +102,25 @@ __all__ = [
     "fast_acf_pixel_channels", "acf_channel_cell_maps", "FrameFeatures", "check_frame",
     "cell_sums", "orientation_cell_maps", "channel_slices3", "correlate_slices",
     "block_normalize_cells", "hog_window_features", "acf_window_features", "hog_frame_features",
-    "acf_frame_features", "FRAME_CELL_SIZES", "CELLS_PER_SOURCE_CELL", "HOG_TOLERANCE",
-    "ACF_TOLERANCE", "choose_cell_sizes", "group_windows", "patch_grid", "TemplateGroup",
-    "build_template_groups", "required_padding", "check_windows", "SnappedBoxes",
-    "TemplateOperator", "SOURCE_DISTANCE_M", "resolve_object_model", "window_mapping",
-    "hog_frame_remap", "acf_frame_remap", "acf_gradient_rows", "FeatureKind", "HOG_FEATURES",
-    "ACF_FEATURES", "FEATURE_MAKERS", "feature_maker_to_dict", "feature_maker_from_dict",
-    "AdaptedLinearOperator", "build_adapted_linear_operator", "AdaptedTreesOperator",
-    "build_adapted_trees_operator", "UPSAMPLE_BELOW", "UPSAMPLE_FACTOR", "frame_to_band",
-    "upsampled_windows", "upsampled_band", "MultiResolutionOperator",
+    "acf_frame_features", "OPENCV_CHANNELS", "OPENCV_WEIGHT_SHAPE", "OPENCV_L2HYS_CLIP",
+    "opencv_cell_weights", "opencv_descriptor_weights", "opencv_default_people_detector",
+    "opencv_gradients", "opencv_block_cells", "raw_cell_maps", "opencv_window_features",
+    "OpenCVFrameFeatures", "opencv_frame_features", "FRAME_CELL_SIZES", "CELLS_PER_SOURCE_CELL",
+    "HOG_TOLERANCE", "ACF_TOLERANCE", "choose_cell_sizes", "group_windows", "patch_grid",
+    "TemplateGroup", "build_template_groups", "required_padding", "check_windows",
+    "SnappedBoxes", "TemplateOperator", "SOURCE_DISTANCE_M", "patch_cell_grid",
+    "resolve_object_model", "window_mapping", "hog_frame_remap", "cell_hog_remap",
+    "opencv_frame_remap", "acf_frame_remap", "acf_gradient_rows", "FeatureKind", "HOG_FEATURES",
+    "OPENCV_FEATURES", "ACF_FEATURES", "FEATURE_MAKERS", "FEATURE_CHANNELS",
+    "feature_maker_to_dict", "feature_maker_from_dict", "RENORM_CELLS_PER_SOURCE_CELL",
+    "VERIFY_THRESHOLD", "OPENCV_DESCRIPTOR_SIZE", "stage_cell_sizes", "RenormStage",
+    "AdaptedLinearOperator", "build_adapted_linear_operator", "build_adapted_opencv_operator",
+    "AdaptedTreesOperator", "build_adapted_trees_operator", "UPSAMPLE_BELOW", "UPSAMPLE_FACTOR",
+    "frame_to_band", "upsampled_windows", "upsampled_band", "MultiResolutionOperator",
     "build_multiresolution_operator", "FRAME_VIEW_SCALES", "frame_view", "frame_view_features",
-    "frame_view_copies", "DetectorKind", "HOG_DETECTOR", "ACF_DETECTOR", "DETECTOR_KINDS",
-    "detector_kind", "DEFAULT_THRESHOLD", "FrameDetections", "FrameDetector", "FRAME_VIEW_CHOICES",
-    "DEFAULT_FRAME_VIEW", "check_frame_view", "train_on_windows", "DetectorSpec", "detect_stream",
+    "frame_view_copies", "DetectorKind", "HOG_DETECTOR", "ACF_DETECTOR", "OPENCV_DETECTOR",
+    "DETECTOR_KINDS", "PRETRAINED_KINDS", "detector_kind", "DEFAULT_THRESHOLD",
+    "FrameDetections", "FrameDetector", "FRAME_VIEW_CHOICES", "DEFAULT_FRAME_VIEW",
+    "check_frame_view", "train_on_windows", "DetectorSpec", "detect_stream",
     "standardize_boxes", "ground_truth_rows", "evaluate_detections",
 ]

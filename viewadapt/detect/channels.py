@@ -33,7 +33,7 @@ __all__ = [
     "HOG_CELL", "N_HOG_BINS", "HOG_CHANNELS", "HOG_WEIGHT_SHAPE", "HOG_CLIP",
     "ACF_SHRINK", "N_ACF_CHANNELS", "N_ACF_ORIENTS", "ACF_WEIGHT_SHAPE", "ACF_GRADIENT_LAMBDA",
     "fast_orientation_channels", "fast_acf_pixel_channels", "acf_channel_cell_maps",
-    "FrameFeatures", "check_frame",
+    "FrameFeatures", "check_frame", "gradient_polar",
     "cell_sums", "orientation_cell_maps", "channel_slices3", "correlate_slices",
     "block_normalize_cells",
     "hog_window_features", "acf_window_features",
@@ -80,7 +80,7 @@ def _strongest_gradient(dx, dy):
     return gx, gy
 
 
-def _gradient_polar(img):
+def gradient_polar(img):
     """HOG gradients of a float32 (M, N[, 3]) image: central differences with reflect-101
     borders, the colour channel of largest magnitude; ``(magnitude, angle in [0, 2 pi))``."""
     import cv2
@@ -118,7 +118,7 @@ def fast_orientation_channels(image, *, n_bins: int = 9, gamma: bool = False) ->
     img = check_image(image).astype(np.float32)
     if gamma:
         img = cv2.sqrt(img)
-    mag, ang = _gradient_polar(img)
+    mag, ang = gradient_polar(img)
     # OpenCV element-wise calls on contiguous planes throughout: several times faster than
     # numpy on strided channel views (measured in benchmark/frames/runtime.py's feature time)
     t = cv2.subtract(cv2.multiply(ang, n_bins / np.pi), 0.5)      # in [-0.5, 2 n_bins)

@@ -20,7 +20,7 @@ from ..io.models import SourceDetectors
 from ..objectmodel import OBJECT_MODELS
 from ..remap import ANGLE_RULES
 from .channels import check_frame
-from .kinds import DETECTOR_KINDS, HOG_DETECTOR, detector_kind
+from .kinds import DETECTOR_KINDS, HOG_DETECTOR, PRETRAINED_KINDS, detector_kind
 from .layers import UPSAMPLE_BELOW, build_multiresolution_operator
 from .templates import CELLS_PER_SOURCE_CELL, HOG_TOLERANCE
 from .windows import select_candidate_windows, windows_through_lens
@@ -117,7 +117,8 @@ class FrameDetector:
             raise ValueError(f"object_model must be one of {OBJECT_MODELS}, got {object_model!r}")
         if object_model != "plane":        # the plane's cache keys stay those of before
             self.params["object_model"] = str(object_model)
-        self.thresholds = {k: DEFAULT_THRESHOLD for k in DETECTOR_KINDS} | dict(thresholds or {})
+        self.thresholds = {k: DEFAULT_THRESHOLD for k in DETECTOR_KINDS | PRETRAINED_KINDS} \
+            | dict(thresholds or {})
         for k in self.thresholds:
             detector_kind(k)
         self.cache_dir = cache_dir
@@ -145,7 +146,7 @@ class FrameDetector:
             return self._ops[kind]
         t0 = time.perf_counter()
         key_parts = dict(camera=self.camera.to_dict(), kind=kind,
-                         model=self.models.fingerprint(), **self.params)
+                         model=detector_kind(kind).model_fingerprint(self.models), **self.params)
         cache = OperatorCache(self.cache_dir, self.cache_limit_gb) if self.cache_dir else None
         op = cache.load(key_parts) if cache else None
         self.cache_hit[kind] = op is not None
@@ -188,7 +189,7 @@ class FrameDetector:
         image : (height, width[, 3]) ndarray
             A frame of this camera (undistorted if the camera has lens distortion and the
             windows were not mapped through the lens).
-        kind : {"hog", "acf"}
+        kind : {"hog", "acf", "opencv"}
 
         Returns
         -------

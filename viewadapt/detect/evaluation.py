@@ -28,7 +28,8 @@ from ..metrics import (
 
 __all__ = ["standardize_boxes", "ground_truth_rows", "evaluate_detections", "in_regions",
            "bottom_centres", "evaluation_rows", "ground_truth_counts", "block_length",
-           "block_bootstrap", "summary_numbers", "BOOTSTRAP_BLOCK", "BOOTSTRAP_DRAWS"]
+           "block_bootstrap", "frame_matches", "block_resamples", "paired_block_bootstrap",
+           "summary_numbers", "BOOTSTRAP_BLOCK", "BOOTSTRAP_DRAWS"]
 
 #: Frames per block of :func:`block_bootstrap`.
 BOOTSTRAP_BLOCK = 10
@@ -213,19 +214,8 @@ def block_bootstrap(dts, gts, *, block: int = BOOTSTRAP_BLOCK, draws: int = BOOT
         Per summary name ``[low, high]``; ``"draws_used"``: resamples with ground truth;
         ``"block_frames"``: the block length used.
     """
-    if block < 1:
-        raise ValueError(f"the bootstrap block must be at least 1 frame, got {block}")
-    if draws < 1:
-        raise ValueError(f"the bootstrap needs at least 1 draw, got {draws}")
-    matches = [match_detections(d[:, :4], d[:, 4], g[:, :4], g[:, 4].astype(bool))
-               for d, g in zip(dts, gts)]
-    n = len(matches)
-    if n == 0:
-        raise ValueError("no frames to resample")
-    length = block_length(block, n)
-    rng = np.random.default_rng(seed)
-    starts = rng.integers(n, size=(int(draws), -(-n // length)))
-    idx = ((starts[:, :, None] + np.arange(length)) % n).reshape(int(draws), -1)[:, :n]
+    matches = frame_matches(dts, gts)
+    idx, length = block_resamples(len(matches), block=block, draws=draws, seed=seed)
     values = {k: [] for k in ("lamr", "miss_rate_at_0.1_fppi", "miss_rate_at_1_fppi")}
     for sel in idx:
         chosen = [matches[i] for i in sel]
@@ -240,3 +230,65 @@ def block_bootstrap(dts, gts, *, block: int = BOOTSTRAP_BLOCK, draws: int = BOOT
     out["draws_used"] = len(values["lamr"])
     out["block_frames"] = length
     return out
+
+
+def frame_matches(dts, gts) -> list:
+    """Per-frame matches (:func:`viewadapt.metrics.match_detections`) of
+    :func:`evaluation_rows`' output, so that resampled frames need only be accumulated."""
+    return [match_detections(d[:, :4], d[:, 4], g[:, :4], g[:, 4].astype(bool))
+            for d, g in zip(dts, gts)]
+
+
+def block_resamples(n: int, *, block: int = BOOTSTRAP_BLOCK, draws: int = BOOTSTRAP_DRAWS,
+                    seed: int = 0) -> tuple[np.ndarray, int]:
+    """The frames of each circular block-bootstrap resample of ``n`` consecutive frames
+    (:func:`block_bootstrap`): ``(draws, n)`` frame indices and the block length used."""
+    if block < 1:
+        raise ValueError(f"the bootstrap block must be at least 1 frame, got {block}")
+    if draws < 1:
+        raise ValueError(f"the bootstrap needs at least 1 draw, got {draws}")
+    if n == 0:
+        raise ValueError("no frames to resample")
+    length = block_length(block, n)
+    rng = np.random.default_rng(seed)
+    starts = rng.integers(n, size=(int(draws), -(-n // length)))
+    return ((starts[:, :, None] + np.arange(length)) % n).reshape(int(draws), -1)[:, :n], length
+
+
+def paired_block_bootstrap(dts, reference, gts, *, block: int = BOOTSTRAP_BLOCK,
+                           draws: int = BOOTSTRAP_DRAWS, seed: int = 0,
+                           level: float = 0.95) -> dict:
+    """``LAMR(dts) - LAMR(reference)`` on the same frames, with the percentile interval of
+    a paired circular block bootstrap: both methods resampled on the same frames
+    (:func:`block_resamples`), so the interval is that of the difference, not of two
+    independent rates.
+
+    Parameters
+    ----------
+    dts, reference : lists
+        :func:`evaluation_rows`' detections of two methods on the frames of ``gts``.
+    gts : list
+        Their ground truth (:func:`evaluation_rows`).
+
+    Returns
+    -------
+    dict
+        ``difference``, ``ci`` ``[low, high]``, ``draws_used``, ``block_frames``.
+    """
+    if len(dts) != len(gts) or len(reference) != len(gts):
+        raise ValueError(f"both methods need detections on the {len(gts)} frames, got "
+                         f"{len(dts)} and {len(reference)}")
+    a, b = frame_matches(dts, gts), frame_matches(reference, gts)
+
+    def lamr(ms):
+        fppi, miss, _ = accumulate_frames(ms)
+        return summary_numbers(fppi, miss)["lamr"]
+
+    idx, length = block_resamples(len(a), block=block, draws=draws, seed=seed)
+    diffs = [lamr([a[i] for i in sel]) - lamr([b[i] for i in sel]) for sel in idx
+             if any(a[i].n_positives for i in sel)]
+    tail = 100 * (1 - level) / 2
+    return {"difference": float(lamr(a) - lamr(b)),
+            "ci": ([float(np.percentile(diffs, tail)), float(np.percentile(diffs, 100 - tail))]
+                   if diffs else [None, None]),
+            "draws_used": len(diffs), "block_frames": length}

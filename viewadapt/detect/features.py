@@ -9,12 +9,17 @@ from typing import Callable
 
 from ..arrays import is_int, is_json_scalar
 from .channels import (
-    ACF_GRADIENT_LAMBDA, ACF_SHRINK, ACF_WEIGHT_SHAPE, HOG_CELL, HOG_WEIGHT_SHAPE,
-    acf_frame_features, acf_window_features, hog_frame_features, hog_window_features,
+    ACF_GRADIENT_LAMBDA, ACF_SHRINK, ACF_WEIGHT_SHAPE, HOG_CELL, HOG_CHANNELS, HOG_WEIGHT_SHAPE,
+    N_ACF_CHANNELS, acf_frame_features, acf_window_features, hog_frame_features,
+    hog_window_features,
 )
-from .frame_remap import acf_frame_remap, acf_gradient_rows, hog_frame_remap
+from .frame_remap import acf_frame_remap, acf_gradient_rows, hog_frame_remap, opencv_frame_remap
+from .opencv_cells import (
+    OPENCV_CHANNELS, OPENCV_WEIGHT_SHAPE, opencv_frame_features, opencv_window_features,
+)
 
-__all__ = ["FeatureKind", "HOG_FEATURES", "ACF_FEATURES", "FEATURE_MAKERS",
+__all__ = ["FeatureKind", "HOG_FEATURES", "OPENCV_FEATURES", "ACF_FEATURES", "FEATURE_MAKERS",
+           "FEATURE_CHANNELS",
            "feature_maker_to_dict", "feature_maker_from_dict"]
 
 
@@ -57,6 +62,12 @@ HOG_FEATURES = FeatureKind("hog", HOG_CELL, HOG_WEIGHT_SHAPE, hog_window_feature
                            hog_frame_features, hog_frame_remap)
 
 
+#: OpenCV's block-normalised HOG cells
+#: (:func:`~viewadapt.detect.opencv_cells.opencv_window_features`)
+OPENCV_FEATURES = FeatureKind("opencv", HOG_CELL, OPENCV_WEIGHT_SHAPE, opencv_window_features,
+                              opencv_frame_features, opencv_frame_remap)
+
+
 #: ACF channels (:func:`~viewadapt.detect.channels.acf_window_features`)
 ACF_FEATURES = FeatureKind("acf", ACF_SHRINK, ACF_WEIGHT_SHAPE, acf_window_features,
                            acf_frame_features, acf_frame_remap, ACF_GRADIENT_LAMBDA,
@@ -65,7 +76,11 @@ ACF_FEATURES = FeatureKind("acf", ACF_SHRINK, ACF_WEIGHT_SHAPE, acf_window_featu
 
 #: The functions an operator's stored feature maker may name
 #: (:func:`feature_maker_from_dict`): nothing else is ever called from a stored operator.
-FEATURE_MAKERS = {f.__name__: f for f in (hog_frame_features, acf_frame_features)}
+FEATURE_MAKERS = {f.__name__: f for f in (hog_frame_features, opencv_frame_features,
+                                           acf_frame_features)}
+#: Channels per frame cell of each feature maker's maps.
+FEATURE_CHANNELS = {"hog_frame_features": HOG_CHANNELS, "opencv_frame_features": OPENCV_CHANNELS,
+                    "acf_frame_features": N_ACF_CHANNELS}
 
 
 def feature_maker_to_dict(maker) -> dict:

@@ -21,14 +21,16 @@ from ..remap import CellGrid
 from .channels import (
     ACF_SHRINK, ACF_WEIGHT_SHAPE, HOG_CELL, HOG_CHANNELS, N_ACF_CHANNELS, N_ACF_ORIENTS, N_HOG_BINS,
 )
+from .opencv_cells import OPENCV_CHANNELS
 from .windows import CandidateWindows
 
-__all__ = ["SOURCE_DISTANCE_M", "resolve_object_model", "window_mapping", "hog_frame_remap",
-           "acf_frame_remap", "acf_gradient_rows"]
+__all__ = ["SOURCE_DISTANCE_M", "patch_cell_grid", "resolve_object_model", "window_mapping",
+           "hog_frame_remap", "cell_hog_remap", "opencv_frame_remap", "acf_frame_remap",
+           "acf_gradient_rows"]
 
 
-def _patch_cells(g) -> CellGrid:
-    """The frame cells of group ``g``'s prototype patch."""
+def patch_cell_grid(g) -> CellGrid:
+    """The frame cells of template group ``g``'s prototype patch."""
     c = g.cell_size
     return CellGrid(g.shape[1], g.shape[0], c, origin=(g.origin[0] * c - 0.5,
                                                        g.origin[1] * c - 0.5))
@@ -87,9 +89,33 @@ def hog_frame_remap(H, g, rule: str = "covariant") -> sp.csr_matrix:
     area-weighted means; ``S (x) A`` on the orientation channels, ``S`` alone on the texture
     energies (:func:`viewadapt.adapt.hog_remap_matrix`).
     """
-    return hog_remap_matrix(H, source_cell_size=HOG_CELL, target_grid=_patch_cells(g),
+    return hog_remap_matrix(H, source_cell_size=HOG_CELL, target_grid=patch_cell_grid(g),
                             n_bins=N_HOG_BINS, rule=rule, preserve="mean",
                             n_plain=HOG_CHANNELS - N_HOG_BINS)
+
+
+def cell_hog_remap(H, g, rule: str = "covariant") -> sp.csr_matrix:
+    """``G`` from a frame patch of intensive 9-bin cells (n_y, n_x, 9) to the canonical
+    window's (16, 8, 9): ``S (x) A``, area-weighted means
+    (:func:`viewadapt.adapt.hog_remap_matrix`)."""
+    return hog_remap_matrix(H, source_cell_size=HOG_CELL, target_grid=patch_cell_grid(g),
+                            n_bins=N_HOG_BINS, rule=rule, preserve="mean")
+
+
+def opencv_frame_remap(H, g, rule: str = "covariant") -> sp.csr_matrix:
+    """``G`` from a frame patch of OpenCV's block-normalised cells (n_y, n_x, 36) to the
+    canonical window's (16, 8, 36) (:mod:`viewadapt.detect.opencv_cells`): the 9-bin
+    :func:`cell_hog_remap` on each of a cell's four normalised copies alike (channel
+    ``9 q + b``)."""
+    G9 = cell_hog_remap(H, g, rule).tocoo()
+    n_bins, n_ch = N_HOG_BINS, OPENCV_CHANNELS
+    r_cell, r_bin = np.divmod(G9.row, n_bins)
+    c_cell, c_bin = np.divmod(G9.col, n_bins)
+    q = np.arange(n_ch // n_bins)[:, None]
+    rows = (r_cell * n_ch + q * n_bins + r_bin).ravel()
+    cols = (c_cell * n_ch + q * n_bins + c_bin).ravel()
+    shape = (G9.shape[0] // n_bins * n_ch, G9.shape[1] // n_bins * n_ch)
+    return sp.csr_matrix((np.tile(G9.data, len(q)), (rows, cols)), shape=shape)
 
 
 def acf_frame_remap(H, g, rule: str = "covariant") -> sp.csr_matrix:
@@ -97,7 +123,7 @@ def acf_frame_remap(H, g, rule: str = "covariant") -> sp.csr_matrix:
     channels (10, 32, 16) for the window ``H`` (a homography or a point mapping;
     :func:`viewadapt.adapt.acf_remap_matrix`)."""
     return acf_remap_matrix(H, shrink=ACF_SHRINK, n_color=N_ACF_CHANNELS - N_ACF_ORIENTS,
-                            n_orients=N_ACF_ORIENTS, rule=rule, target_grid=_patch_cells(g),
+                            n_orients=N_ACF_ORIENTS, rule=rule, target_grid=patch_cell_grid(g),
                             target_layout="channels_last")
 
 

@@ -10,14 +10,21 @@ training of the source detectors all read these specs instead of switching on na
 
 from __future__ import annotations
 
+import hashlib
+from functools import cache
+
 import numpy as np
 
-from .features import ACF_FEATURES, HOG_FEATURES
-from .linear import AdaptedLinearOperator, build_adapted_linear_operator
+from .features import ACF_FEATURES, HOG_FEATURES, OPENCV_FEATURES
+from .linear import AdaptedLinearOperator, build_adapted_linear_operator, \
+    build_adapted_opencv_operator
+from .opencv_cells import opencv_default_people_detector
+from .renorm import RENORM_CELLS_PER_SOURCE_CELL, VERIFY_THRESHOLD
 from .templates import ACF_TOLERANCE, HOG_TOLERANCE
 from .trees import AdaptedTreesOperator, build_adapted_trees_operator
 
-__all__ = ["DetectorKind", "HOG_DETECTOR", "ACF_DETECTOR", "DETECTOR_KINDS", "detector_kind"]
+__all__ = ["DetectorKind", "HOG_DETECTOR", "ACF_DETECTOR", "OPENCV_DETECTOR", "DETECTOR_KINDS",
+           "PRETRAINED_KINDS", "detector_kind"]
 
 
 class DetectorKind:
@@ -53,6 +60,10 @@ class DetectorKind:
     def build_operator(self, windows, models, **kw):
         """The adapted operator of ``windows`` (keywords of the operator's builder)."""
         raise NotImplementedError
+
+    def model_fingerprint(self, models) -> str:
+        """Hex digest of the model this kind reads (a key of the operator cache)."""
+        return models.fingerprint()
 
     def window_scores(self, models, X) -> np.ndarray:
         """(n,) source-model scores of (n, d) canonical-window features (image warping)."""
@@ -96,10 +107,49 @@ class _AcfDetector(DetectorKind):
         return self.model(models).decision_function(np.asarray(X, np.float64))
 
 
+@cache
+def _opencv_people():
+    W, b = opencv_default_people_detector()
+    W.setflags(write=False)
+    return W, b
+
+
+class _OpenCVDetector(DetectorKind):
+    """OpenCV's INRIA-trained HOG/SVM people detector (``getDefaultPeopleDetector``; Dalal &
+    Triggs 2005) over its block-normalised cells, adapted like the HOG/SVM, the windows it
+    keeps rescored with their own block normalisation
+    (:class:`~viewadapt.detect.renorm.RenormStage`): its weights come with OpenCV, not
+    from :class:`SourceDetectors`."""
+
+    name, features, tolerance = "opencv", OPENCV_FEATURES, HOG_TOLERANCE
+    operator_class = AdaptedLinearOperator
+
+    def model(self, models=None):
+        return _opencv_people()
+
+    def model_fingerprint(self, models=None) -> str:
+        W, b = self.model()
+        h = hashlib.sha256(np.ascontiguousarray(W, np.float64).tobytes())
+        h.update(np.float64(b).tobytes())
+        h.update(f"renorm {RENORM_CELLS_PER_SOURCE_CELL} {VERIFY_THRESHOLD} binned".encode())
+        return h.hexdigest()
+
+    def build_operator(self, windows, models, **kw):
+        W, b = self.model()
+        return build_adapted_opencv_operator(windows, W, b, **kw)
+
+    def window_scores(self, models, X):
+        W, b = self.model()
+        return np.asarray(X, np.float64) @ np.ravel(W) + b
+
+
 HOG_DETECTOR = _HogDetector()
 ACF_DETECTOR = _AcfDetector()
-#: the adapted full-frame detectors by name
+OPENCV_DETECTOR = _OpenCVDetector()
+#: the adapted full-frame detectors trained on the source view (:class:`SourceDetectors`)
 DETECTOR_KINDS = {k.name: k for k in (HOG_DETECTOR, ACF_DETECTOR)}
+#: the adapted full-frame detectors that come trained (on real photographs)
+PRETRAINED_KINDS = {k.name: k for k in (OPENCV_DETECTOR,)}
 
 
 def detector_kind(name) -> DetectorKind:
@@ -107,7 +157,7 @@ def detector_kind(name) -> DetectorKind:
     if isinstance(name, DetectorKind):
         return name
     try:
-        return DETECTOR_KINDS[name]
+        return (DETECTOR_KINDS | PRETRAINED_KINDS)[name]
     except (KeyError, TypeError):
-        raise ValueError(f"unknown detector {name!r}; choose from {tuple(DETECTOR_KINDS)}") \
-            from None
+        raise ValueError(f"unknown detector {name!r}; choose from "
+                         f"{tuple(DETECTOR_KINDS | PRETRAINED_KINDS)}") from None

@@ -24,17 +24,24 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..arrays import stored_array
+from ..objectmodel import PlaneModel
 from .channels import (
-    HOG_CELL, HOG_CHANNELS, HOG_WEIGHT_SHAPE, FrameFeatures, hog_frame_features,
+    HOG_CELL, HOG_CHANNELS, HOG_WEIGHT_SHAPE, N_HOG_BINS, FrameFeatures, hog_frame_features,
 )
-from .frame_remap import hog_frame_remap, resolve_object_model, window_mapping
+from .features import FEATURE_CHANNELS
+from .frame_remap import cell_hog_remap, hog_frame_remap, resolve_object_model, window_mapping
+from .opencv_cells import (
+    OPENCV_CHANNELS, OPENCV_WEIGHT_SHAPE, opencv_descriptor_weights, opencv_frame_features,
+)
+from .renorm import VERIFY_THRESHOLD, RenormStage, stage_cell_sizes
 from .templates import (
     CELLS_PER_SOURCE_CELL, FRAME_CELL_SIZES, HOG_TOLERANCE, TemplateOperator, build_template_groups,
     check_windows, choose_cell_sizes, required_padding,
 )
 from .windows import CandidateWindows
 
-__all__ = ["AdaptedLinearOperator", "build_adapted_linear_operator"]
+__all__ = ["AdaptedLinearOperator", "build_adapted_linear_operator",
+           "build_adapted_opencv_operator"]
 
 
 class AdaptedLinearOperator(TemplateOperator):
@@ -55,12 +62,17 @@ class AdaptedLinearOperator(TemplateOperator):
     """
 
     nms_overlap, nms_threshold = "union", 0.5
-    frame_feature_maker = staticmethod(hog_frame_features)
+    frame_feature_makers = (hog_frame_features, opencv_frame_features)
 
-    def __init__(self, windows, cell_size, groups, pad, bias, features):
+    def __init__(self, windows, cell_size, groups, pad, bias, features, channels=HOG_CHANNELS):
         self._setup(windows, cell_size, groups, pad)
         self.bias = float(bias)
         self.features = features
+        #: channels per frame cell (13: the project's HOG cells; 36: OpenCV's)
+        self.channels = int(channels)
+        #: the per-window normalisation stage (:class:`~viewadapt.detect.renorm.RenormStage`)
+        #: that rescores the windows of folded score >= its threshold, or None
+        self.stage = None
 
     def weights_per_window(self) -> np.ndarray:
         """(N,) number of adapted weights (template entries) of each window."""
@@ -95,12 +107,20 @@ class AdaptedLinearOperator(TemplateOperator):
         x = features.vector(self.cell_sizes)
         if x.size != r.n_features or x.dtype != np.float32:
             raise ValueError(f"features have {x.size} {x.dtype} values, the operator "
-                             f"reads {r.n_features} float32 values ({HOG_CHANNELS} "
+                             f"reads {r.n_features} float32 values ({self.channels} "
                              f"channels per cell)")
         out = np.empty(len(r.starts))
         template_run_scores(x, r.templates, r.t_offset, r.t_rows, r.t_run, r.x_stride,
                             r.starts, r.group, out)
-        return out[r.row_of] + self.bias
+        s = out[r.row_of] + self.bias
+        stage = getattr(self, "stage", None)
+        if stage is None:
+            return s
+        # the cascade: the windows the fold keeps, rescored with their own normalisation
+        cand = np.flatnonzero(s >= stage.threshold)
+        final = np.full(len(s), -np.inf)
+        final[cand] = stage.scores(cand, features.raw)
+        return final
 
     def frame_features(self, image) -> FrameFeatures:
         """The frame's feature maps this operator reads."""
@@ -162,8 +182,9 @@ class AdaptedLinearOperator(TemplateOperator):
     def _link_templates(self):
         r = self._runs
         for g, off in zip(self.groups, r.t_offset):
-            n = g.shape[0] * g.shape[1] * HOG_CHANNELS
-            g.template = r.templates[off:off + n].reshape(g.shape[0], g.shape[1], HOG_CHANNELS)
+            C = self.channels
+            n = g.shape[0] * g.shape[1] * C
+            g.template = r.templates[off:off + n].reshape(g.shape[0], g.shape[1], C)
 
     def __getstate__(self):
         # the templates are views into the run tables: pickle them once (there)
@@ -183,6 +204,10 @@ class AdaptedLinearOperator(TemplateOperator):
         r = self._runs
         meta.update(bias=float(self.bias), n_features=int(r.n_features))
         arrays.update({f"runs_{k}": getattr(r, k) for k in _RUN_ARRAYS})
+        if getattr(self, "stage", None) is not None:
+            m, a = self.stage.to_arrays()
+            meta["renorm"] = m
+            arrays.update(a)
         return meta, arrays
 
     @classmethod
@@ -196,10 +221,18 @@ class AdaptedLinearOperator(TemplateOperator):
         if isinstance(bias, bool) or not isinstance(bias, (int, float)) or not np.isfinite(bias):
             raise ValueError(f"its bias is {bias!r}")
         op.bias = float(bias)
+        op.channels = FEATURE_CHANNELS[op.features.func.__name__]
+        op.stage = None
+        if "renorm" in meta:
+            op.stage = RenormStage.from_arrays(meta["renorm"], arrays, op.snapped_homographies)
+            if len(op.stage.cell) != op.n_windows or max(op.stage.cell_sizes) > 64 \
+                    or sorted(op.features.keywords.get("raw_cell_sizes") or ()) \
+                    != op.stage.cell_sizes:
+                raise ValueError("its normalisation stage does not match its windows")
         G = len(op.groups)
         t = {k: stored_array(arrays, f"runs_{k}", kinds, ndim=1)
              for k, kinds in zip(_RUN_ARRAYS, ("f",) + ("iu",) * 7)}
-        _, dims, size, C = op.layout(HOG_CHANNELS)
+        _, dims, size, C = op.layout(op.channels)
         n_pos = len(t["starts"])
         g_shape = np.array([g.shape for g in op.groups], np.int64)
         stride = np.array([dims[g.cell_size][1] * C for g in op.groups], np.int64)
@@ -350,3 +383,63 @@ def build_adapted_linear_operator(windows: CandidateWindows, weights, bias: floa
     op._build_runs()                          # the run-time form, built once offline
     return op
 
+
+def build_adapted_opencv_operator(windows: CandidateWindows, weights, bias: float = 0.0, *,
+                                  tolerance: float = HOG_TOLERANCE,
+                                  cells_per_source_cell: float = CELLS_PER_SOURCE_CELL,
+                                  allowed_cell_sizes=FRAME_CELL_SIZES,
+                                  rule: str = "covariant",
+                                  object_model="plane", renorm: bool = True,
+                                  verify_threshold: float = VERIFY_THRESHOLD
+                                  ) -> AdaptedLinearOperator:
+    """The adapted detector of every candidate window for an OpenCV HOG/SVM (eq. (7)).
+
+    ``weights`` are the SVM's over OpenCV's block-normalised cells
+    (:func:`~viewadapt.detect.opencv_cells.opencv_cell_weights`, shape
+    :data:`~viewadapt.detect.opencv_cells.OPENCV_WEIGHT_SHAPE`); the frame's cells are
+    normalised on the frame's grid (:func:`~viewadapt.detect.opencv_cells.opencv_frame_features`)
+    and each group's template is ``G^T w`` with ``G`` the 9-bin ``S (x) A`` on each of a
+    cell's four normalised copies (:func:`~viewadapt.detect.frame_remap.opencv_frame_remap`).
+    With ``renorm`` (the paper's plane only) the windows whose folded score reaches
+    ``verify_threshold`` are rescored by :class:`~viewadapt.detect.renorm.RenormStage`
+    (raw cells remapped by each window's own ``G``, blocks normalised in the window); the
+    operator's boxes are then the windows' exact ones. The other parameters are
+    :func:`build_adapted_linear_operator`'s.
+    """
+    check_windows(windows)
+    w = np.asarray(weights, dtype=np.float64)
+    if w.size != int(np.prod(OPENCV_WEIGHT_SHAPE)) or not np.all(np.isfinite(w)):
+        raise ValueError(f"weights must be {int(np.prod(OPENCV_WEIGHT_SHAPE))} finite values "
+                         f"over {OPENCV_WEIGHT_SHAPE} cells (opencv_cell_weights), got {w.size}")
+    if not np.isfinite(tolerance) or tolerance < 0:
+        raise ValueError(f"tolerance must be >= 0 cells, got {tolerance!r}")
+    # one 9-bin weight vector per normalised copy q (channels 9 q ... 9 q + 8)
+    wq = w.reshape(OPENCV_WEIGHT_SHAPE[:2] + (OPENCV_CHANNELS // N_HOG_BINS, N_HOG_BINS))
+    wq = [wq[:, :, q].ravel() for q in range(wq.shape[2])]
+    cell = choose_cell_sizes(windows.scale, HOG_CELL, cells_per_source_cell=cells_per_source_cell,
+                             allowed=allowed_cell_sizes)
+    model = resolve_object_model(object_model)
+    groups = build_template_groups(windows, cell, tolerance)
+    for g in groups:
+        G9 = cell_hog_remap(window_mapping(windows, g.prototype, model), g, rule).T.tocsr()
+        g.template = np.concatenate(
+            [np.asarray(G9 @ v, np.float32).reshape(g.shape[0], g.shape[1], N_HOG_BINS)
+             for v in wq], axis=2)
+    pad = required_padding(groups, windows.image_size)
+    stage = None
+    if renorm and isinstance(model, PlaneModel):
+        stage = RenormStage(windows.homographies, stage_cell_sizes(windows.scale,
+                                                                   allowed_cell_sizes),
+                            opencv_descriptor_weights(w.reshape(OPENCV_WEIGHT_SHAPE)), bias,
+                            threshold=verify_threshold,
+                            rule=rule)
+    make_features = partial(opencv_frame_features, cell_sizes=sorted(set(cell.tolist())),
+                            pad=pad, image_size=tuple(windows.image_size),
+                            raw_cell_sizes=stage.cell_sizes if stage else [])
+    op = AdaptedLinearOperator(windows, cell, groups, pad, bias, make_features, OPENCV_CHANNELS)
+    op.tolerance = float(tolerance)
+    op._build_runs()
+    if stage is not None:           # the final scores are the windows' own
+        op.stage = stage
+        op.snapped_homographies = stage.homographies
+    return op

@@ -219,8 +219,8 @@ class TemplateOperator(SnappedBoxes):
     """Shared geometry of the adapted operators (see :class:`AdaptedLinearOperator`)."""
 
     source_cell: int = HOG_CELL
-    #: the frame feature function a stored operator of this class must name (checked on load)
-    frame_feature_maker = None
+    #: the frame feature functions a stored operator of this class may name (checked on load)
+    frame_feature_makers = None
 
     def _setup(self, windows, cell_size, groups, pad):
         self.image_size = tuple(windows.image_size)
@@ -319,10 +319,10 @@ class TemplateOperator(SnappedBoxes):
         if "tolerance" in meta:
             self.tolerance = float(meta["tolerance"])
         self.features = feature_maker_from_dict(meta.get("features"))
-        expected = type(self).frame_feature_maker
-        if expected is not None and self.features.func is not expected:
+        expected = type(self).frame_feature_makers
+        if expected is not None and self.features.func not in expected:
             raise ValueError(f"its feature maker is {self.features.func.__name__}, not "
-                             f"{expected.__name__}")
+                             f"{' or '.join(f.__name__ for f in expected)}")
         kw = self.features.keywords
         if kw.get("pad") != self.pad or kw.get("image_size") != self.image_size \
                 or sorted(kw.get("cell_sizes") or ()) != self.cell_sizes:

@@ -54,7 +54,7 @@ class AdaptedTreesOperator(TemplateOperator):
     """
 
     source_cell = ACF_SHRINK
-    frame_feature_maker = staticmethod(acf_frame_features)
+    frame_feature_makers = (acf_frame_features,)
 
     nms_overlap, nms_threshold = "min", 0.65
 

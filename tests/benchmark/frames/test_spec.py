@@ -13,35 +13,50 @@ from benchmark.frames.spec import (
     variant_label,
 )
 
-#: every method name of ``bench frames`` -> (kind, how, rule, object model, upsample), as the
-#: benchmark documents them (adapted: each rule and object model; the pyramids and OpenCV's
-#: detector on the 4x-upsampled frame, ``opencv_native`` on the frame as it is)
+#: every method name of ``bench frames`` -> (kind, how, rule, object model, upsample,
+#: ground-plane filter), as the benchmark documents them (adapted: each rule and object
+#: model; the pyramids and OpenCV's detector on the 4x-upsampled frame, ``opencv_2x`` on the
+#: 2x one, ``opencv_native`` on the frame as it is; each pyramid also with the filter)
 EXPECTED = {
-    "hog_adapted": ("hog", "adapted", "covariant", "plane", None),
-    "hog_adapted[S only]": ("hog", "adapted", "none", "plane", None),
-    "hog_adapted[paper eq.3]": ("hog", "adapted", "paper", "plane", None),
-    "hog_adapted[body]": ("hog", "adapted", "covariant", "body", None),
-    "hog_adapted[body, S only]": ("hog", "adapted", "none", "body", None),
-    "hog_adapted[body, paper eq.3]": ("hog", "adapted", "paper", "body", None),
-    "hog_warp": ("hog", "warp", None, None, None),
-    "hog_pyramid": ("hog", "pyramid", None, None, 4),
-    "acf_adapted": ("acf", "adapted", "covariant", "plane", None),
-    "acf_adapted[S only]": ("acf", "adapted", "none", "plane", None),
-    "acf_adapted[paper eq.3]": ("acf", "adapted", "paper", "plane", None),
-    "acf_adapted[body]": ("acf", "adapted", "covariant", "body", None),
-    "acf_adapted[body, S only]": ("acf", "adapted", "none", "body", None),
-    "acf_adapted[body, paper eq.3]": ("acf", "adapted", "paper", "body", None),
-    "acf_warp": ("acf", "warp", None, None, None),
-    "acf_pyramid": ("acf", "pyramid", None, None, 4),
-    "acf_pyramid_fast": ("acf", "pyramid_fast", None, None, 4),
-    "opencv": ("opencv", "pyramid", None, None, 4),
-    "opencv_native": ("opencv", "pyramid", None, None, 1),
+    "hog_adapted": ("hog", "adapted", "covariant", "plane", None, False),
+    "hog_adapted[S only]": ("hog", "adapted", "none", "plane", None, False),
+    "hog_adapted[paper eq.3]": ("hog", "adapted", "paper", "plane", None, False),
+    "hog_adapted[body]": ("hog", "adapted", "covariant", "body", None, False),
+    "hog_adapted[body, S only]": ("hog", "adapted", "none", "body", None, False),
+    "hog_adapted[body, paper eq.3]": ("hog", "adapted", "paper", "body", None, False),
+    "hog_warp": ("hog", "warp", None, None, None, False),
+    "hog_pyramid": ("hog", "pyramid", None, None, 4, False),
+    "acf_adapted": ("acf", "adapted", "covariant", "plane", None, False),
+    "acf_adapted[S only]": ("acf", "adapted", "none", "plane", None, False),
+    "acf_adapted[paper eq.3]": ("acf", "adapted", "paper", "plane", None, False),
+    "acf_adapted[body]": ("acf", "adapted", "covariant", "body", None, False),
+    "acf_adapted[body, S only]": ("acf", "adapted", "none", "body", None, False),
+    "acf_adapted[body, paper eq.3]": ("acf", "adapted", "paper", "body", None, False),
+    "acf_warp": ("acf", "warp", None, None, None, False),
+    "acf_pyramid": ("acf", "pyramid", None, None, 4, False),
+    "acf_pyramid_fast": ("acf", "pyramid_fast", None, None, 4, False),
+    "opencv_adapted": ("opencv", "adapted", "covariant", "plane", None, False),
+    "opencv_adapted[S only]": ("opencv", "adapted", "none", "plane", None, False),
+    "opencv_adapted[paper eq.3]": ("opencv", "adapted", "paper", "plane", None, False),
+    "opencv_adapted[body]": ("opencv", "adapted", "covariant", "body", None, False),
+    "opencv_adapted[body, S only]": ("opencv", "adapted", "none", "body", None, False),
+    "opencv_adapted[body, paper eq.3]": ("opencv", "adapted", "paper", "body", None, False),
+    "opencv_warp": ("opencv", "warp", None, None, None, False),
+    "opencv": ("opencv", "pyramid", None, None, 4, False),
+    "opencv_2x": ("opencv", "pyramid", None, None, 2, False),
+    "opencv_native": ("opencv", "pyramid", None, None, 1, False),
+    "hog_pyramid[ground]": ("hog", "pyramid", None, None, 4, True),
+    "acf_pyramid[ground]": ("acf", "pyramid", None, None, 4, True),
+    "acf_pyramid_fast[ground]": ("acf", "pyramid_fast", None, None, 4, True),
+    "opencv[ground]": ("opencv", "pyramid", None, None, 4, True),
+    "opencv_2x[ground]": ("opencv", "pyramid", None, None, 2, True),
+    "opencv_native[ground]": ("opencv", "pyramid", None, None, 1, True),
 }
 #: the methods that score the candidate windows (and so move with their ground grid)
 ON_GRID = {n for n in EXPECTED if "_adapted" in n or n.endswith("_warp")}
 #: the methods that read no trained source detector
-UNTRAINED = {"opencv", "opencv_native"}
-FIELDS = ("kind", "how", "rule", "object_model", "upsample")
+UNTRAINED = {n for n in EXPECTED if n.startswith("opencv")}
+FIELDS = ("kind", "how", "rule", "object_model", "upsample", "ground")
 
 
 @pytest.mark.parametrize("name", list(EXPECTED))
@@ -73,13 +88,14 @@ def test_defaults_fill_in_and_specs_are_frozen():
         m.rule = "paper"
     assert dataclasses.replace(m, rule="paper").name == "hog_adapted[paper eq.3]"
     assert FrameMethod.parse("acf_warp").detector.name == "acf"
-    with pytest.raises(ValueError):
-        FrameMethod.parse("opencv").detector
+    # OpenCV's detectMultiScale and its adapted detector read the same weights
+    assert FrameMethod.parse("opencv").detector is FrameMethod.parse("opencv_warp").detector
+    assert FrameMethod.parse("opencv").detector.name == "opencv"
 
 
 @pytest.mark.parametrize("name", ["nonsense", "hog_pyramid_fast", "hog_adapted[cube]",
-                                  "hog_adapted[single A]", "hog_warp[body]", "opencv_adapted",
-                                  "opencv_warp", "acf_adapted[paper eq.3, body]", "hog", "",
+                                  "hog_adapted[single A]", "hog_warp[body]", "opencv_pyramid",
+                                  "opencv_warp[body]", "acf_adapted[paper eq.3, body]", "hog", "",
                                   "HOG_ADAPTED", None])
 def test_a_bad_name_is_one_line_naming_the_choices(name):
     with pytest.raises(ValueError, match="unknown method") as err:
@@ -90,11 +106,13 @@ def test_a_bad_name_is_one_line_naming_the_choices(name):
 
 
 @pytest.mark.parametrize("fields", [
-    ("opencv", "adapted"), ("hog", "pyramid_fast"), ("hog", "slide"), ("sift", "warp"),
+    ("opencv", "pyramid_fast"), ("opencv", "adapted", None, None, 2), ("hog", "pyramid_fast"), ("hog", "slide"), ("sift", "warp"),
     ("hog", "warp", "paper"), ("hog", "warp", None, "body"), ("hog", "adapted", "literal"),
     ("hog", "adapted", None, "cube"), ("hog", "adapted", None, None, 4),
     ("hog", "warp", None, None, 4), ("hog", "pyramid", "paper"),
-    ("hog", "pyramid", None, None, 1), ("opencv", "pyramid", None, None, 2)])
+    ("hog", "pyramid", None, None, 1), ("opencv", "pyramid", None, None, 3),
+    ("hog", "adapted", None, None, None, True), ("opencv", "warp", None, None, None, True),
+    ("opencv", "pyramid", None, None, 2, "yes")])
 def test_combinations_no_method_has_are_refused(fields):
     with pytest.raises(ValueError) as err:
         FrameMethod(*fields)
@@ -156,7 +174,7 @@ def test_the_command_line_parses_methods_once(tmp_path, capsys):
 
 
 def test_expand_adapted():
-    from benchmark.frames.command import expand_adapted
+    from benchmark.frames.spec import expand_adapted
 
     ms = [FrameMethod.parse(n) for n in ("hog_adapted", "hog_warp")]
     got = expand_adapted(ms, ["covariant", "paper"], ["plane", "body"])

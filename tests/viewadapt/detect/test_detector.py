@@ -433,5 +433,6 @@ def test_detector_kinds_are_the_specs_every_part_reads(windows, frame):
                                                           kind.operator_class.nms_threshold)
         x = kind.features.window_features(frame[:128, :64])
         assert x.shape == kind.features.shape
-    with pytest.raises(ValueError, match=r"unknown detector 'sift'; choose from \('hog', 'acf'\)"):
+    with pytest.raises(ValueError, match=r"unknown detector 'sift'; choose from "
+                                         r"\('hog', 'acf', 'opencv'\)"):
         detector_kind("sift")

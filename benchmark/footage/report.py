@@ -1,0 +1,147 @@
+"""The evaluation and report of ``viewadapt bench footage``.
+
+Every method is evaluated as ``viewadapt detect --boxes`` evaluates (Caltech protocol,
+LAMR over 1e-2..1e0 FPPI, miss rates at 0.1 and 1 FPPI, 95 % intervals from a circular
+block bootstrap over consecutive frames: :func:`viewadapt.commands.detect.evaluation_summary`).
+Comparisons are paired: the LAMR difference of two methods on the same resampled blocks
+(:func:`viewadapt.detect.evaluation.paired_block_bootstrap`), against the best unadapted
+baseline (the lowest-LAMR pyramid, ground-filtered or not) and, per detector, adapted
+against image warping of the same model.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from benchmark.frames.report import WARP_MARGIN
+from benchmark.frames.spec import FrameMethod
+from viewadapt.commands.detect import evaluation_summary
+from viewadapt.detect.evaluation import evaluation_rows, paired_block_bootstrap
+
+__all__ = ["evaluate_run", "paired_differences", "best_unadapted", "footage_targets",
+           "summary_lines", "summary_rows"]
+
+
+def evaluate_run(run, image_size, *, regions=None, block: int = 10, seed: int = 0) -> dict:
+    """{method: (evaluation, curve)} of every method of a :class:`FootageRun`."""
+    return {m: evaluation_summary(d, run.truth, image_size, regions=regions, block=block,
+                                  seed=seed) for m, d in run.detections.items()}
+
+
+def best_unadapted(evaluations):
+    """The unadapted baseline (a pyramid, with or without the ground-plane filter) of
+    lowest LAMR, or None."""
+    base = [m for m in evaluations if m.how.startswith("pyramid")]
+    return min(base, key=lambda m: evaluations[m][0]["lamr"]) if base else None
+
+
+def paired_differences(run, image_size, evaluations, *, regions=None, block: int = 10,
+                       seed: int = 0) -> list:
+    """``(method, reference, result)`` of :func:`paired_block_bootstrap`: every other
+    method against the best unadapted baseline, and each adapted detector against image
+    warping of the same model."""
+    gt = [(t.boxes, t.occlusion, image_size, t.ignore) for t in run.truth]
+    rows = {}
+
+    def dts(m):
+        if m not in rows:
+            rows[m], gts = evaluation_rows(run.detections[m], gt, regions=regions)
+            rows.setdefault("gts", gts)
+        return rows[m]
+
+    pairs = []
+    ref = best_unadapted(evaluations)
+    if ref is not None:
+        pairs += [(m, ref) for m in run.detections if m != ref]
+    for m in run.detections:
+        warp = FrameMethod(m.kind, "warp") if m.how == "adapted" else None
+        if warp in run.detections:
+            pairs.append((m, warp))
+    out = []
+    for m, r in pairs:
+        a, b = dts(m), dts(r)
+        out.append((m, r, paired_block_bootstrap(a, b, rows["gts"], block=block, seed=seed)))
+    return out
+
+
+def _fps(run, m) -> float:
+    return run.n_frames / run.seconds[m] if run.seconds[m] > 0 else float("inf")
+
+
+def footage_targets(run, evaluations, differences) -> list:
+    """Markdown lines judging the real-footage targets on this run: adapted OpenCV below
+    OpenCV's best ``detectMultiScale`` with the ground-plane filter at no fewer frames per
+    second than OpenCV at 2x; each adapted detector within :data:`WARP_MARGIN` of image
+    warping, its interval's upper end included."""
+    out = []
+    ad = FrameMethod("opencv", "adapted")
+    grounded = [m for m in evaluations if m.kind == "opencv" and m.how == "pyramid"
+                and m.ground]
+    if ad in evaluations and grounded:
+        best = min(grounded, key=lambda m: evaluations[m][0]["lamr"])
+        a, b = evaluations[ad][0]["lamr"], evaluations[best][0]["lamr"]
+        out.append(f"- {ad.name} LAMR {a:.3f} below {best.name}'s {b:.3f}: "
+                   f"{'met' if a < b else 'NOT met'}")
+        two = FrameMethod("opencv", "pyramid", upsample=2)
+        if two in run.seconds:
+            fa, fb = _fps(run, ad), _fps(run, two)
+            out.append(f"- {ad.name} at {fa:.1f} frames/s, no fewer than {two.name}'s "
+                       f"{fb:.1f}: {'met' if fa >= fb else 'NOT met'}")
+    for m, r, d in differences:
+        if r.how == "warp" and m.how == "adapted":
+            hi = d["ci"][1]
+            ok = hi is not None and hi <= WARP_MARGIN
+            out.append(f"- {m.name} - {r.name} = {d['difference']:+.3f} LAMR (95% "
+                       f"{_interval(d['ci'])}), upper end within +{WARP_MARGIN:g}: "
+                       f"{'met' if ok else 'NOT met'}")
+    return ["", "## Targets", "", *out] if out else []
+
+
+def _interval(ci) -> str:
+    lo, hi = ci
+    return "-" if lo is None else f"{lo:+.3f}..{hi:+.3f}"
+
+
+def summary_rows(run, evaluations, differences) -> list:
+    """One dict per method: the table's numbers (for the csv)."""
+    ref = {m: d for m, r, d in differences if r.how.startswith("pyramid")}
+    refname = next((r.name for m, r, d in differences if r.how.startswith("pyramid")), "")
+    out = []
+    for m, (ev, _) in evaluations.items():
+        d = ref.get(m)
+        out.append(dict(method=m.name, lamr=ev["lamr"], lamr_ci_low=ev["lamr_ci95"][0],
+                        lamr_ci_high=ev["lamr_ci95"][1],
+                        miss_rate_at_0_1_fppi=ev["miss_rate_at_0.1_fppi"],
+                        miss_rate_at_1_fppi=ev["miss_rate_at_1_fppi"],
+                        reference=refname if d else "",
+                        difference=d["difference"] if d else np.nan,
+                        difference_ci_low=d["ci"][0] if d else np.nan,
+                        difference_ci_high=d["ci"][1] if d else np.nan,
+                        frames_per_second=_fps(run, m),
+                        prepare_seconds=run.prepare_seconds[m], n_frames=run.n_frames,
+                        n_gt=ev["n_gt"], n_gt_ignored=ev["n_gt_ignored"]))
+    return out
+
+
+def summary_lines(run, evaluations, differences) -> list:
+    """The markdown report: the table, the adapted-vs-warping lines and the targets."""
+    rows = summary_rows(run, evaluations, differences)
+    ref = next((r["reference"] for r in rows if r["reference"]), None)
+    lines = [f"| method | LAMR (95% interval) | MR @ 0.1 FPPI | MR @ 1 FPPI | "
+             f"- {ref or 'best unadapted'} (paired 95%) | frames/s |",
+             "|---|---|---|---|---|---|"]
+    for r in rows:
+        lo, hi = r["lamr_ci_low"], r["lamr_ci_high"]
+        ci = "" if lo is None else f" ({lo:.3f}..{hi:.3f})"
+        diff = "-" if not r["reference"] else (
+            f"{r['difference']:+.3f} ({_interval((r['difference_ci_low'], r['difference_ci_high']))})")
+        lines.append(f"| {r['method']} | {r['lamr']:.3f}{ci} | "
+                     f"{r['miss_rate_at_0_1_fppi']:.3f} | {r['miss_rate_at_1_fppi']:.3f} | "
+                     f"{diff} | {r['frames_per_second']:.2f} |")
+    warp = [(m, r, d) for m, r, d in differences if r.how == "warp"]
+    if warp:
+        lines += ["", "Adapted against image warping of the same model (paired block "
+                      "bootstrap):", ""]
+        lines += [f"- {m.name} - {r.name}: {d['difference']:+.3f} "
+                  f"(95% {_interval(d['ci'])})" for m, r, d in warp]
+    return lines + footage_targets(run, evaluations, differences)

@@ -1,0 +1,193 @@
+"""A user's clip and every method on it (``viewadapt bench footage``).
+
+:func:`open_clip` reads what a user has -- frames (a folder, a video, files), a calibration
+(the project's, PETS/Tsai XML, OpenCV FileStorage), ground truth (MOTChallenge, CAVIAR,
+COCO, CSV) and ignore regions -- with the readers ``viewadapt detect`` uses, and decides how
+the lens is handled as ``detect`` does (:func:`viewadapt.commands.detect.lens_correction`):
+the candidate windows mapped through the lens, or every frame undistorted and the boxes
+mapped back. :func:`run_footage` runs the methods of :mod:`benchmark.frames.spec` frame by
+frame in one process and times each; every box it returns is in the input's pixels.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from benchmark.frames.methods import FrameMethods
+from benchmark.frames.spec import FrameMethod
+from viewadapt.camera.distortion import Undistortion
+from viewadapt.commands.detect import boxes_in_input_pixels, lens_correction
+from viewadapt.io import FrameBoxes, open_frames, read_boxes, read_ignore_regions
+from viewadapt.io.calibration import read_calibration_file
+
+__all__ = ["FOOTAGE_METHODS", "Clip", "open_clip", "FootageRun", "run_footage"]
+
+#: The methods ``bench footage`` runs by default, in its order: OpenCV's own
+#: ``detectMultiScale`` at 1x, 2x and 4x without and with the ground-plane filter (the
+#: baseline that isolates what adaptation adds to the calibration), our unadapted pyramids,
+#: the adapted detectors, and image warping of each adapted model.
+FOOTAGE_METHODS = tuple(FrameMethod.parse(n) for n in (
+    "opencv_native", "opencv_2x", "opencv", "opencv_native[ground]", "opencv_2x[ground]",
+    "opencv[ground]", "hog_pyramid", "acf_pyramid_fast", "hog_adapted", "acf_adapted",
+    "opencv_adapted", "hog_warp", "acf_warp", "opencv_warp"))
+
+
+@dataclass
+class Clip:
+    """A calibrated, annotated clip as :func:`open_clip` read it.
+
+    Attributes
+    ----------
+    camera : Camera
+    dist : (D,) ndarray or None
+        The lens (OpenCV coefficients of ``camera.K``).
+    correction : {None, "windows", "undistort"}
+        How the lens is handled (:func:`viewadapt.commands.detect.lens_correction`).
+    stream : FrameStream
+    truth : dict
+        :func:`viewadapt.io.read_boxes`' ground truth, by image name or frame index.
+    regions : list or None
+        Ignore polygons.
+    imported : ImportedCalibration or None
+    """
+
+    camera: object
+    dist: object
+    correction: str | None
+    stream: object
+    truth: dict
+    regions: list | None
+    imported: object = None
+
+    def truth_of(self, frame) -> FrameBoxes:
+        """The ground truth of one frame (empty for a frame the file does not list)."""
+        key = frame.source if self.stream.paths is not None else frame.index
+        return self.truth.get(key, FrameBoxes.empty())
+
+
+def open_clip(inputs, calibration, boxes, ignore=None, *, lens: str = "auto",
+              object_models=("plane",), start: int = 0, every: int = 1,
+              max_frames: int | None = None) -> Clip:
+    """Read a clip: frames, calibration, ground truth and ignore regions.
+
+    ``lens`` is ``detect``'s ``--lens`` (``auto``: windows through the lens for the
+    paper's plane, the frames undistorted when any method uses another object model --
+    every method then reads the same undistorted frames).
+    """
+    cal = read_calibration_file(calibration)
+    model = "plane" if all(m == "plane" for m in object_models) else "body"
+    correction = lens_correction(cal.dist, lens, model)
+    if correction == "windows" and model != "plane":
+        raise ValueError("--lens windows needs the plane object model for every method "
+                         "(the body model's windows are not mapped through a lens); use "
+                         "--lens undistort")
+    stream = open_frames(inputs, start=start, every=every, max_frames=max_frames)
+    truth = read_boxes(boxes, stream.paths,
+                       n_frames=stream.n_total if stream.paths is None else None)
+    regions = None if ignore is None else read_ignore_regions(ignore)
+    return Clip(cal.camera, cal.dist, correction, stream, truth, regions, cal.imported)
+
+
+class FootageRun:
+    """What :func:`run_footage` measured.
+
+    Attributes
+    ----------
+    detections : dict FrameMethod -> list of (D, 5) ndarray
+        Per frame, ``(x, y, w, h, score)`` in the input's pixels.
+    seconds : dict FrameMethod -> float
+        Seconds detecting (summed over frames, one process; a ground-filtered pyramid's
+        include its unfiltered pyramid's).
+    prepare_seconds : dict FrameMethod -> float
+        The offline step (building or loading the adapted operators).
+    truth : list of FrameBoxes
+    keys : list
+        Each frame's image name (images) or index (a video).
+    n_windows : int
+    undistort_seconds : float
+        Undistorting the frames (``correction == "undistort"``), not in ``seconds``.
+    """
+
+    def __init__(self, methods):
+        self.detections = {m: [] for m in methods}
+        self.seconds = {m: 0.0 for m in methods}
+        self.prepare_seconds = {m: 0.0 for m in methods}
+        self.truth = []
+        self.keys = []
+        self.n_windows = 0
+        self.undistort_seconds = 0.0
+
+    @property
+    def n_frames(self) -> int:
+        return len(self.truth)
+
+
+def run_footage(clip: Clip, methods, models, *, heights, cache_dir=None, cache_limit_gb=None,
+                tolerance=None, progress=None) -> FootageRun:
+    """Every method on every frame of the clip, in one process, each timed.
+
+    A ground-filtered pyramid reuses its unfiltered pyramid's boxes of the same frame when
+    that runs too (its seconds are the pyramid's plus the filter's).
+
+    Parameters
+    ----------
+    clip : Clip
+    methods : sequence of FrameMethod
+    models : SourceDetectors or None
+        Our source detectors (None when no method needs them).
+    heights : sequence of float
+        Assumed person heights, metres.
+    cache_dir, cache_limit_gb, tolerance
+        :class:`viewadapt.detect.FrameDetector`'s (tolerance None: its default).
+    progress : callable or None
+        Called once per frame.
+    """
+    cam = clip.camera
+    kw = dict(person_heights=heights, cache_dir=cache_dir, cache_limit_gb=cache_limit_gb)
+    if tolerance is not None:
+        kw["tolerance"] = tolerance
+    if clip.correction == "windows":
+        kw["lens"] = np.asarray(clip.dist).tolist()
+    undistort = Undistortion(cam.K, clip.dist, cam.image_size) \
+        if clip.correction == "undistort" else None
+    fm = FrameMethods(cam, models, **kw)
+    out = FootageRun(methods)
+    out.n_windows = len(fm.windows)
+    for m in methods:
+        t = time.perf_counter()
+        fm.prepare(m)
+        out.prepare_seconds[m] = time.perf_counter() - t
+    for frame in clip.stream:
+        if (frame.image.shape[1], frame.image.shape[0]) != tuple(cam.image_size):
+            raise ValueError(f"frame {frame.source} is {frame.image.shape[1]}x"
+                             f"{frame.image.shape[0]} px, the calibration is for "
+                             f"{cam.image_size[0]}x{cam.image_size[1]}")
+        image = frame.image
+        if undistort is not None:
+            t = time.perf_counter()
+            image = undistort(image)
+            out.undistort_seconds += time.perf_counter() - t
+        raw = {}
+        for m in methods:
+            t = time.perf_counter()
+            base = replace(m, ground=False) if m.ground else None
+            if base in raw:
+                dets = fm.on_ground(raw[base][0])
+                extra = raw[base][1]
+            else:
+                dets = fm.detect(m, image)
+                extra = 0.0
+            seconds = time.perf_counter() - t
+            raw[m] = (dets, seconds)
+            out.seconds[m] += seconds + extra
+            if undistort is not None:
+                dets = boxes_in_input_pixels(dets, cam.K, clip.dist)
+            out.detections[m].append(np.asarray(dets, np.float64).reshape(-1, 5))
+        out.truth.append(clip.truth_of(frame))
+        out.keys.append(frame.source if clip.stream.paths is not None else frame.index)
+        if progress is not None:
+            progress()
+    return out

@@ -1,0 +1,193 @@
+"""``viewadapt bench footage``: every method on a calibrated, annotated clip -- the
+ground-plane filter, paired block-bootstrap differences, and the command on toy frames in
+MOTChallenge layout (no Blender, no ../shared)."""
+
+import json
+import shutil
+from types import SimpleNamespace
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from benchmark.data import load_dataset
+from benchmark.frames.methods import ground_plane_filter, load_frames, train_source_detectors
+from viewadapt.camera.distortion import Undistortion, distort_points
+from viewadapt.cli import main
+from viewadapt.detect.evaluation import paired_block_bootstrap
+from viewadapt.geometry import camera_from_pose
+from tests.toy_frames import small_toy_frames
+
+N_FRAMES = 4
+DIST = [-0.2, 0.0, 0.0, 0.0, 0.0]
+
+
+@pytest.fixture(scope="module")
+def camera():
+    return camera_from_pose(focal=400.0, principal_point=(319.5, 239.5), height=6.0,
+                            tilt=np.radians(20), image_size=(640, 480))
+
+
+def _person_box(camera, ground, height, scale=1.0, lens=None):
+    """The box of a person of ``height`` m standing at ``ground`` (its height times
+    ``scale``), through the lens if given."""
+    feet = camera.project(np.array([[*ground, 0.0]]))
+    head = camera.project(np.array([[*ground, height]]))
+    if lens is not None:
+        feet, head = (distort_points(p, camera.K, lens) for p in (feet, head))
+    h = (feet[0, 1] - head[0, 1]) * scale
+    w = 0.41 * h
+    return [feet[0, 0] - w / 2, feet[0, 1] - h, w, h, 1.0]
+
+
+@pytest.mark.parametrize("lens", [None, DIST])
+def test_ground_plane_filter_keeps_the_assumed_heights(camera, lens):
+    und = None if lens is None else Undistortion(camera.K, lens, camera.image_size)
+    at = [(12.0, 1.0), (20.0, -3.0), (9.0, 2.5)]
+    boxes = np.array([_person_box(camera, g, 1.75, s, lens) for g in at
+                      for s in (1.0, 0.85, 1.15, 1.4, 0.7)])
+    kept = ground_plane_filter(boxes, camera, heights=[1.75], undistortion=und)
+    want = np.array([s in (1.0, 0.85, 1.15) for g in at for s in (1.0, 0.85, 1.15, 1.4, 0.7)])
+    np.testing.assert_array_equal(kept, boxes[want])
+    # a second assumed height keeps the boxes of a person of that height
+    tall = np.array([_person_box(camera, g, 2.3, 1.0, lens) for g in at])
+    assert len(ground_plane_filter(tall, camera, heights=[1.75], undistortion=und)) == 0
+    assert len(ground_plane_filter(tall, camera, heights=[1.75, 2.3], undistortion=und)) == 3
+
+
+def test_ground_plane_filter_drops_feet_above_the_horizon(camera):
+    sky = np.array([[300.0, -200.0, 20.0, 50.0, 1.0], [300.0, 5.0, 20.0, 50.0, 1.0]])
+    assert len(ground_plane_filter(sky, camera, heights=[1.75])) == 0
+    assert ground_plane_filter(np.zeros((0, 5)), camera, heights=[1.75]).shape == (0, 5)
+
+
+def _clip(rng, n_frames, hit_rate):
+    gts, dts = [], []
+    for _ in range(n_frames):
+        g = np.c_[rng.uniform(0, 300, (3, 2)), np.full((3, 2), [20.0, 50.0]), np.zeros((3, 1))]
+        hit = g[rng.random(3) < hit_rate, :4]
+        fp = np.c_[rng.uniform(400, 600, (2, 2)), np.full((2, 2), [20.0, 50.0])]
+        d = np.r_[hit, fp]
+        dts.append(np.c_[d, np.r_[np.full(len(hit), 0.9), rng.uniform(0, 1, 2)]])
+        gts.append(g)
+    return dts, gts
+
+
+def test_paired_block_bootstrap_of_a_method_against_itself_and_a_better_one():
+    rng = np.random.default_rng(0)
+    dts, gts = _clip(rng, 60, 0.5)
+    same = paired_block_bootstrap(dts, dts, gts, block=5, draws=200, seed=1)
+    assert same["difference"] == 0 and same["ci"] == [0.0, 0.0] and same["draws_used"] == 200
+    better = [np.r_[d, np.c_[g[:, :4], np.full(len(g), 0.95)]] for d, g in zip(dts, gts)]
+    d = paired_block_bootstrap(better, dts, gts, block=5, draws=200, seed=1)
+    assert d["difference"] < 0 and d["ci"][0] <= d["difference"] <= d["ci"][1] < 0
+    assert d == paired_block_bootstrap(better, dts, gts, block=5, draws=200, seed=1)
+    with pytest.raises(ValueError, match="detections on the 60 frames"):
+        paired_block_bootstrap(dts[:-1], dts, gts)
+
+
+@pytest.fixture(scope="module")
+def toy(tmp_path_factory):
+    """Toy frames as MOTChallenge's img1/000001.png..., their gt.txt, a calibration with a
+    weak lens (the windows go through it), ignore regions and a quick model."""
+    root = tmp_path_factory.mktemp("footage")
+    data = small_toy_frames(root / "data", frames_per_scene=N_FRAMES)
+    frames = sorted(load_frames(data), key=lambda f: int(f.path.stem.split("_")[1]))
+    train_source_detectors(load_dataset(data), quick=True, frame_view="none").save(
+        root / "model.npz")
+    cam = frames[0].camera
+    img1 = root / "mot" / "img1"
+    img1.mkdir(parents=True)
+    lines = []
+    for k, f in enumerate(frames, 1):
+        shutil.copy(f.path, img1 / f"{k:06d}.png")
+        lines += [f"{k},{j + 1},{x},{y},{w},{h},1,-1,-1,-1"
+                  for j, (x, y, w, h) in enumerate(f.gt)]
+    gt = root / "mot" / "gt.txt"
+    gt.write_text("\n".join(lines) + "\n")
+    calibration = root / "cam.json"
+    calibration.write_text(json.dumps({"image_size": list(cam.image_size), "K": cam.K.tolist(),
+                                       "R": cam.R.tolist(), "t": cam.t.tolist(),
+                                       "dist": [-0.02, 0.0, 0.0, 0.0, 0.0]}))
+    regions = root / "ignore.json"
+    regions.write_text(json.dumps({"polygons": [[[-1, -1], [20, -1], [20, 145], [-1, 145]]]}))
+    return SimpleNamespace(root=root, frames=frames, img1=img1, gt=gt, calibration=calibration,
+                           regions=regions, model=root / "model.npz", cache=root / "cache")
+
+
+METHODS = ["opencv_native", "opencv_native[ground]", "hog_adapted", "hog_warp",
+           "opencv_adapted"]
+
+
+def _footage(toy, out, *argv):
+    return main(["bench", "footage", str(toy.img1), "--calibration", str(toy.calibration),
+                 "--boxes", str(toy.gt), "--model", str(toy.model), "--cache", str(toy.cache),
+                 "--quiet", "--out", str(out), *[str(a) for a in argv]])
+
+
+def test_every_method_on_the_clip(toy, tmp_path, capsys):
+    out = tmp_path / "run"
+    assert _footage(toy, out, "--ignore", toy.regions, "--methods", *METHODS,
+                    "--bootstrap-block", "2") == 0
+    printed = capsys.readouterr().out
+    table = pd.read_csv(out / "footage_summary.csv")
+    assert list(table["method"]) == METHODS
+    assert (table["n_frames"] == N_FRAMES).all() and (table["frames_per_second"] > 0).all()
+    assert ((table["lamr"] >= 0) & (table["lamr"] <= 1)).all()
+    n_gt = sum(len(f.gt) for f in toy.frames)
+    assert (table["n_gt"] + table["n_gt_ignored"] <= n_gt).all()
+    # every method against the best unadapted baseline, and adapted against warping
+    pairs = json.loads((out / "paired_differences.json").read_text())
+    ref = table[table["method"].str.startswith("opencv_native")].sort_values("lamr").iloc[0]
+    assert {(p["method"], p["reference"]) for p in pairs} == {
+        (m, ref["method"]) for m in METHODS if m != ref["method"]} | {
+        ("hog_adapted", "hog_warp")}
+    for p in pairs:
+        lo, hi = p["ci"]
+        assert lo is None or lo <= hi
+    ev = json.loads((out / "evaluations.json").read_text())
+    for m in METHODS:
+        assert ev[m]["lamr"] == pytest.approx(float(table.set_index("method").loc[m, "lamr"]),
+                                              abs=1e-5)
+    dets = json.loads((out / "detections.json").read_text())
+    assert set(dets) == set(METHODS)
+    assert set(dets["hog_adapted"]) == {f"{k:06d}.png" for k in range(1, N_FRAMES + 1)}
+    # the ground-filtered pyramid keeps a subset of the pyramid's boxes
+    for k, boxes in dets["opencv_native[ground]"].items():
+        assert all(b in dets["opencv_native"][k] for b in boxes)
+    run = json.loads((out / "run.json").read_text())
+    assert run["lens_correction"] == "windows" and run["methods"] == METHODS
+    assert run["n_frames"] == N_FRAMES and set(run["seconds_per_method"]) == set(METHODS)
+    assert (out / "det_footage.png").is_file() and "hog_adapted - hog_warp" in printed
+    first = (out / "footage_summary.md").read_text().splitlines()[0]
+    assert first.startswith("# ") and f"img1: {N_FRAMES} frames, {int(table['n_gt'][0])} " \
+        "persons counted" in first
+
+
+def test_undistorted_frames_for_the_body_model(toy, tmp_path):
+    out = tmp_path / "body"
+    assert _footage(toy, out, "--methods", "opencv_native", "hog_adapted[body]",
+                    "--max-frames", "2") == 0
+    assert json.loads((out / "run.json").read_text())["lens_correction"] == "undistort"
+    rc = _footage(toy, tmp_path / "refused", "--methods", "hog_adapted[body]", "--lens",
+                  "windows")
+    assert rc == 2
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["--methods", "opencv_native", "--jobs", "2"], "--jobs must be 1"),
+    (["--methods", "opencv_native", "--bootstrap-block", "0"],
+     "--bootstrap-block must be at least 1"),
+    (["--methods", "opencv_native", "--every", "0"], "--every must be at least 1"),
+])
+def test_bad_input_is_one_line(toy, tmp_path, capfd, argv, message):
+    assert _footage(toy, tmp_path / "bad", *argv) == 2
+    err = capfd.readouterr().err.strip()
+    assert message in err and len(err.splitlines()) == 1
+    assert not (tmp_path / "bad").exists()
+
+
+def test_an_unknown_method_is_refused_by_the_parser(toy, tmp_path, capfd):
+    with pytest.raises(SystemExit) as exc:
+        _footage(toy, tmp_path / "bad", "--methods", "sift_adapted")
+    assert exc.value.code == 2 and "unknown method 'sift_adapted'" in capfd.readouterr().err

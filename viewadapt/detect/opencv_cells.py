@@ -1,0 +1,233 @@
+"""OpenCV's HOG/SVM people detectors (Dalal & Triggs 2005) over block-normalised cells.
+
+A linear SVM over ``cv2.HOGDescriptor``'s descriptor (2x2-cell blocks at a one-cell
+stride, L2-Hys normalised) is rewritten exactly as a linear model over *block-normalised
+cells*: every cell carries the four normalised copies of its histogram, one per block
+that contains it (36 channels: the cell's place in the block, OpenCV's order
+``2 cell_x + cell_y``, times 9 bins), and the weight of a copy is the SVM's weight of that
+block entry (:func:`opencv_cell_weights`). The frame's blocks lie on the frame's own cell
+grid and are computed as OpenCV computes them -- square-root gamma, each pixel's
+magnitude split between two orientation bins, a Gaussian block window (sigma = block / 4)
+and bilinear spatial interpolation into the block's four cells, L2-Hys -- at each frame
+cell size the operator reads (:func:`opencv_frame_features`). On a window that lies on
+the grid at 8-px cells the model's score is OpenCV's own; the adapted operator
+(:func:`~viewadapt.detect.linear.build_adapted_opencv_operator`) reads the frame's
+normalised cells through ``G = S (x) A`` (Wang et al. 2017, eq. (7)) applied to each of
+the four copies alike (:func:`~viewadapt.detect.frame_remap.opencv_frame_remap`): the
+block normalisation is done in the target view, on the frame's grid, and ``G`` folds
+into the weights.
+
+References
+----------
+.. [1] N. Dalal, B. Triggs, "Histograms of Oriented Gradients for Human Detection", CVPR 2005.
+.. [2] P. Wang, K. Morton, P. Torrione, L. Collins, "Viewpoint Adaptation for Rigid Object
+   Detection", arXiv preprint, 2017.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .._validation import check_image
+from ..geometry import WINDOW_HEIGHT, WINDOW_WIDTH
+from .channels import HOG_CELL, N_HOG_BINS, FrameFeatures, check_frame, gradient_polar
+
+__all__ = ["OPENCV_CHANNELS", "OPENCV_WEIGHT_SHAPE", "OPENCV_L2HYS_CLIP", "opencv_cell_weights",
+           "opencv_descriptor_weights", "opencv_default_people_detector", "opencv_gradients",
+           "block_axis_weights", "opencv_block_cells", "raw_cell_maps", "opencv_window_features",
+           "OpenCVFrameFeatures",
+           "opencv_frame_features"]
+
+#: Channels per cell: the cell's histogram normalised in each of the 4 blocks containing it.
+OPENCV_CHANNELS = 4 * N_HOG_BINS
+#: Shape of an OpenCV 64x128 detector rewritten over cells (:func:`opencv_cell_weights`).
+OPENCV_WEIGHT_SHAPE = (WINDOW_HEIGHT // HOG_CELL, WINDOW_WIDTH // HOG_CELL, OPENCV_CHANNELS)
+#: OpenCV's L2-Hys clipping threshold (``HOGDescriptor::L2HysThreshold``).
+OPENCV_L2HYS_CLIP = 0.2
+
+
+def opencv_cell_weights(weights, *, window=(WINDOW_WIDTH, WINDOW_HEIGHT),
+                        cell: int = HOG_CELL) -> np.ndarray:
+    """A linear SVM over ``cv2.HOGDescriptor``'s descriptor as weights over normalised cells.
+
+    Parameters
+    ----------
+    weights : (D,) array_like
+        The descriptor's weights, OpenCV's layout (blocks x outer, y inner; in a block the
+        cells x outer, y inner; then the bins), ``D = (nx - 1) (ny - 1) 36`` -- without the
+        bias. 16-px blocks at an 8-px stride of 8-px cells.
+    window : (width, height)
+
+    Returns
+    -------
+    (ny, nx, 36) float64 ndarray ``W`` with ``W[y, x, 9 (2 qx + qy) + b]`` the weight of
+    cell ``(x, y)``'s copy normalised in the block whose cell ``(qx, qy)`` it is: so that
+    ``(W * opencv_window_features(window)).sum()`` is the SVM's ``w . descriptor``.
+    """
+    nx, ny = int(window[0]) // cell, int(window[1]) // cell
+    w = np.asarray(weights, np.float64).ravel()
+    n = (nx - 1) * (ny - 1) * OPENCV_CHANNELS
+    if w.size != n or not np.all(np.isfinite(w)):
+        raise ValueError(f"a {window[0]}x{window[1]} HOG detector has {n} finite weights "
+                         f"(without its bias), got {w.size}")
+    blocks = w.reshape(nx - 1, ny - 1, 2, 2, N_HOG_BINS)         # [bx, by, qx, qy, bin]
+    W = np.zeros((ny, nx, 2, 2, N_HOG_BINS))                      # [y, x, qx, qy, bin]
+    for qx in range(2):
+        for qy in range(2):
+            W[qy:qy + ny - 1, qx:qx + nx - 1, qx, qy] = blocks[:, :, qx, qy].transpose(1, 0, 2)
+    return W.reshape(ny, nx, OPENCV_CHANNELS)
+
+
+def opencv_descriptor_weights(W) -> np.ndarray:
+    """The inverse of :func:`opencv_cell_weights`: (ny, nx, 36) cell weights -> the SVM's
+    ``(nx - 1) (ny - 1) 36`` weights in OpenCV's descriptor layout."""
+    W = np.asarray(W, np.float64)
+    ny, nx = W.shape[:2]
+    C = W.reshape(ny, nx, 2, 2, N_HOG_BINS)                       # [y, x, qx, qy, bin]
+    out = np.empty((nx - 1, ny - 1, 2, 2, N_HOG_BINS))
+    for qx in range(2):
+        for qy in range(2):
+            out[:, :, qx, qy] = C[qy:qy + ny - 1, qx:qx + nx - 1, qx, qy].transpose(1, 0, 2)
+    return out.ravel()
+
+
+def opencv_default_people_detector() -> tuple[np.ndarray, float]:
+    """OpenCV's INRIA-trained people detector (``getDefaultPeopleDetector``) over cells:
+    ``(W, b)``, ``W`` of :data:`OPENCV_WEIGHT_SHAPE` (:func:`opencv_cell_weights`)."""
+    import cv2
+
+    v = np.asarray(cv2.HOGDescriptor_getDefaultPeopleDetector(), np.float64).ravel()
+    return opencv_cell_weights(v[:-1]), float(v[-1])
+
+
+def block_axis_weights(c: int) -> np.ndarray:
+    """(2c, 2) per-pixel weight along one axis of a 2c-px block for its two cells: OpenCV's
+    Gaussian block window (sigma = block / 4, centred at ``block / 2``) times the bilinear
+    tent of each cell (centres at ``c / 2`` and ``3 c / 2``)."""
+    b = 2 * c
+    i = np.arange(b)
+    sigma = b / 4.0
+    gauss = np.exp(-((i - b / 2.0) ** 2) / (2 * sigma * sigma))
+    coord = (i + 0.5) / c - 0.5
+    tent = np.maximum(0.0, 1.0 - np.abs(coord[:, None] - np.arange(2)[None, :]))
+    return gauss[:, None] * tent
+
+
+def opencv_gradients(image) -> tuple[np.ndarray, np.ndarray]:
+    """``cv2.HOGDescriptor``'s gradients of an image: square-root gamma, central
+    differences (reflect-101 borders), the colour channel of largest magnitude; returns
+    the (M, N) float32 magnitude and bin coordinate ``t`` in ``[0, 9)`` (the magnitude goes
+    ``1 - frac(t)`` to bin ``floor(t)``, centred at ``(b + 1/2) pi / 9``, and ``frac(t)``
+    to the next, as :func:`~viewadapt.detect.channels.fast_orientation_channels` splits
+    it)."""
+    import cv2
+
+    img = cv2.sqrt(check_image(image).astype(np.float32))
+    mag, ang = gradient_polar(img)
+    t = cv2.subtract(cv2.multiply(ang, N_HOG_BINS / np.pi), 0.5)      # in [-0.5, 18)
+    for _ in range(2):                                                 # t mod 9
+        cv2.add(t, float(N_HOG_BINS), t, mask=cv2.compare(t, 0.0, cv2.CMP_LT))
+        cv2.subtract(t, float(N_HOG_BINS), t, mask=cv2.compare(t, float(N_HOG_BINS),
+                                                               cv2.CMP_GE))
+    return mag, t
+
+
+def opencv_block_cells(gradients, c: int, *, out=None) -> np.ndarray:
+    """Block-normalised cells of size ``c`` from :func:`opencv_gradients`.
+
+    Every 2x2-cell block of the image's ``c``-px cell grid (one-cell stride) is
+    accumulated as ``cv2.HOGDescriptor`` does (Gaussian window, bilinear interpolation
+    into its cells) and L2-Hys normalised with OpenCV's floor ``0.1 * 36`` scaled by the
+    cell area against 8-px cells (:func:`viewadapt._opencv_kernels.opencv_block_cells`);
+    each cell then carries its copy from each block that contains it.
+
+    Parameters
+    ----------
+    gradients : ((M, N), (M, N)) float32 ndarrays
+        Magnitude and bin coordinate (:func:`opencv_gradients`).
+    c : int
+    out : (M // c, N // c, 36) float32 ndarray, optional
+        Written in place (copies of blocks that do not exist are 0); returned.
+
+    Returns
+    -------
+    (M // c, N // c, 36) float32 ndarray, channel ``9 (2 qx + qy) + b``.
+    """
+    from .._opencv_kernels import opencv_block_cells as kernel
+
+    mag, t = gradients
+    ny, nx = mag.shape[0] // c, mag.shape[1] // c
+    if out is None:
+        out = np.zeros((ny, nx, OPENCV_CHANNELS), np.float32)
+    kernel(mag, t, int(c), block_axis_weights(c).astype(np.float32),
+           np.float32(0.1 * OPENCV_CHANNELS * (c / HOG_CELL) ** 2), np.float32(OPENCV_L2HYS_CLIP),
+           out)
+    return out
+
+
+def opencv_window_features(window) -> np.ndarray:
+    """(16, 8, 36) normalised cells of a canonical 128x64 window: ``cv2.HOGDescriptor``'s
+    descriptor of the window rearranged by cell (:func:`opencv_cell_weights`' layout)."""
+    return opencv_block_cells(opencv_gradients(check_frame(window)), HOG_CELL)
+
+
+def raw_cell_maps(gradients, cell_sizes) -> tuple[dict, np.ndarray, np.ndarray]:
+    """Raw 9-bin cell sums of :func:`~viewadapt.detect.opencv_cells.opencv_gradients` at
+    each cell size, hard spatial binning: ``(maps, flat, offsets)`` with ``maps[c]`` a
+    (M // c, N // c, 9) float32 view into ``flat`` starting at ``offsets[i]`` for the
+    ``i``-th size of ``cell_sizes``."""
+    from .._renorm_kernels import raw_cell_sums
+
+    mag, t = gradients
+    M, N = mag.shape
+    sizes = [int(c) for c in cell_sizes]
+    shapes = [(M // c, N // c, N_HOG_BINS) for c in sizes]
+    offsets = np.r_[0, np.cumsum([int(np.prod(s)) for s in shapes])].astype(np.int64)
+    flat = np.empty(int(offsets[-1]), np.float32)
+    maps = {}
+    for c, s, off in zip(sizes, shapes, offsets):
+        maps[c] = flat[off:off + int(np.prod(s))].reshape(s)
+        raw_cell_sums(mag, t, c, maps[c])
+    return maps, flat, offsets[:-1]
+
+
+@dataclass
+class OpenCVFrameFeatures(FrameFeatures):
+    """:class:`FrameFeatures` of OpenCV's normalised cells, with the frame's raw cells.
+
+    Attributes
+    ----------
+    raw : tuple or None
+        :func:`raw_cell_maps` of the same gradients, for the
+        per-window normalisation stage (None when no raw cell size was asked for).
+    """
+
+    raw: tuple = None
+
+
+def opencv_frame_features(image, cell_sizes, *, pad: int = 2, image_size=None,
+                          raw_cell_sizes=()) -> OpenCVFrameFeatures:
+    """OpenCV's block-normalised cells of a frame at several cell sizes, native resolution:
+    the gradients once (:func:`opencv_gradients`), the cells of each size from them
+    (:func:`opencv_block_cells`), and the raw 9-bin cells of each of ``raw_cell_sizes``
+    (:func:`raw_cell_maps`).
+
+    Returns
+    -------
+    OpenCVFrameFeatures with (M // c + 2 pad, N // c + 2 pad, 36) maps, one flat buffer.
+    """
+    img = check_frame(image, image_size)
+    M, N = img.shape[:2]
+    order = tuple(dict.fromkeys(int(c) for c in cell_sizes))
+    shapes = [(M // c + 2 * pad, N // c + 2 * pad, OPENCV_CHANNELS) for c in order]
+    flat = np.zeros(sum(int(np.prod(s)) for s in shapes), np.float32)
+    grad = opencv_gradients(img)
+    maps, off = {}, 0
+    for c, s in zip(order, shapes):
+        maps[c] = flat[off:off + int(np.prod(s))].reshape(s)
+        off += maps[c].size
+        opencv_block_cells(grad, c, out=maps[c][pad:pad + M // c, pad:pad + N // c])
+    raw = raw_cell_maps(grad, raw_cell_sizes) if len(raw_cell_sizes) else None
+    return OpenCVFrameFeatures(maps, pad, (N, M), _flat=(order, flat), raw=raw)

@@ -1,0 +1,149 @@
+"""The per-window normalisation stage of the adapted OpenCV detector.
+
+A block-normalised HOG/SVM (Dalal & Triggs 2005) is not linear in the cells: OpenCV
+normalises each 2x2-cell block of the *window*. The folded operator
+(:func:`~viewadapt.detect.linear.build_adapted_opencv_operator`) normalises blocks of the
+*frame's* cells instead, so that ``G`` folds into the weights (Wang et al. 2017, eq. (7));
+:class:`RenormStage` does what that approximates, for the windows the folded operator
+scores at least ``threshold`` (a cascade): the frame's raw cell histograms are remapped to
+the window's cells by ``G = S (x) A`` -- ``S`` from each source cell's image under the
+window's own homography, ``A`` by the covariant rule -- and the window's blocks are L2-Hys
+normalised and scored as OpenCV scores them
+(:func:`viewadapt._renorm_kernels.renorm_scores`). The frame cells it reads are about one
+source cell in size (:data:`RENORM_CELLS_PER_SOURCE_CELL`). Nothing is warped.
+
+References
+----------
+.. [1] N. Dalal, B. Triggs, "Histograms of Oriented Gradients for Human Detection", CVPR 2005.
+.. [2] P. Wang, K. Morton, P. Torrione, L. Collins, "Viewpoint Adaptation for Rigid Object
+   Detection", arXiv preprint, 2017.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..arrays import is_int, stored_array
+from ..remap import ANGLE_RULES
+from .channels import HOG_CELL
+from .opencv_cells import OPENCV_CHANNELS, OPENCV_L2HYS_CLIP, block_axis_weights
+from .templates import choose_cell_sizes
+
+__all__ = ["RENORM_CELLS_PER_SOURCE_CELL", "VERIFY_THRESHOLD", "OPENCV_DESCRIPTOR_SIZE", "BINNINGS",
+           "stage_cell_sizes", "RenormStage"]
+
+#: Frame cells per source cell of the raw cells the stage reads
+#: (:func:`~viewadapt.detect.templates.choose_cell_sizes`' ``cells_per_source_cell``).
+RENORM_CELLS_PER_SOURCE_CELL = 1.0
+#: Folded score from which a window is rescored: one SVM margin below the lowest detection
+#: threshold the DET curves use (``DEFAULT_THRESHOLD``, -1), so that a window the stage would
+#: score above -1 is rarely dropped before it.
+VERIFY_THRESHOLD = -2.0
+#: Length of OpenCV's 64x128 descriptor (7 x 15 blocks of 36).
+OPENCV_DESCRIPTOR_SIZE = 7 * 15 * OPENCV_CHANNELS
+_RULE_CODES = {"covariant": 0, "none": 1, "paper": 2}
+#: How :class:`RenormStage` bins the frame's cells into a window's blocks.
+BINNINGS = ("opencv", "cells")
+
+
+class RenormStage:
+    """Per-window remapping of raw cells and OpenCV's block normalisation (see the module).
+
+    Parameters
+    ----------
+    homographies : (N, 3, 3) array_like
+        Canonical window -> frame pixels of each window.
+    cell_size : (N,) int array_like
+        The raw cell size each window reads.
+    weights : (3780,) array_like
+        The SVM's weights in OpenCV's descriptor layout; ``bias`` its bias.
+    threshold : float
+        Windows whose folded score is below it are not rescored.
+    rule : {"covariant", "paper", "none"}
+    binning : {"opencv", "cells"}
+        How a block's cell histograms gather the frame's cells: ``"opencv"`` weights them
+        with OpenCV's Gaussian block window and bilinear cell tents carried through the
+        block's affine approximation (:func:`viewadapt._renorm_kernels.renorm_scores_binned`);
+        ``"cells"``: each source cell reads the frame cells under its image, hard binned
+        (:func:`viewadapt._renorm_kernels.renorm_scores`).
+    """
+
+    def __init__(self, homographies, cell_size, weights, bias, *,
+                 threshold: float = VERIFY_THRESHOLD, rule: str = "covariant",
+                 binning: str = "opencv"):
+        H = np.ascontiguousarray(homographies, np.float64).reshape(-1, 3, 3)
+        cell = np.ascontiguousarray(cell_size, np.int64).ravel()
+        w = np.ascontiguousarray(weights, np.float32).ravel()
+        if len(cell) != len(H) or (len(cell) and cell.min() < 1):
+            raise ValueError(f"one positive cell size per window: {len(cell)} sizes for "
+                             f"{len(H)} windows")
+        if w.size != OPENCV_DESCRIPTOR_SIZE or not np.all(np.isfinite(w)) \
+                or not np.all(np.isfinite(H)):
+            raise ValueError(f"weights must be {OPENCV_DESCRIPTOR_SIZE} finite values and the "
+                             "homographies finite")
+        if rule not in ANGLE_RULES or not np.isfinite(threshold) or not np.isfinite(bias):
+            raise ValueError(f"rule must be one of {ANGLE_RULES} and the threshold and bias "
+                             f"finite, got {rule!r}, {threshold!r}, {bias!r}")
+        if binning not in BINNINGS:
+            raise ValueError(f"binning must be one of {BINNINGS}, got {binning!r}")
+        self.binning = binning
+        self.homographies, self.cell = H, cell
+        self.weights, self.bias = w, float(bias)
+        self.threshold, self.rule = float(threshold), str(rule)
+        self.cell_sizes = sorted(set(int(c) for c in cell))
+
+    def scores(self, index, raw) -> np.ndarray:
+        """Scores of the windows ``index`` from
+        :func:`~viewadapt.detect.opencv_cells.raw_cell_maps`' output ``raw`` (its maps must
+        hold this stage's cell sizes)."""
+        from .._renorm_kernels import renorm_scores, renorm_scores_binned
+
+        maps, flat, offsets = raw
+        index = np.asarray(index, np.int64)
+        sizes = sorted(maps)
+        if any(c not in maps for c in self.cell_sizes):
+            raise ValueError(f"the raw cells hold sizes {sizes}, the stage reads "
+                             f"{self.cell_sizes}")
+        order = list(maps)
+        pos = {c: i for i, c in enumerate(order)}
+        lut = np.full(max(order) + 1, -1, np.int64)
+        for c, i in pos.items():
+            lut[c] = i
+        size_of = lut[self.cell[index]]
+        dims = np.array([maps[c].shape[:2] for c in order], np.int64).reshape(-1, 2)
+        out = np.empty(len(index))
+        args = (flat, np.asarray(offsets, np.int64), dims, size_of, np.array(order, np.int64),
+                self.homographies[index], self.weights, np.float32(self.bias),
+                np.float32(0.1 * OPENCV_CHANNELS), np.float32(OPENCV_L2HYS_CLIP),
+                _RULE_CODES[self.rule])
+        if self.binning == "opencv":
+            renorm_scores_binned(*args, block_axis_weights(HOG_CELL).astype(np.float32), out)
+        else:
+            renorm_scores(*args, out)
+        return out
+
+    def to_arrays(self) -> tuple[dict, dict]:
+        """``(meta, arrays)`` of the stage (its homographies are the operator's)."""
+        return (dict(threshold=self.threshold, rule=self.rule, bias=self.bias,
+                     binning=self.binning),
+                dict(renorm_cell=self.cell, renorm_weights=self.weights))
+
+    @classmethod
+    def from_arrays(cls, meta, arrays, homographies) -> "RenormStage":
+        """The stage :meth:`to_arrays` gave; ``ValueError`` for any other content."""
+        if not isinstance(meta, dict) or not all(
+                isinstance(meta.get(k), (int, float)) and not isinstance(meta.get(k), bool)
+                for k in ("threshold", "bias")):
+            raise ValueError("its normalisation stage has no valid threshold and bias")
+        cell = stored_array(arrays, "renorm_cell", "iu", ndim=1)
+        if len(cell) and not all(is_int(c) for c in cell[:1]):
+            raise ValueError("its normalisation stage's cell sizes are not integers")
+        return cls(homographies, cell, stored_array(arrays, "renorm_weights", "f", ndim=1),
+                   meta["bias"], threshold=meta["threshold"], rule=meta.get("rule"),
+                   binning=meta.get("binning"))
+
+
+def stage_cell_sizes(scale, allowed) -> np.ndarray:
+    """The raw cell size of each window of frame pixels per canonical pixel ``scale``."""
+    return choose_cell_sizes(scale, HOG_CELL, cells_per_source_cell=RENORM_CELLS_PER_SOURCE_CELL,
+                             allowed=allowed)
