@@ -56,6 +56,57 @@ def _map(H, x, y):
 
 
 @njit(cache=True, nogil=True, boundscheck=False, error_model="numpy")
+def _angle_taps(j00, j01, j10, j11, rule, lo, hi, frac):  # pragma: no cover - compiled
+    """``A`` of the Jacobian ``[[j00, j01], [j10, j11]]`` as two taps per frame bin ``k``:
+    source bins ``lo[k]`` (weight ``1 - frac[k]``) and ``hi[k]`` (``frac[k]``); ``rule`` 0
+    covariant (``J^T``), 1 none, 2 the paper's eq. (3) read literally (``J^-1``)."""
+    n_bins = len(lo)
+    for k in range(n_bins):
+        if rule == 1:
+            lo[k], hi[k], frac[k] = k, k, 0.0
+            continue
+        phi = (k + 0.5) * math.pi / n_bins
+        if rule == 0:
+            gx = j00 * math.cos(phi) + j10 * math.sin(phi)
+            gy = j01 * math.cos(phi) + j11 * math.sin(phi)
+        else:
+            det = j00 * j11 - j01 * j10
+            gx = (j11 * math.cos(phi) - j01 * math.sin(phi)) / det
+            gy = (-j10 * math.cos(phi) + j00 * math.sin(phi)) / det
+        theta = math.atan2(gy, gx) % math.pi
+        tt = theta * n_bins / math.pi - 0.5
+        if tt < 0:
+            tt += n_bins
+        b0 = int(tt)
+        f = tt - b0
+        if b0 >= n_bins:
+            b0 -= n_bins
+        lo[k] = b0
+        hi[k] = b0 + 1 if b0 < n_bins - 1 else 0
+        frac[k] = f
+
+
+@njit(cache=True, nogil=True, boundscheck=False, error_model="numpy", inline="always")
+def _block_score(block, weights, at, eps, clip):  # pragma: no cover - compiled
+    """``weights[at:at + 36] . L2Hys(block)`` (OpenCV's ``normalizeBlockHistogram``);
+    ``block`` is overwritten."""
+    ss = 0.0
+    for k in range(len(block)):
+        ss += block[k] * block[k]
+    sc = 1.0 / (math.sqrt(ss) + eps)
+    ss = 0.0
+    for k in range(len(block)):
+        v = min(block[k] * sc, clip)
+        block[k] = v
+        ss += v * v
+    sc = 1.0 / (math.sqrt(ss) + 1e-3)
+    total = 0.0
+    for k in range(len(block)):
+        total += weights[at + k] * block[k] * sc
+    return total
+
+
+@njit(cache=True, nogil=True, boundscheck=False, error_model="numpy")
 def renorm_scores(flat, offsets, dims, size_of, cells, H, weights, bias, eps, clip,
                   rule, out):  # pragma: no cover - compiled
     """Scores of windows ``n`` (their homographies ``H[n]``, canonical 64x128 -> frame px)
@@ -65,7 +116,9 @@ def renorm_scores(flat, offsets, dims, size_of, cells, H, weights, bias, eps, cl
     read literally (``J^-1``; :func:`viewadapt.remap.map_angles`)."""
     n_bins = 9
     src = np.empty((16, 8, n_bins), np.float32)
-    A = np.empty((n_bins, n_bins), np.float32)           # A[b_src, k_frame]
+    lo = np.empty(n_bins, np.int64)              # frame bin k -> source bins lo, hi
+    hi = np.empty(n_bins, np.int64)
+    frac = np.empty(n_bins, np.float32)
     h = np.empty(n_bins, np.float32)
     block = np.empty(4 * n_bins, np.float32)
     for n in range(len(out)):
@@ -76,30 +129,7 @@ def renorm_scores(flat, offsets, dims, size_of, cells, H, weights, bias, eps, cl
         Hn = H[n]
         # A from the Jacobian at the window's centre
         _, _, j00, j01, j10, j11 = _map(Hn, 31.5, 63.5)
-        A[:] = 0
-        for k in range(n_bins):
-            if rule == 1:
-                A[k, k] = 1.0
-                continue
-            phi = (k + 0.5) * math.pi / n_bins
-            if rule == 0:
-                gx = j00 * math.cos(phi) + j10 * math.sin(phi)
-                gy = j01 * math.cos(phi) + j11 * math.sin(phi)
-            else:
-                det = j00 * j11 - j01 * j10
-                gx = (j11 * math.cos(phi) - j01 * math.sin(phi)) / det
-                gy = (-j10 * math.cos(phi) + j00 * math.sin(phi)) / det
-            theta = math.atan2(gy, gx) % math.pi
-            tt = theta * n_bins / math.pi - 0.5
-            if tt < 0:
-                tt += n_bins
-            b0 = int(tt)
-            f = tt - b0
-            if b0 >= n_bins:
-                b0 -= n_bins
-            b1 = b0 + 1 if b0 < n_bins - 1 else 0
-            A[b0, k] += 1.0 - f
-            A[b1, k] += f
+        _angle_taps(j00, j01, j10, j11, rule, lo, hi, frac)
         for j in range(16):
             for i in range(8):
                 px, py, a00, a01, a10, a11 = _map(Hn, 8.0 * i + 3.5, 8.0 * j + 3.5)
@@ -125,11 +155,10 @@ def renorm_scores(flat, offsets, dims, size_of, cells, H, weights, bias, eps, cl
                             h[k] += wgt * flat[at + k]
                 # per source pixel of the cell: the rectangle's area against the cell's 64
                 scale = 64.0 / (c * c * max(4.0 * ex * ey, 1e-12))
-                for b in range(n_bins):
-                    acc = 0.0
-                    for k in range(n_bins):
-                        acc += A[b, k] * h[k]
-                    src[j, i, b] = acc * scale
+                src[j, i, :] = 0
+                for k in range(n_bins):
+                    src[j, i, lo[k]] += (1.0 - frac[k]) * h[k] * scale
+                    src[j, i, hi[k]] += frac[k] * h[k] * scale
         total = bias
         for bx in range(7):
             for by in range(15):
@@ -138,19 +167,7 @@ def renorm_scores(flat, offsets, dims, size_of, cells, H, weights, bias, eps, cl
                         q = 2 * cx + cy
                         for b in range(n_bins):
                             block[q * n_bins + b] = src[by + cy, bx + cx, b]
-                ss = 0.0
-                for k in range(4 * n_bins):
-                    ss += block[k] * block[k]
-                sc = 1.0 / (math.sqrt(ss) + eps)
-                ss = 0.0
-                for k in range(4 * n_bins):
-                    v2 = min(block[k] * sc, clip)
-                    block[k] = v2
-                    ss += v2 * v2
-                sc = 1.0 / (math.sqrt(ss) + 1e-3)
-                at = (bx * 15 + by) * 4 * n_bins
-                for k in range(4 * n_bins):
-                    total += weights[at + k] * block[k] * sc
+                total += _block_score(block, weights, (bx * 15 + by) * 4 * n_bins, eps, clip)
         out[n] = total
 
 
@@ -197,29 +214,7 @@ def renorm_scores_binned(flat, offsets, dims, size_of, cells, H, weights, bias, 
         base = offsets[s]
         Hn = H[n]
         _, _, j00, j01, j10, j11 = _map(Hn, 31.5, 63.5)
-        for k in range(n_bins):
-            if rule == 1:
-                lo[k], hi[k], frac[k] = k, k, 0.0
-                continue
-            phi = (k + 0.5) * math.pi / n_bins
-            if rule == 0:
-                gx = j00 * math.cos(phi) + j10 * math.sin(phi)
-                gy = j01 * math.cos(phi) + j11 * math.sin(phi)
-            else:
-                det = j00 * j11 - j01 * j10
-                gx = (j11 * math.cos(phi) - j01 * math.sin(phi)) / det
-                gy = (-j10 * math.cos(phi) + j00 * math.sin(phi)) / det
-            theta = math.atan2(gy, gx) % math.pi
-            tt = theta * n_bins / math.pi - 0.5
-            if tt < 0:
-                tt += n_bins
-            b0 = int(tt)
-            f = tt - b0
-            if b0 >= n_bins:
-                b0 -= n_bins
-            lo[k] = b0
-            hi[k] = b0 + 1 if b0 < n_bins - 1 else 0
-            frac[k] = f
+        _angle_taps(j00, j01, j10, j11, rule, lo, hi, frac)
         total = bias
         for bx in range(7):
             for by in range(15):
@@ -257,17 +252,5 @@ def renorm_scores_binned(flat, offsets, dims, size_of, cells, H, weights, bias, 
                             v2 = raw[cx, cy, k] * inv
                             block[at + lo[k]] += (1.0 - frac[k]) * v2
                             block[at + hi[k]] += frac[k] * v2
-                ss = 0.0
-                for k in range(4 * n_bins):
-                    ss += block[k] * block[k]
-                sc = 1.0 / (math.sqrt(ss) + eps)
-                ss = 0.0
-                for k in range(4 * n_bins):
-                    v2 = min(block[k] * sc, clip)
-                    block[k] = v2
-                    ss += v2 * v2
-                sc = 1.0 / (math.sqrt(ss) + 1e-3)
-                at = (bx * 15 + by) * 4 * n_bins
-                for k in range(4 * n_bins):
-                    total += weights[at + k] * block[k] * sc
+                total += _block_score(block, weights, (bx * 15 + by) * 4 * n_bins, eps, clip)
         out[n] = total

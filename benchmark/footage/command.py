@@ -2,14 +2,13 @@
 
 from __future__ import annotations
 
-import argparse
 import json
 import time
 from pathlib import Path
 
 from benchmark.footage.report import evaluate_run, paired_differences, summary_lines, summary_rows
 from benchmark.footage.run import FOOTAGE_METHODS, open_clip, run_footage
-from benchmark.frames.spec import FrameMethod, expand_adapted
+from benchmark.frames.spec import expand_adapted, method_arg
 from viewadapt.commands.detect import (
     DEFAULT_LENS, LENS_CHOICES, add_cache_options, check_frame_selection, person_heights,
 )
@@ -19,13 +18,6 @@ from viewadapt.objectmodel import OBJECT_MODELS
 from viewadapt.remap import ANGLE_RULES
 
 __all__ = ["cmd_bench_footage", "register_footage"]
-
-
-def _method(text) -> FrameMethod:
-    try:
-        return FrameMethod.parse(text)
-    except ValueError as exc:
-        raise argparse.ArgumentTypeError(str(exc)) from None
 
 
 def cmd_bench_footage(args) -> int:
@@ -129,7 +121,7 @@ def register_footage(bsub, common) -> None:
     p.add_argument("--ignore", type=Path, default=None,
                    help="ignore regions (JSON polygons): boxes whose bottom-centre lies "
                         "inside are ignored, detections and ground truth alike")
-    p.add_argument("--methods", nargs="+", type=_method, default=None, metavar="METHOD",
+    p.add_argument("--methods", nargs="+", type=method_arg, default=None, metavar="METHOD",
                    help="methods to run (default: " + " ".join(m.name for m in FOOTAGE_METHODS)
                         + "); any method of bench frames, e.g. 'opencv_adapted[body]' (quoted)")
     p.add_argument("--rules", nargs="+", choices=list(ANGLE_RULES), default=None,

@@ -24,7 +24,7 @@ from benchmark.frames.report import (
     accuracy_targets, phase_gap_lines, phase_table, plot_seed_figure, seed_summary, summary_table,
 )
 from benchmark.footage.command import register_footage
-from benchmark.frames.spec import DEFAULT_METHODS, FrameMethod, expand_adapted
+from benchmark.frames.spec import DEFAULT_METHODS, FrameMethod, expand_adapted, method_arg
 
 __all__ = ["register", "cmd_bench_frames", "cmd_bench_runtime", "plot_det_figure"]
 
@@ -197,13 +197,6 @@ def curve_corners(fppi, miss_rate):
 
 def _frame_key(f) -> str:
     return f"{f.path.name}@{f.scene_id}"
-
-
-def _method_arg(text) -> FrameMethod:
-    try:
-        return FrameMethod.parse(text)
-    except ValueError as exc:
-        raise argparse.ArgumentTypeError(str(exc)) from None
 
 
 def cmd_bench_frames(args) -> int:
@@ -412,7 +405,7 @@ def register(sub, common) -> None:
                                     "detect on its surveillance frames with the adapted "
                                     "detectors and the baselines, and write DET curves, "
                                     "log-average miss rates and a table.")
-    p.add_argument("--methods", nargs="+", default=None, type=_method_arg, metavar="METHOD",
+    p.add_argument("--methods", nargs="+", default=None, type=method_arg, metavar="METHOD",
                    help="methods to run (default: " + " ".join(m.name for m in DEFAULT_METHODS)
                         + "); also "
                         "opencv_native and adapted variants such as 'hog_adapted[body]' "

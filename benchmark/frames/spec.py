@@ -17,7 +17,8 @@ from dataclasses import dataclass, replace
 from viewadapt.detect import DETECTOR_KINDS, PRETRAINED_KINDS, detector_kind
 
 __all__ = ["RULE_TAGS", "OBJECT_MODEL_TAGS", "OPENCV_NAMES", "GROUND_TAG", "variant_label",
-           "FrameMethod", "FRAME_METHODS", "DEFAULT_METHODS", "expand_adapted", "frame_method"]
+           "FrameMethod", "FRAME_METHODS", "DEFAULT_METHODS", "expand_adapted", "method_arg",
+           "frame_method"]
 
 #: angle rule -> its tag in a variant's label (none for the default, covariant rule)
 RULE_TAGS = {"covariant": "", "none": "S only", "paper": "paper eq.3"}
@@ -194,6 +195,17 @@ def expand_adapted(methods, rules=None, object_models=None) -> list:
         out += [dataclasses.replace(m, rule=rule, object_model=model)
                 for model in object_models or (m.object_model,) for rule in rules or (m.rule,)]
     return list(dict.fromkeys(out))
+
+
+def method_arg(text) -> FrameMethod:
+    """argparse type: the method called ``text`` (:meth:`FrameMethod.parse`), its error as
+    argparse's."""
+    import argparse
+
+    try:
+        return FrameMethod.parse(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
 
 
 def frame_method(method) -> FrameMethod:

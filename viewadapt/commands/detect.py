@@ -13,8 +13,8 @@ from viewadapt.boxes import mapped_boxes
 from viewadapt.camera.distortion import Undistortion, distort_points
 from viewadapt.detect.detector import DEFAULT_THRESHOLD, FrameDetector
 from viewadapt.detect.evaluation import (
-    BOOTSTRAP_BLOCK, BOOTSTRAP_DRAWS, block_bootstrap, evaluation_rows, ground_truth_counts,
-    summary_numbers,
+    BOOTSTRAP_BLOCK, BOOTSTRAP_DRAWS, block_bootstrap, evaluation_rows, frame_outcome,
+    ground_truth_counts, summary_numbers, threshold_at_fppi,
 )
 from viewadapt.detect.kinds import DETECTOR_KINDS, PRETRAINED_KINDS
 from viewadapt.detect.layers import UPSAMPLE_BELOW
@@ -25,7 +25,9 @@ from viewadapt.io.cache import DEFAULT_CACHE_LIMIT_GB, check_cache_limit
 from viewadapt.io.calibration import read_calibration_file
 from viewadapt.io.files import atomic_output_dir, atomic_write_text, check_output_dir, run_metadata
 from viewadapt.io.models import SourceDetectors, shipped_model_path
-from viewadapt.io.outputs import ANNOTATE_CHOICES, DetectionWriter, plot_det_figure
+from viewadapt.io.outputs import (
+    ANNOTATE_CHOICES, AnnotationWriter, DetectionWriter, draw_detections, plot_det_figure,
+)
 from viewadapt.io.video import open_frames, prefetched
 from viewadapt.objectmodel import OBJECT_MODELS
 from viewadapt.remap import ANGLE_RULES
@@ -195,7 +197,8 @@ def _metadata(args, det, stream, writer, dist, correction, annotate, *, imported
         object_model=args.object_model, threshold=args.threshold,
         person_heights=list(det.params["person_heights"]), windows=len(det.windows),
         input=stream.describe(), frames=writer.n_frames, detections=writer.n_detections,
-        annotate=annotate, jobs=args.jobs,
+        annotate=annotate, annotate_threshold=args.annotate_threshold,
+        annotate_fppi=args.annotate_fppi, jobs=args.jobs,
         model=_PRETRAINED_MODELS[args.detector] if args.detector in PRETRAINED_KINDS
         else str(args.model),
         model_training=None if args.detector in PRETRAINED_KINDS else det.models.training,
@@ -222,6 +225,17 @@ def _metadata(args, det, stream, writer, dist, correction, annotate, *, imported
         cpu_seconds_note="CPU time of this process over the frames, all its threads (the "
                          "frames are read in a second thread); --jobs workers' not included",
         camera=det.camera.to_dict())
+
+
+def _annotate_again(args, folder, annotate, dets, truth, annotation, cam) -> None:
+    """The second pass of ``--annotate-fppi``: the input read again and each frame drawn
+    with its detections (in the input's pixels) at the operating point."""
+    stream = open_frames(args.inputs, start=args.start, every=args.every,
+                         max_frames=args.max_frames)
+    with AnnotationWriter(folder, annotate, fps=stream.fps or 25.0,
+                          image_size=cam.image_size) as out:
+        for frame, d, t in zip(stream, dets, truth):
+            out.write(frame, draw_detections(frame.image, d, **annotation(d, t)))
 
 
 def cmd_detect(args) -> int:
@@ -281,6 +295,21 @@ def cmd_detect(args) -> int:
     annotate = args.annotate
     if annotate == "auto":
         annotate = "video" if stream.kind == "video" else "frames"
+    if args.annotate_fppi is not None and (args.boxes is None or annotate == "none"):
+        raise ValueError("--annotate-fppi reads the operating point off the evaluated clip: "
+                         "it needs --boxes and annotated output")
+    # with --annotate-fppi the frames are annotated in a second pass, after the evaluation
+    later = args.annotate_fppi is not None
+
+    def annotation(boxes, t):
+        """draw_detections' keywords at the operating point (hits and misses with --boxes)."""
+        out = dict(threshold=args.annotate_threshold, scores=True)
+        if t is not None:
+            labels, status = frame_outcome(boxes, (t.boxes, t.occlusion, cam.image_size,
+                                                   t.ignore),
+                                           threshold=out["threshold"], regions=regions)
+            out.update(labels=labels, truth=t.boxes, status=status)
+        return out
     options = dict(person_heights=args.heights, cache_dir=args.cache or (args.out / "cache"),
                    cache_limit_gb=args.cache_limit,
                    upsample_below=UPSAMPLE_BELOW if args.upsample_below is None
@@ -297,7 +326,7 @@ def cmd_detect(args) -> int:
     dets, truth = [], []
     t0, c0 = time.perf_counter(), time.process_time()
     with atomic_output_dir(args.out) as tmp:
-        with DetectionWriter(tmp, annotate=annotate, fps=stream.fps,
+        with DetectionWriter(tmp, annotate="none" if later else annotate, fps=stream.fps,
                              image_size=cam.image_size) as writer, \
                 tqdm(total=stream.n_frames, desc="detect", unit="frame", dynamic_ncols=True,
                      disable=args.quiet) as bar:
@@ -308,11 +337,14 @@ def cmd_detect(args) -> int:
                     frame = frame._replace(image=originals.pop(frame.index))
                     found = found._replace(boxes=boxes_in_input_pixels(found.boxes, cam.K,
                                                                        dist))
-                writer.write(frame, found)
+                t = None
                 if boxes is not None:
-                    dets.append(found.boxes)
                     key = frame.source if stream.paths is not None else frame.index
-                    truth.append(boxes.get(key, FrameBoxes.empty()))
+                    t = boxes.get(key, FrameBoxes.empty())
+                    dets.append(found.boxes)
+                    truth.append(t)
+                writer.write(frame, found, annotation=None if annotate == "none" or later
+                             else annotation(found.boxes, t))
                 bar.update(1)
         seconds, cpu_seconds = time.perf_counter() - t0, time.process_time() - c0
         evaluation = None
@@ -321,6 +353,12 @@ def cmd_detect(args) -> int:
                                                    block=args.bootstrap_block, seed=args.seed)
             evaluation = {"boxes": str(args.boxes), "ignore_regions":
                           None if args.ignore is None else str(args.ignore)} | evaluation
+            if later:
+                dts, gts = evaluation_rows(dets, [(t.boxes, t.occlusion, cam.image_size,
+                                                   t.ignore) for t in truth], regions=regions)
+                args.annotate_threshold = threshold_at_fppi(dts, gts, args.annotate_fppi)
+                evaluation["annotate_threshold"] = args.annotate_threshold
+                _annotate_again(args, tmp, annotate, dets, truth, annotation, cam)
             atomic_write_text(tmp / "evaluation.json", json.dumps(evaluation))
             plot_det_figure({f"{args.detector}_adapted": curve}, tmp / "det",
                             title=f"{len(truth)} frames, {evaluation['n_gt']} persons counted "
@@ -408,6 +446,17 @@ def register(sub, common) -> None:
                    help="score threshold of the detections kept (default 0; with --boxes "
                         f"{DEFAULT_THRESHOLD:g}, low enough that the DET curve reaches 1 false "
                         "positive per image)")
+    p.add_argument("--annotate-threshold", type=float, default=0.0, metavar="SCORE",
+                   help="the operating point of the annotated frames: boxes scoring at least "
+                        "this, each with its score (default 0, the classifier's own decision "
+                        "boundary); with --boxes hits are green, false positives red, boxes "
+                        "in ignored places grey, and the ground truth white when found, "
+                        "orange when missed")
+    p.add_argument("--annotate-fppi", type=float, default=None, metavar="FPPI",
+                   help="with --boxes: annotate at the threshold where the evaluated clip "
+                        "has this many false positives per image (e.g. 0.1; recorded in "
+                        "evaluation.json) instead of --annotate-threshold; the input is "
+                        "read a second time")
     p.add_argument("--heights", type=person_heights, default=(PERSON_HEIGHT_M,),
                    help="assumed person heights, metres, comma-separated (default 1.75)")
     add_cache_options(p)

@@ -29,7 +29,8 @@ from ..metrics import (
 __all__ = ["standardize_boxes", "ground_truth_rows", "evaluate_detections", "in_regions",
            "bottom_centres", "evaluation_rows", "ground_truth_counts", "block_length",
            "block_bootstrap", "frame_matches", "block_resamples", "paired_block_bootstrap",
-           "summary_numbers", "BOOTSTRAP_BLOCK", "BOOTSTRAP_DRAWS"]
+           "threshold_at_fppi", "frame_outcome", "summary_numbers", "BOOTSTRAP_BLOCK",
+           "BOOTSTRAP_DRAWS"]
 
 #: Frames per block of :func:`block_bootstrap`.
 BOOTSTRAP_BLOCK = 10
@@ -292,3 +293,52 @@ def paired_block_bootstrap(dts, reference, gts, *, block: int = BOOTSTRAP_BLOCK,
             "ci": ([float(np.percentile(diffs, tail)), float(np.percentile(diffs, 100 - tail))]
                    if diffs else [None, None]),
             "draws_used": len(diffs), "block_frames": length}
+
+
+def threshold_at_fppi(dts, gts, fppi: float) -> float:
+    """The lowest score threshold at which the frames have at most ``fppi`` false
+    positives per image (:func:`evaluation_rows`' output; the DET curve's operating point);
+    ``inf`` when even the best detection is a false positive beyond it."""
+    if not np.isfinite(fppi) or fppi < 0:
+        raise ValueError(f"the operating point must be >= 0 false positives per image, got "
+                         f"{fppi!r}")
+    curve, _, thresholds = accumulate_frames(frame_matches(dts, gts))
+    ok = np.flatnonzero(curve <= fppi)
+    return float(thresholds[ok[-1]]) if len(ok) else float("inf")
+
+
+def frame_outcome(boxes, truth, *, threshold: float, regions=None) -> tuple:
+    """What the protocol makes of one frame's detections at a score threshold.
+
+    Parameters
+    ----------
+    boxes : (D, 5) array_like
+        ``(x, y, w, h, score)``.
+    truth : tuple
+        ``(boxes (G, 4), occlusion (G,), (width, height)[, ignore (G,)])`` as
+        :func:`evaluation_rows` reads it.
+    threshold : float
+    regions : list of polygons, optional
+
+    Returns
+    -------
+    labels : (D,) int8 ndarray
+        1 a hit, 0 a false positive, -1 ignored (in an ignore region or on ignored ground
+        truth), -2 below the threshold.
+    status : (G,) int8 ndarray
+        1 found, 0 missed, -1 ignored.
+    """
+    d = np.asarray(boxes, float).reshape(-1, 5)
+    labels = np.full(len(d), -2, np.int8)
+    shown = np.flatnonzero(d[:, 4] >= threshold)
+    if regions and len(shown):
+        inside = in_regions(bottom_centres(d[shown]), regions)
+        labels[shown[inside]] = -1
+        shown = shown[~inside]
+    # the region's detections are out already, so the rows are those of ``shown``
+    dts, gts = evaluation_rows([d[shown]], [truth], regions=regions)
+    g = gts[0]
+    m = match_detections(dts[0][:, :4], dts[0][:, 4], g[:, :4], g[:, 4].astype(bool))
+    labels[shown] = m.dt_labels
+    status = np.where(g[:, 4].astype(bool), -1, m.gt_matched.astype(np.int8)).astype(np.int8)
+    return labels, status

@@ -29,10 +29,12 @@ import numpy as np
 
 from viewadapt.io.files import RunError
 
-__all__ = ["ANNOTATE_CHOICES", "CSV_COLUMNS", "DetectionWriter", "draw_detections",
-           "plot_det_figure", "FAMILY_COLORS"]
+__all__ = ["ANNOTATE_CHOICES", "CSV_COLUMNS", "DETECTION_COLOURS", "TRUTH_COLOURS",
+           "AnnotationWriter", "DetectionWriter", "draw_detections", "plot_det_figure",
+           "FAMILY_COLORS"]
 
-#: ``annotate`` values of :class:`DetectionWriter`
+#: ``annotate`` values of :class:`DetectionWriter` (:class:`AnnotationWriter` writes the two
+#: that annotate)
 ANNOTATE_CHOICES = ("video", "frames", "none")
 
 #: figure colour of each detector family (the method name's first part)
@@ -40,18 +42,52 @@ FAMILY_COLORS = {"hog": "tab:blue", "acf": "tab:red", "opencv": "tab:gray"}
 #: columns of ``detections.csv``
 CSV_COLUMNS = ("frame", "source", "x", "y", "w", "h", "score", "ground_x", "ground_y")
 _BOX_COLOUR = (0, 255, 0)          # BGR
+#: BGR colour of a drawn detection by its label (:func:`viewadapt.detect.evaluation.frame_outcome`:
+#: 1 hit, 0 false positive, -1 ignored) and of a ground-truth box by its status (1 found,
+#: 0 missed, -1 ignored)
+DETECTION_COLOURS = {1: (0, 200, 0), 0: (0, 0, 255), -1: (160, 160, 160)}
+TRUTH_COLOURS = {1: (255, 255, 255), 0: (0, 165, 255), -1: (120, 120, 120)}
 
 
-def draw_detections(image, boxes) -> np.ndarray:
-    """A BGR copy of the RGB ``image`` (H, W, 3) with ``boxes`` (D, >=4) ``(x, y, w, h,
-    ...)`` drawn in green, 1 px."""
+def _rect(vis, box, colour, width):
+    import cv2
+
+    x, y, w, h = box[:4]
+    cv2.rectangle(vis, (int(round(x)), int(round(y))), (int(round(x + w)), int(round(y + h))),
+                  colour, width)
+
+
+def draw_detections(image, boxes, *, threshold: float = -np.inf, labels=None, truth=None,
+                    status=None, scores: bool = False) -> np.ndarray:
+    """A BGR copy of the RGB ``image`` (H, W, 3) with the ``boxes`` (D, >=4) ``(x, y, w, h,
+    [score])`` whose score reaches ``threshold``.
+
+    Without ``labels`` they are green, 1 px; with ``labels`` (D,) (1 hit, 0 false positive,
+    -1 ignored, -2 not drawn) in :data:`DETECTION_COLOURS`; ``scores`` writes each one's
+    score above it. ``truth`` (G, 4) boxes are drawn under them in
+    :data:`TRUTH_COLOURS` by ``status`` (G,) (1 found, 0 missed -- 2 px --, -1 ignored).
+    """
     import cv2
 
     vis = np.ascontiguousarray(np.asarray(image)[:, :, ::-1])
     b = np.asarray(boxes, dtype=np.float64)
-    for x, y, w, h in (b.reshape(-1, b.shape[-1])[:, :4] if b.size else ()):
-        cv2.rectangle(vis, (int(round(x)), int(round(y))),
-                      (int(round(x + w)), int(round(y + h))), _BOX_COLOUR, 1)
+    b = b.reshape(-1, b.shape[-1]) if b.size else np.zeros((0, 5))
+    if truth is not None:
+        t = np.asarray(truth, np.float64).reshape(-1, 4)
+        st = np.ones(len(t), int) if status is None else np.asarray(status).ravel()
+        for box, s in zip(t, st):
+            _rect(vis, box, TRUTH_COLOURS[int(s)], 2 if s == 0 else 1)
+    for k, box in enumerate(b):
+        if b.shape[1] > 4 and box[4] < threshold:
+            continue
+        lab = None if labels is None else int(labels[k])
+        if lab == -2:
+            continue
+        colour = _BOX_COLOUR if lab is None else DETECTION_COLOURS[lab]
+        _rect(vis, box, colour, 1)
+        if scores and b.shape[1] > 4:
+            cv2.putText(vis, f"{box[4]:.2f}", (int(round(box[0])), int(round(box[1])) - 2),
+                        cv2.FONT_HERSHEY_SIMPLEX, 0.35, colour, 1, cv2.LINE_AA)
     return vis
 
 
@@ -60,6 +96,54 @@ def _csv_field(text: str) -> str:
     if any(c in text for c in ',"\r\n'):
         return '"' + text.replace('"', '""') + '"'
     return text
+
+
+class AnnotationWriter:
+    """Annotated frames, in order: ``annotated.mp4`` (``annotate="video"``; ``fps`` and
+    ``image_size`` needed) or ``annotated/<index>_<stem>.png`` (``"frames"``) in
+    ``folder``. Use as a context manager, or call :meth:`close`."""
+
+    def __init__(self, folder, annotate: str, *, fps: float = 25.0, image_size=None):
+        if annotate not in ("video", "frames"):
+            raise ValueError(f"annotate must be video or frames, got {annotate!r}")
+        self.folder = Path(folder)
+        self._video = None
+        if annotate == "video":
+            import cv2
+
+            if image_size is None or not np.isfinite(fps) or fps <= 0:
+                raise ValueError("an annotated video needs the image size and a positive fps")
+            path = self.folder / "annotated.mp4"
+            self._video = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"mp4v"),
+                                          float(fps), tuple(int(v) for v in image_size))
+            if not self._video.isOpened():
+                raise RunError(f"cannot write {path}: this OpenCV build has no mp4v encoder "
+                               "(use --annotate frames)")
+        else:
+            (self.folder / "annotated").mkdir()
+
+    def write(self, frame, vis) -> None:
+        """One annotated BGR frame ``vis`` of ``frame`` (``index``, ``source``)."""
+        import cv2
+
+        if self._video is not None:
+            self._video.write(vis)
+        else:
+            name = f"{int(frame.index):05d}_{Path(frame.source).stem}.png"
+            if not cv2.imwrite(str(self.folder / "annotated" / name), vis):
+                raise RunError(f"cannot write {self.folder / 'annotated' / name}")
+
+    def close(self) -> None:
+        if self._video is not None:
+            self._video.release()
+            self._video = None
+
+    def __enter__(self) -> "AnnotationWriter":
+        return self
+
+    def __exit__(self, exc_type, exc, tb):
+        self.close()
+        return False
 
 
 class DetectionWriter:
@@ -85,27 +169,15 @@ class DetectionWriter:
         self.folder = Path(folder)
         self.annotate = annotate
         self.n_frames = self.n_detections = 0
-        self._video = None
-        if annotate == "video":
-            import cv2
-
-            if image_size is None or not np.isfinite(fps) or fps <= 0:
-                raise ValueError("an annotated video needs the image size and a positive fps")
-            path = self.folder / "annotated.mp4"
-            self._video = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"mp4v"),
-                                          float(fps), tuple(int(v) for v in image_size))
-            if not self._video.isOpened():
-                raise RunError(f"cannot write {path}: this OpenCV build has no mp4v encoder "
-                               "(use --annotate frames)")
-        elif annotate == "frames":
-            (self.folder / "annotated").mkdir()
+        self._annotated = None if annotate == "none" else AnnotationWriter(
+            self.folder, annotate, fps=fps, image_size=image_size)
         self._csv_file = open(self.folder / "detections.csv", "w", newline="")
         self._csv_file.write(",".join(CSV_COLUMNS) + "\n")
         self._mot = open(self.folder / "det.txt", "w")
         self._coco = open(self.folder / "detections_coco.json", "w")
         self._coco.write("[")
 
-    def write(self, frame, detections) -> None:
+    def write(self, frame, detections, *, annotation=None) -> None:
         """Write one frame's detections (and its annotation).
 
         Parameters
@@ -114,6 +186,9 @@ class DetectionWriter:
             ``index``, ``source`` and the RGB ``image`` the detections were found on.
         detections : FrameDetections
             ``boxes`` (D, 5) and ``ground_xy`` (D, 2).
+        annotation : dict, optional
+            Keywords of :func:`draw_detections` for the annotated frame (an operating
+            point, labels, ground truth); default every box, green.
         """
         boxes = np.asarray(detections.boxes, dtype=np.float64).reshape(-1, 5)
         ground = np.asarray(detections.ground_xy, dtype=np.float64).reshape(-1, 2)
@@ -136,16 +211,9 @@ class DetectionWriter:
         self._csv_file.write("".join(csv_rows))
         self._mot.write("".join(mot_rows))
         self.n_detections += len(coco_rows)
-        if self.annotate != "none":
-            import cv2
-
-            vis = draw_detections(frame.image, boxes)
-            if self._video is not None:
-                self._video.write(vis)
-            else:
-                name = f"{i:05d}_{Path(frame.source).stem}.png"
-                if not cv2.imwrite(str(self.folder / "annotated" / name), vis):
-                    raise RunError(f"cannot write {self.folder / 'annotated' / name}")
+        if self._annotated is not None:
+            self._annotated.write(frame, draw_detections(frame.image, boxes,
+                                                         **(annotation or {})))
         self.n_frames += 1
 
     def close(self) -> None:
@@ -156,9 +224,8 @@ class DetectionWriter:
         for f in (self._csv_file, self._mot, self._coco):
             f.close()
         self._coco = None
-        if self._video is not None:
-            self._video.release()
-            self._video = None
+        if self._annotated is not None:
+            self._annotated.close()
 
     def __enter__(self) -> "DetectionWriter":
         return self

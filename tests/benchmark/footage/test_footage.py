@@ -3,20 +3,18 @@ ground-plane filter, paired block-bootstrap differences, and the command on toy 
 MOTChallenge layout (no Blender, no ../shared)."""
 
 import json
-import shutil
 from types import SimpleNamespace
 
 import numpy as np
 import pandas as pd
 import pytest
 
-from benchmark.data import load_dataset
-from benchmark.frames.methods import ground_plane_filter, load_frames, train_source_detectors
+from benchmark.frames.methods import ground_plane_filter
 from viewadapt.camera.distortion import Undistortion, distort_points
 from viewadapt.cli import main
 from viewadapt.detect.evaluation import paired_block_bootstrap
 from viewadapt.geometry import camera_from_pose
-from tests.toy_frames import small_toy_frames
+from tests.toy_frames import mot_toy_clip
 
 N_FRAMES = 4
 DIST = [-0.2, 0.0, 0.0, 0.0, 0.0]
@@ -90,29 +88,12 @@ def test_paired_block_bootstrap_of_a_method_against_itself_and_a_better_one():
 def toy(tmp_path_factory):
     """Toy frames as MOTChallenge's img1/000001.png..., their gt.txt, a calibration with a
     weak lens (the windows go through it), ignore regions and a quick model."""
-    root = tmp_path_factory.mktemp("footage")
-    data = small_toy_frames(root / "data", frames_per_scene=N_FRAMES)
-    frames = sorted(load_frames(data), key=lambda f: int(f.path.stem.split("_")[1]))
-    train_source_detectors(load_dataset(data), quick=True, frame_view="none").save(
-        root / "model.npz")
-    cam = frames[0].camera
-    img1 = root / "mot" / "img1"
-    img1.mkdir(parents=True)
-    lines = []
-    for k, f in enumerate(frames, 1):
-        shutil.copy(f.path, img1 / f"{k:06d}.png")
-        lines += [f"{k},{j + 1},{x},{y},{w},{h},1,-1,-1,-1"
-                  for j, (x, y, w, h) in enumerate(f.gt)]
-    gt = root / "mot" / "gt.txt"
-    gt.write_text("\n".join(lines) + "\n")
-    calibration = root / "cam.json"
-    calibration.write_text(json.dumps({"image_size": list(cam.image_size), "K": cam.K.tolist(),
-                                       "R": cam.R.tolist(), "t": cam.t.tolist(),
-                                       "dist": [-0.02, 0.0, 0.0, 0.0, 0.0]}))
+    clip = mot_toy_clip(tmp_path_factory.mktemp("footage"), n_frames=N_FRAMES,
+                        dist=[-0.02, 0.0, 0.0, 0.0, 0.0])
+    root = clip.root
     regions = root / "ignore.json"
     regions.write_text(json.dumps({"polygons": [[[-1, -1], [20, -1], [20, 145], [-1, 145]]]}))
-    return SimpleNamespace(root=root, frames=frames, img1=img1, gt=gt, calibration=calibration,
-                           regions=regions, model=root / "model.npz", cache=root / "cache")
+    return SimpleNamespace(**vars(clip), regions=regions)
 
 
 METHODS = ["opencv_native", "opencv_native[ground]", "hog_adapted", "hog_warp",

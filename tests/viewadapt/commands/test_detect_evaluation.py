@@ -7,7 +7,6 @@ One toy camera (benchmark.toyframes, no Blender) with six frames and a quickly t
 source model, its operators cached once for every run."""
 
 import json
-import shutil
 from types import SimpleNamespace
 
 import cv2
@@ -15,15 +14,13 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from benchmark.data import load_dataset
-from benchmark.frames.methods import load_frames, train_source_detectors
 from viewadapt.camera.distortion import Undistortion, distort_image, distort_points
 from viewadapt.cli import main
 from viewadapt.commands.detect import boxes_in_input_pixels
 from viewadapt.detect.evaluation import (
     block_bootstrap, evaluate_detections, evaluation_rows, in_regions,
 )
-from tests.toy_frames import small_toy_frames
+from tests.toy_frames import mot_toy_clip
 from tests.box_iou import iou as box_iou
 
 N_FRAMES = 6
@@ -109,36 +106,18 @@ def test_boxes_through_the_lens_are_undistorted_back():
 def toy(tmp_path_factory):
     """Six toy frames: as MOTChallenge's img1/000001.png..., as an mp4, their gt.txt (the
     last box of each frame flagged 0), a calibration and a model."""
-    root = tmp_path_factory.mktemp("real_formats")
-    data = small_toy_frames(root / "data", frames_per_scene=N_FRAMES)
-    frames = sorted(load_frames(data), key=lambda f: int(f.path.stem.split("_")[1]))
-    train_source_detectors(load_dataset(data), quick=True, frame_view="none").save(
-        root / "model.npz")
-    cam = frames[0].camera
-    img1 = root / "mot" / "img1"
-    img1.mkdir(parents=True)
-    lines = []
-    for k, f in enumerate(frames, 1):
-        shutil.copy(f.path, img1 / f"{k:06d}.png")
-        for j, (x, y, w, h) in enumerate(f.gt):
-            flag = 0 if j == len(f.gt) - 1 else 1
-            lines.append(f"{k},{j + 1},{x},{y},{w},{h},{flag},-1,-1,-1")
-    gt = root / "mot" / "gt.txt"
-    gt.write_text("\n".join(lines) + "\n")
+    clip = mot_toy_clip(tmp_path_factory.mktemp("real_formats"), n_frames=N_FRAMES,
+                        flag_last=True)
+    root, frames, cam = clip.root, clip.frames, clip.cam
     video = root / "clip.mp4"
     writer = cv2.VideoWriter(str(video), cv2.VideoWriter_fourcc(*"mp4v"), 10.0,
                              cam.image_size)
     for f in frames:
         writer.write(cv2.imread(str(f.path)))
     writer.release()
-    calibration = root / "cam.json"
-    calibration.write_text(json.dumps({"image_size": list(cam.image_size), "K": cam.K.tolist(),
-                                       "R": cam.R.tolist(), "t": cam.t.tolist()}))
     regions = root / "ignore.json"
     regions.write_text(json.dumps(REGION))
-    return SimpleNamespace(root=root, frames=frames, cam=cam, img1=img1, gt=gt, video=video,
-                           calibration=calibration, regions=regions, model=root / "model.npz",
-                           cache=root / "cache")
+    return SimpleNamespace(**vars(clip), video=video, regions=regions)
 
 
 def _detect(toy, out, *argv, calibration=None, capsys=None):
@@ -328,3 +307,52 @@ def test_bad_evaluation_input_is_one_line(toy, tmp_path, capfd):
         assert rc == 2 and len(err.splitlines()) == 1, (case, err)
         assert err.startswith("viewadapt detect: error: ") and want in err, (case, err)
         assert not out.exists(), case
+
+
+def test_frame_outcome_labels_hits_misses_and_ignored():
+    from viewadapt.detect.evaluation import frame_outcome
+
+    gt = (np.array([[10.0, 10, 20, 50], [100, 10, 20, 50], [60, 80, 20, 50]]), np.zeros(3),
+          (192, 144), np.array([False, False, True]))
+    dets = np.array([[10.0, 11, 20, 50, 2.0],     # on person 0: a hit
+                     [150, 60, 20, 50, 1.0],      # on nothing: a false positive
+                     [61, 80, 20, 50, 0.5],       # on the ignored box
+                     [5, 20, 20, 50, 0.8],        # bottom-centre in the region
+                     [100, 10, 20, 50, -3.0]])    # on person 1 but below the threshold
+    region = [np.array([[-1, -1], [16, -1], [16, 145], [-1, 145]], float)]
+    labels, status = frame_outcome(dets, gt, threshold=0.0, regions=region)
+    assert labels.tolist() == [1, 0, -1, -1, -2]
+    assert status.tolist() == [1, 0, -1]
+    labels, status = frame_outcome(dets, gt, threshold=-5.0)
+    assert labels.tolist()[4] == 1 and status.tolist() == [1, 1, -1]
+
+
+def _pixels(folder, colour):
+    return sum(int(np.all(cv2.imread(str(p)) == colour, axis=2).sum())
+               for p in sorted(folder.glob("*.png")))
+
+
+def test_annotated_frames_at_an_operating_point(toy, tmp_path, capfd):
+    from viewadapt.io.outputs import DETECTION_COLOURS
+
+    red = DETECTION_COLOURS[0]
+    everything = _detect(toy, tmp_path / "all", "--boxes", toy.gt, "--annotate", "frames",
+                         "--annotate-threshold=-1e9", toy.img1)
+    assert _pixels(everything / "annotated", red) > 0          # false positives drawn
+    none = _detect(toy, tmp_path / "none", "--boxes", toy.gt, "--annotate", "frames",
+                   "--annotate-threshold", "1e9", toy.img1)
+    assert _pixels(none / "annotated", red) == 0 == _pixels(none / "annotated",
+                                                            DETECTION_COLOURS[1])
+    at = _detect(toy, tmp_path / "fppi", "--boxes", toy.gt, "--annotate", "frames",
+                 "--annotate-fppi", "0", toy.img1)
+    ev = json.loads((at / "evaluation.json").read_text())
+    # false positives exist (red above), so 0 FPPI cuts some of the detections away
+    assert ev["annotate_threshold"] > pd.read_csv(at / "detections.csv")["score"].min()
+    assert _pixels(at / "annotated", red) == 0                 # no false positive at 0 FPPI
+    assert len(list((at / "annotated").glob("*.png"))) == N_FRAMES
+    # the detections themselves do not depend on the operating point
+    assert (at / "detections.csv").read_text() == (everything / "detections.csv").read_text()
+    rc = main(["detect", "--calibration", str(toy.calibration), "--model", str(toy.model),
+               "--quiet", "--annotate-fppi", "0.1", "--out", str(tmp_path / "bad"),
+               str(toy.img1)])
+    assert rc == 2 and "--annotate-fppi" in capfd.readouterr().err
