@@ -169,6 +169,8 @@ def main(argv=None) -> int:
             det.windows = wins.subset(idx)
             det._ops.clear()
             op = det.operator(kind.name)
+            for layer in op.layers:            # the fold alone, without the second stage
+                layer.operator.stage = None
             scores[way] += op.scores(op.frame_features(img)).tolist()
     label = np.array(label, bool)
     rows = {}
