@@ -16,13 +16,14 @@ from viewadapt.detect.evaluation import (
     BOOTSTRAP_BLOCK, BOOTSTRAP_DRAWS, block_bootstrap, evaluation_rows, frame_outcome,
     ground_truth_counts, summary_numbers, threshold_at_fppi,
 )
-from viewadapt.detect.kinds import DETECTOR_KINDS, PRETRAINED_KINDS
+from viewadapt.detect.kinds import DETECTOR_KINDS, PRETRAINED_KINDS, opencv_kind
 from viewadapt.detect.layers import UPSAMPLE_BELOW
 from viewadapt.detect.stream import DetectorSpec, detect_stream
 from viewadapt.geometry import PERSON_HEIGHT_M
 from viewadapt.io.boxes import FrameBoxes, read_boxes, read_ignore_regions
 from viewadapt.io.cache import DEFAULT_CACHE_LIMIT_GB, check_cache_limit
 from viewadapt.io.calibration import read_calibration_file
+from viewadapt.io.hogfile import read_opencv_hog_detector
 from viewadapt.io.files import atomic_output_dir, atomic_write_text, check_output_dir, run_metadata
 from viewadapt.io.models import SourceDetectors, shipped_model_path
 from viewadapt.io.outputs import (
@@ -199,8 +200,8 @@ def _metadata(args, det, stream, writer, dist, correction, annotate, *, imported
         input=stream.describe(), frames=writer.n_frames, detections=writer.n_detections,
         annotate=annotate, annotate_threshold=args.annotate_threshold,
         annotate_fppi=args.annotate_fppi, jobs=args.jobs,
-        model=_PRETRAINED_MODELS[args.detector] if args.detector in PRETRAINED_KINDS
-        else str(args.model),
+        model=_PRETRAINED_MODELS[args.detector]
+        if args.detector in PRETRAINED_KINDS and args.model is None else str(args.model),
         model_training=None if args.detector in PRETRAINED_KINDS else det.models.training,
         calibration=str(args.calibration),
         calibration_import=_calibration_import(imported),
@@ -256,9 +257,15 @@ def cmd_detect(args) -> int:
         if correction == "undistort" else None
     stream = open_frames(args.inputs, start=args.start, every=args.every,
                          max_frames=args.max_frames)
-    if args.model is None:
-        args.model = shipped_model_path()
-    models = SourceDetectors.load(args.model)
+    kinds = {}
+    if args.detector in PRETRAINED_KINDS:         # its weights come with it, or in --model
+        models = None
+        if args.model is not None:
+            kinds = {args.detector: opencv_kind(*read_opencv_hog_detector(args.model))}
+    else:
+        if args.model is None:
+            args.model = shipped_model_path()
+        models = SourceDetectors.load(args.model)
     boxes = regions = None
     if args.ignore is not None and args.boxes is None:
         raise ValueError("--ignore needs --boxes (ignore regions are part of the evaluation)")
@@ -318,8 +325,8 @@ def cmd_detect(args) -> int:
                    object_model=args.object_model)
     if correction == "windows":
         options["lens"] = dist.tolist()
-    spec = DetectorSpec.create(cam, args.model, args.detector, **options)
-    det = FrameDetector(cam, models, **options)
+    spec = DetectorSpec.create(cam, args.model or "", args.detector, **options)
+    det = FrameDetector(cam, models, kinds=kinds, **options)
     t0 = time.perf_counter()
     det.operator(args.detector)         # built (or read from the cache) before any output
     t_operator = time.perf_counter() - t0
@@ -422,7 +429,9 @@ def register(sub, common) -> None:
     p.add_argument("--model", type=Path, default=None,
                    help="source detectors: models/source_detectors.npz written by `viewadapt "
                         "bench frames` (default: the models shipped with viewadapt, trained "
-                        "on the paper preset's elevation-0 crops)")
+                        "on the paper preset's elevation-0 crops); with --detector opencv a "
+                        "64x128 HOG/SVM saved by cv2.HOGDescriptor.save (YAML or XML; "
+                        "default OpenCV's INRIA-trained people detector)")
     p.add_argument("--detector", choices=list(DETECTOR_KINDS | PRETRAINED_KINDS), default="hog",
                    help="the adapted detector (default hog: HOG/SVM; acf: boosted trees on ACF; "
                         "both trained on renders, --model; opencv: OpenCV's INRIA-trained "

@@ -86,7 +86,7 @@ from .layers import (
 from .frameview import FRAME_VIEW_SCALES, frame_view, frame_view_features, frame_view_copies
 from .kinds import (
     DetectorKind, HOG_DETECTOR, ACF_DETECTOR, OPENCV_DETECTOR, DETECTOR_KINDS, PRETRAINED_KINDS,
-    detector_kind,
+    opencv_kind, detector_kind,
 )
 from .detector import DEFAULT_THRESHOLD, FrameDetections, FrameDetector
 from .training import FRAME_VIEW_CHOICES, DEFAULT_FRAME_VIEW, check_frame_view, train_on_windows
@@ -119,7 +119,7 @@ __all__ = [
     "frame_to_band", "upsampled_windows", "upsampled_band", "MultiResolutionOperator",
     "build_multiresolution_operator", "FRAME_VIEW_SCALES", "frame_view", "frame_view_features",
     "frame_view_copies", "DetectorKind", "HOG_DETECTOR", "ACF_DETECTOR", "OPENCV_DETECTOR",
-    "DETECTOR_KINDS", "PRETRAINED_KINDS", "detector_kind", "DEFAULT_THRESHOLD",
+    "DETECTOR_KINDS", "PRETRAINED_KINDS", "opencv_kind", "detector_kind", "DEFAULT_THRESHOLD",
     "FrameDetections", "FrameDetector", "FRAME_VIEW_CHOICES", "DEFAULT_FRAME_VIEW",
     "check_frame_view", "train_on_windows", "DetectorSpec", "detect_stream",
     "standardize_boxes", "ground_truth_rows", "evaluate_detections",

@@ -92,6 +92,9 @@ class FrameDetector:
     grid_phase : (2,) float
         Offset of the ground grid of candidate windows, in strides (forward, left), each in
         ``[0, 1)`` (:func:`~viewadapt.detect.windows.select_candidate_windows`).
+    kinds : dict name -> DetectorKind, optional
+        Detector kinds of this detector instead of the registry's of the same name, e.g.
+        ``{"opencv": opencv_kind(w, b)}`` for another OpenCV HOG/SVM.
     """
 
     def __init__(self, camera: Camera, models: SourceDetectors, *,
@@ -101,7 +104,7 @@ class FrameDetector:
                  cells_per_source_cell: float = CELLS_PER_SOURCE_CELL,
                  upsample_below: float = UPSAMPLE_BELOW, thresholds=None,
                  rule: str = "covariant", object_model: str = "plane", lens=None,
-                 grid_phase=(0.0, 0.0)):
+                 grid_phase=(0.0, 0.0), kinds=None):
         if not isinstance(camera, Camera) or camera.image_size is None:
             raise ValueError("camera must be a Camera with its image_size (width, height)")
         self.camera = camera
@@ -117,6 +120,11 @@ class FrameDetector:
             raise ValueError(f"object_model must be one of {OBJECT_MODELS}, got {object_model!r}")
         if object_model != "plane":        # the plane's cache keys stay those of before
             self.params["object_model"] = str(object_model)
+        self.kinds = {}
+        for name, k in dict(kinds or {}).items():
+            if detector_kind(name).name != getattr(k, "name", None):
+                raise ValueError(f"kinds[{name!r}] must be a detector kind called {name!r}")
+            self.kinds[name] = k
         self.thresholds = {k: DEFAULT_THRESHOLD for k in DETECTOR_KINDS | PRETRAINED_KINDS} \
             | dict(thresholds or {})
         for k in self.thresholds:
@@ -139,6 +147,12 @@ class FrameDetector:
         self.build_seconds = {}
         self.cache_hit = {}
 
+    def kind(self, name):
+        """This detector's :class:`DetectorKind` called ``name`` (its own ``kinds``, else
+        the registry's)."""
+        name = detector_kind(name).name
+        return self.kinds.get(name) or detector_kind(name)
+
     def operator(self, kind: str):
         """The adapted operator of ``kind`` (built, or read from the cache, on first use)."""
         kind = detector_kind(kind).name
@@ -146,7 +160,7 @@ class FrameDetector:
             return self._ops[kind]
         t0 = time.perf_counter()
         key_parts = dict(camera=self.camera.to_dict(), kind=kind,
-                         model=detector_kind(kind).model_fingerprint(self.models), **self.params)
+                         model=self.kind(kind).model_fingerprint(self.models), **self.params)
         cache = OperatorCache(self.cache_dir, self.cache_limit_gb) if self.cache_dir else None
         op = cache.load(key_parts) if cache else None
         self.cache_hit[kind] = op is not None
@@ -159,7 +173,7 @@ class FrameDetector:
         return op
 
     def _build(self, name):
-        kind = detector_kind(name)
+        kind = self.kind(name)
         # the same tolerance in pixels for every kind: its cells against HOG's
         tol = self.params["tolerance"] * kind.tolerance / HOG_DETECTOR.tolerance
 

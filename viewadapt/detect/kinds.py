@@ -18,13 +18,13 @@ import numpy as np
 from .features import ACF_FEATURES, HOG_FEATURES, OPENCV_FEATURES
 from .linear import AdaptedLinearOperator, build_adapted_linear_operator, \
     build_adapted_opencv_operator
-from .opencv_cells import opencv_default_people_detector
+from .opencv_cells import opencv_cell_weights, opencv_default_people_detector
 from .renorm import RENORM_CELLS_PER_SOURCE_CELL, VERIFY_THRESHOLD
 from .templates import ACF_TOLERANCE, HOG_TOLERANCE
 from .trees import AdaptedTreesOperator, build_adapted_trees_operator
 
 __all__ = ["DetectorKind", "HOG_DETECTOR", "ACF_DETECTOR", "OPENCV_DETECTOR", "DETECTOR_KINDS",
-           "PRETRAINED_KINDS", "detector_kind"]
+           "PRETRAINED_KINDS", "opencv_kind", "detector_kind"]
 
 
 class DetectorKind:
@@ -116,16 +116,24 @@ def _opencv_people():
 
 class _OpenCVDetector(DetectorKind):
     """OpenCV's INRIA-trained HOG/SVM people detector (``getDefaultPeopleDetector``; Dalal &
-    Triggs 2005) over its block-normalised cells, adapted like the HOG/SVM, the windows it
-    keeps rescored with their own block normalisation
-    (:class:`~viewadapt.detect.renorm.RenormStage`): its weights come with OpenCV, not
-    from :class:`SourceDetectors`."""
+    Triggs 2005) -- or another 64x128 HOG/SVM in OpenCV's layout (:func:`opencv_kind`) --
+    over its block-normalised cells, adapted like the HOG/SVM, the windows it keeps
+    rescored with their own block normalisation
+    (:class:`~viewadapt.detect.renorm.RenormStage`): its weights come with it, not from
+    :class:`SourceDetectors`."""
 
     name, features, tolerance = "opencv", OPENCV_FEATURES, HOG_TOLERANCE
     operator_class = AdaptedLinearOperator
 
+    def __init__(self, weights=None, bias: float = 0.0):
+        self._own = None
+        if weights is not None:
+            W = opencv_cell_weights(weights)
+            W.setflags(write=False)
+            self._own = (W, float(bias))
+
     def model(self, models=None):
-        return _opencv_people()
+        return self._own if self._own is not None else _opencv_people()
 
     def model_fingerprint(self, models=None) -> str:
         W, b = self.model()
@@ -141,6 +149,13 @@ class _OpenCVDetector(DetectorKind):
     def window_scores(self, models, X):
         W, b = self.model()
         return np.asarray(X, np.float64) @ np.ravel(W) + b
+
+
+def opencv_kind(weights, bias: float = 0.0) -> DetectorKind:
+    """The ``opencv`` detector kind with another 64x128 HOG/SVM in OpenCV's descriptor
+    layout (``weights`` (3780,), ``bias``), e.g. one of
+    :func:`viewadapt.io.read_opencv_hog_detector`."""
+    return _OpenCVDetector(weights, bias)
 
 
 HOG_DETECTOR = _HogDetector()

@@ -20,7 +20,7 @@ from typing import Iterator
 import numpy as np
 
 from .detector import FrameDetections, FrameDetector
-from .kinds import detector_kind
+from .kinds import PRETRAINED_KINDS, detector_kind, opencv_kind
 
 __all__ = ["DetectorSpec", "detect_stream"]
 
@@ -35,7 +35,8 @@ class DetectorSpec:
         JSON of :meth:`Camera.to_dict <viewadapt.geometry.Camera.to_dict>`.
     model : str
         Path of the source detectors file (:meth:`SourceDetectors.load
-        <viewadapt.io.SourceDetectors.load>`).
+        <viewadapt.io.SourceDetectors.load>`); for a pretrained kind an OpenCV HOGDescriptor
+        file (:func:`viewadapt.io.read_opencv_hog_detector`), or "" for its own weights.
     kind : str
         The detector kind run on the frames.
     options : str
@@ -60,10 +61,15 @@ class DetectorSpec:
         """A new :class:`FrameDetector` of this spec (its operators built on first use, or
         read from the operator cache)."""
         from viewadapt.geometry import Camera
+        from viewadapt.io.hogfile import read_opencv_hog_detector
         from viewadapt.io.models import SourceDetectors
 
-        return FrameDetector(Camera.from_dict(json.loads(self.camera)),
-                             SourceDetectors.load(self.model), **json.loads(self.options))
+        cam = Camera.from_dict(json.loads(self.camera))
+        if self.kind in PRETRAINED_KINDS:
+            kinds = {self.kind: opencv_kind(*read_opencv_hog_detector(self.model))} \
+                if self.model else {}
+            return FrameDetector(cam, None, kinds=kinds, **json.loads(self.options))
+        return FrameDetector(cam, SourceDetectors.load(self.model), **json.loads(self.options))
 
 
 #: a worker process's detectors, made once per spec

@@ -1,5 +1,7 @@
 """OpenCV's HOG/SVM people detector as block-normalised cells, and adapted in full frames."""
 
+import re
+
 import cv2
 import numpy as np
 import pytest
@@ -206,3 +208,70 @@ def test_the_cascade_rescores_what_the_fold_keeps(camera):
     # the boxes are the windows' own (not snapped to a template)
     np.testing.assert_allclose(op.snapped_homographies, windows.homographies)
     assert build_adapted_opencv_operator(windows, W, b, object_model="body").stage is None
+
+
+def _save_hog(path, weights, bias=None, **layout):
+    hog = cv2.HOGDescriptor(*layout.pop("ctor", ()))
+    v = np.r_[weights, [] if bias is None else [bias]].astype(np.float32)
+    hog.setSVMDetector(v)
+    hog.save(str(path))
+    return path
+
+
+def test_a_hog_file_saved_by_opencv_is_read_back(tmp_path):
+    from viewadapt.io import read_opencv_hog_detector
+
+    rng = np.random.default_rng(13)
+    w = rng.normal(size=3780).astype(np.float32)
+    for suffix in ("yml", "xml"):
+        got, b = read_opencv_hog_detector(_save_hog(tmp_path / f"hog.{suffix}", w, -0.25))
+        np.testing.assert_allclose(got, w, rtol=1e-6)
+        assert b == pytest.approx(-0.25)
+    got, b = read_opencv_hog_detector(_save_hog(tmp_path / "nobias.yml", w))
+    assert b == 0.0
+
+
+@pytest.mark.parametrize("make, field", [
+    (lambda p: _save_hog(p, np.zeros(1981), ctor=((48, 96), (16, 16), (8, 8), (8, 8), 9)),
+     "winSize"),
+    (lambda p: p.write_text(re.sub(r"SVMDetector: \[[^\]]*\]", "SVMDetector: [ 1., 2. ]",
+                                   _save_hog(p, np.zeros(3781)).read_text())) and p,
+     "OpenCV cannot read it as a HOGDescriptor file"),
+    (lambda p: p.write_text("%YAML:1.0\n---\nK: [1, 2, 3]\n") and p, "not an OpenCV HOGDescriptor"),
+])
+def test_a_hog_file_of_another_layout_is_one_line(tmp_path, make, field):
+    from viewadapt.io import read_opencv_hog_detector
+
+    path = make(tmp_path / "bad.yml")
+    with pytest.raises(ValueError) as err:
+        read_opencv_hog_detector(path)
+    assert field in str(err.value) and str(path) in str(err.value)
+    assert "\n" not in str(err.value)
+
+
+def test_a_frame_detector_with_its_own_opencv_weights(camera, tmp_path):
+    """Another 64x128 HOG/SVM (here OpenCV's, perturbed, through a saved file) is adapted in
+    place of OpenCV's: its own scores and cache entry."""
+    from viewadapt.detect import opencv_descriptor_weights, opencv_kind
+    from viewadapt.io import read_opencv_hog_detector
+
+    rng = np.random.default_rng(14)
+    w = opencv_descriptor_weights(opencv_default_people_detector()[0])
+    mine = (w + rng.normal(scale=0.05, size=w.shape)).astype(np.float32)
+    path = _save_hog(tmp_path / "mine.yml", mine, -0.2)
+    frame = _scene((SIZE[1], SIZE[0]), 15)
+
+    def scores(det):
+        op = det.operator("opencv")
+        return np.nan_to_num(op.scores(op.frame_features(frame)), neginf=-99.0)
+
+    cache = tmp_path / "cache"
+    default = scores(FrameDetector(camera, None, cache_dir=cache))
+    own = scores(FrameDetector(camera, None, cache_dir=cache,
+                               kinds={"opencv": opencv_kind(*read_opencv_hog_detector(path))}))
+    direct = scores(FrameDetector(camera, None, kinds={"opencv": opencv_kind(mine, -0.2)}))
+    np.testing.assert_allclose(own, direct, rtol=1e-5, atol=1e-5)
+    assert np.abs(own - default).max() > 1e-2
+    assert len(list(cache.glob("operator-*.npz"))) == 2          # one cache entry each
+    with pytest.raises(ValueError, match="kinds\\['hog'\\] must be a detector kind"):
+        FrameDetector(camera, None, kinds={"hog": opencv_kind(mine, -0.2)})
