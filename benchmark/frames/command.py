@@ -38,7 +38,8 @@ __all__ = ["register", "cmd_bench_frames", "cmd_bench_runtime", "plot_det_figure
 def _group_by_camera(frames):
     groups = {}
     for f in frames:
-        key = json.dumps(f.camera.to_dict(), sort_keys=True)
+        key = json.dumps([f.camera.to_dict(), None if f.dist is None else f.dist.tolist()],
+                         sort_keys=True)
         groups.setdefault(key, []).append(f)
     return list(groups.values())
 
@@ -47,13 +48,16 @@ def _detect_camera(group, models, methods, heights, cache_dir, cache_limit_gb, t
                    cells_per_source_cell, upsample_below, grid_phase=(0.0, 0.0),
                    progress=None):
     """Every method (:class:`~benchmark.frames.spec.FrameMethod`) on the frames of one camera,
-    the candidate windows at ``grid_phase``: (detections, seconds, windows), by method."""
+    the candidate windows at ``grid_phase`` (through the camera's lens when its frames
+    record one, as ``viewadapt detect`` maps them): (detections, seconds, windows), by
+    method."""
     from benchmark.frames.methods import FrameMethods
 
+    lens = None if group[0].dist is None else group[0].dist.tolist()
     fd = FrameMethods(group[0].camera, models, person_heights=heights, cache_dir=cache_dir,
                        cache_limit_gb=cache_limit_gb, tolerance=tolerance,
                        cells_per_source_cell=cells_per_source_cell,
-                       upsample_below=upsample_below, grid_phase=grid_phase)
+                       upsample_below=upsample_below, grid_phase=grid_phase, lens=lens)
     for m in methods:                           # offline precomputation, not timed per frame
         fd.prepare(m)
     dets = {m: [] for m in methods}

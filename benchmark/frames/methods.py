@@ -76,7 +76,7 @@ class FrameRecord:
 
     ``gt`` is (G, 4) full boxes ``(x, y, w, h)``; ``occlusion`` (G,) hidden fractions;
     ``ground`` (G, 3) the persons' ground positions in metres (None when the frames do not
-    record them).
+    record them); ``dist`` the camera's OpenCV lens coefficients (None: a pinhole frame).
     """
 
     path: Path
@@ -86,6 +86,7 @@ class FrameRecord:
     gt: np.ndarray
     occlusion: np.ndarray
     ground: np.ndarray | None = None
+    dist: np.ndarray | None = None
 
     def image(self) -> np.ndarray:
         from benchmark.data import read_image
@@ -141,8 +142,17 @@ def load_frames(root) -> list:
         gt = np.array([a["bbox"] for a in anns], float).reshape(-1, 4)
         occ = np.array([float(a.get("occlusion", 0.0)) for a in anns])
         ground = _ground_positions(anns)
+        dist = None
+        if entry.get("dist") is not None:           # the frame as the lens made it
+            from viewadapt.camera.distortion import check_distortion
+            try:
+                dist = check_distortion(entry["dist"])
+            except ValueError as exc:
+                raise ValueError(f"{path}: image {entry['file_name']}: dist: {exc}") from None
+            if not np.any(dist):
+                dist = None
         frames.append(FrameRecord(p, int(entry["id"]), str(entry.get("scene_id", "")), cam,
-                                  gt, occ, ground))
+                                  gt, occ, ground, dist))
     if not frames:
         raise ValueError(f"{path} lists no images")
     return frames
