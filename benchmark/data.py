@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from viewadapt.io.bounded import MAX_INPUT_BYTES, check_json_depth, read_limited_text
+from viewadapt.io.bounded import MAX_INPUT_BYTES, read_json_object
 
 __all__ = ["DatasetError", "Dataset", "load_dataset", "read_image", "read_json", "read_depth_map",
            "manifest_camera", "missing_planned_images",
@@ -126,19 +126,11 @@ def read_json(path, *, error=ValueError, max_bytes: int = MAX_JSON_BYTES) -> dic
     (measured before parsing), not UTF-8, not valid JSON or no JSON object raises ``error``
     naming the file (every JSON file the benchmark reads holds an object)."""
     try:
-        text = read_limited_text(path, "JSON file", max_bytes)
-        check_json_depth(text, path)
+        return read_json_object(path, "JSON file", max_bytes)
     except FileNotFoundError:
         raise
     except ValueError as exc:
         raise error(str(exc)) from None
-    try:
-        doc = json.loads(text)
-    except json.JSONDecodeError as exc:
-        raise error(f"{path} is not valid JSON: {exc}") from None
-    if not isinstance(doc, dict):
-        raise error(f"{path}: expected a JSON object, got a {type(doc).__name__}")
-    return doc
 
 
 def _fingerprint(manifest: pd.DataFrame, config: dict) -> str:

@@ -2,13 +2,12 @@
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
-from viewadapt.io.bounded import MAX_INPUT_BYTES, check_json_depth, read_limited_text
+from viewadapt.io.bounded import read_json_object
 from viewadapt.metrics import det_curve_windows
 
 from benchmark.crops.summarize import PAPER_MISS_RATES
@@ -176,24 +175,10 @@ def _fmt(v, nd=3):
 INCOMPLETE_NOTE = "> **Warning: computed on an incomplete dataset (--allow-incomplete):** "
 
 
-def _read_run(path: Path) -> dict:
-    """``run.json`` read within bounds (size, then nesting, before parsing); one-line
-    ``ValueError`` naming it if it is no JSON object."""
-    text = read_limited_text(path, "run.json", MAX_INPUT_BYTES)
-    check_json_depth(text, path)
-    try:
-        run = json.loads(text)
-    except json.JSONDecodeError as exc:
-        raise ValueError(f"{path} is not valid JSON: {exc}") from None
-    if not isinstance(run, dict):
-        raise ValueError(f"{path}: expected a JSON object, got a {type(run).__name__}")
-    return run
-
-
 def write_report(out: Path) -> Path:
     """Write ``report.md`` for a results directory (crossval and/or sweep outputs)."""
     out = Path(out)
-    run = _read_run(out / "run.json") if (out / "run.json").is_file() else {}
+    run = read_json_object(out / "run.json", "run.json") if (out / "run.json").is_file() else {}
     lines = ["# viewadapt benchmark report", ""]
     sweep = run.get("sweep")
     notes = [n for n in (run.get("incomplete_dataset"),

@@ -4,7 +4,7 @@ Every method is evaluated as ``viewadapt detect --boxes`` evaluates (Caltech pro
 LAMR over 1e-2..1e0 FPPI, miss rates at 0.1 and 1 FPPI, 95 % intervals from a circular
 block bootstrap over consecutive frames: :func:`viewadapt.commands.detect.evaluation_summary`).
 Comparisons are paired: the LAMR difference of two methods on the same resampled blocks
-(:func:`viewadapt.detect.evaluation.paired_block_bootstrap`), against the best unadapted
+(:func:`viewadapt.detect.evaluation.paired_matches_bootstrap`), against the best unadapted
 baseline (the lowest-LAMR pyramid, ground-filtered or not) and, per detector, adapted
 against image warping of the same model.
 """
@@ -16,7 +16,7 @@ import numpy as np
 from benchmark.frames.report import WARP_MARGIN
 from benchmark.frames.spec import FrameMethod
 from viewadapt.commands.detect import evaluation_summary
-from viewadapt.detect.evaluation import evaluation_rows, paired_block_bootstrap
+from viewadapt.detect.evaluation import evaluation_rows, frame_matches, paired_matches_bootstrap
 
 __all__ = ["evaluate_run", "paired_differences", "best_unadapted", "footage_targets",
            "summary_lines", "summary_rows"]
@@ -41,13 +41,12 @@ def paired_differences(run, image_size, evaluations, *, regions=None, block: int
     method against the best unadapted baseline, and each adapted detector against image
     warping of the same model."""
     gt = [(t.boxes, t.occlusion, image_size, t.ignore) for t in run.truth]
-    rows = {}
+    matches = {}
 
-    def dts(m):
-        if m not in rows:
-            rows[m], gts = evaluation_rows(run.detections[m], gt, regions=regions)
-            rows.setdefault("gts", gts)
-        return rows[m]
+    def matched(m):                 # each method's frames matched once, for all its pairs
+        if m not in matches:
+            matches[m] = frame_matches(*evaluation_rows(run.detections[m], gt, regions=regions))
+        return matches[m]
 
     pairs = []
     ref = best_unadapted(evaluations)
@@ -57,11 +56,8 @@ def paired_differences(run, image_size, evaluations, *, regions=None, block: int
         warp = FrameMethod(m.kind, "warp") if m.how == "adapted" else None
         if warp in run.detections:
             pairs.append((m, warp))
-    out = []
-    for m, r in pairs:
-        a, b = dts(m), dts(r)
-        out.append((m, r, paired_block_bootstrap(a, b, rows["gts"], block=block, seed=seed)))
-    return out
+    return [(m, r, paired_matches_bootstrap(matched(m), matched(r), block=block, seed=seed))
+            for m, r in pairs]
 
 
 def _fps(run, m) -> float:
@@ -133,8 +129,8 @@ def summary_lines(run, evaluations, differences) -> list:
     for r in rows:
         lo, hi = r["lamr_ci_low"], r["lamr_ci_high"]
         ci = "" if lo is None else f" ({lo:.3f}..{hi:.3f})"
-        diff = "-" if not r["reference"] else (
-            f"{r['difference']:+.3f} ({_interval((r['difference_ci_low'], r['difference_ci_high']))})")
+        dci = (r["difference_ci_low"], r["difference_ci_high"])
+        diff = f"{r['difference']:+.3f} ({_interval(dci)})" if r["reference"] else "-"
         lines.append(f"| {r['method']} | {r['lamr']:.3f}{ci} | "
                      f"{r['miss_rate_at_0_1_fppi']:.3f} | {r['miss_rate_at_1_fppi']:.3f} | "
                      f"{diff} | {r['frames_per_second']:.2f} |")

@@ -33,7 +33,7 @@ __all__ = [
     "HOG_CELL", "N_HOG_BINS", "HOG_CHANNELS", "HOG_WEIGHT_SHAPE", "HOG_CLIP",
     "ACF_SHRINK", "N_ACF_CHANNELS", "N_ACF_ORIENTS", "ACF_WEIGHT_SHAPE", "ACF_GRADIENT_LAMBDA",
     "fast_orientation_channels", "fast_acf_pixel_channels", "acf_channel_cell_maps",
-    "FrameFeatures", "check_frame", "gradient_polar",
+    "FrameFeatures", "check_frame", "gradient_polar", "gradient_bins", "padded_maps",
     "cell_sums", "orientation_cell_maps", "channel_slices3", "correlate_slices",
     "block_normalize_cells",
     "hog_window_features", "acf_window_features",
@@ -93,26 +93,9 @@ def gradient_polar(img):
     return cv2.cartToPolar(dx, dy)
 
 
-def fast_orientation_channels(image, *, n_bins: int = 9, gamma: bool = False) -> np.ndarray:
-    """Per-pixel oriented gradient magnitudes in float32 (OpenCV kernels, compiled channel pick).
-
-    The same quantity as :func:`viewadapt.hog.orientation_channels`:
-    (optionally square-root gamma, then) central differences with reflect-101 borders, the
-    colour channel of largest magnitude, the magnitude split linearly between the two
-    nearest of ``n_bins`` unsigned bins centred at ``(b + 1/2) pi / n_bins``; in single
-    precision.
-
-    Parameters
-    ----------
-    image : (M, N[, 3]) ndarray, uint8 or float in [0, 1]
-    n_bins : int
-    gamma : bool
-        Square-root gamma first (OpenCV's default).
-
-    Returns
-    -------
-    (M, N, n_bins) float32 ndarray
-    """
+def gradient_bins(image, *, n_bins: int = 9, gamma: bool = False):
+    """(M, N) float32 magnitude and bin coordinate ``t`` in ``[0, n_bins)`` (``1 - frac(t)``
+    to bin ``floor(t)``, ``frac(t)`` to the next) of :func:`gradient_polar` (gamma first)."""
     import cv2
 
     img = check_image(image).astype(np.float32)
@@ -125,6 +108,21 @@ def fast_orientation_channels(image, *, n_bins: int = 9, gamma: bool = False) ->
     for _ in range(2):                                            # t mod n_bins
         cv2.add(t, float(n_bins), t, mask=cv2.compare(t, 0.0, cv2.CMP_LT))
         cv2.subtract(t, float(n_bins), t, mask=cv2.compare(t, float(n_bins), cv2.CMP_GE))
+    return mag, t
+
+
+def fast_orientation_channels(image, *, n_bins: int = 9, gamma: bool = False) -> np.ndarray:
+    """Per-pixel oriented gradient magnitudes, (M, N, n_bins) float32 (OpenCV kernels).
+
+    The same quantity as :func:`viewadapt.hog.orientation_channels` in single precision:
+    (``gamma``: square-root gamma, then) central differences with reflect-101 borders, the
+    colour channel of largest magnitude, the magnitude split linearly between the two
+    nearest of ``n_bins`` unsigned bins centred at ``(b + 1/2) pi / n_bins``
+    (:func:`gradient_bins`). ``image``: (M, N[, 3]), uint8 or float in [0, 1].
+    """
+    import cv2
+
+    mag, t = gradient_bins(image, n_bins=n_bins, gamma=gamma)
     planes = []
     for b in range(n_bins):
         d = cv2.absdiff(t, float(b))
@@ -507,7 +505,7 @@ def _hog_eps(c: int) -> float:
     return float(c * c) * _EPS_PER_PX
 
 
-def _padded_maps(cell_sizes, frame_shape, pad: int, channels: int):
+def padded_maps(cell_sizes, frame_shape, pad: int, channels: int):
     """One zero-padded float32 buffer holding a ``(M // c + 2 pad, N // c + 2 pad,
     channels)`` map per distinct cell size ``c``, in the order given: the operator's feature
     vector without a copy (``FrameFeatures.vector``). Returns ``(order, flat, maps)`` with
@@ -546,7 +544,7 @@ def hog_frame_features(image, cell_sizes, *, pad: int = 2, image_size=None) -> F
     """
     img = check_frame(image, image_size)
     M, N = img.shape[:2]
-    order, flat, maps = _padded_maps(cell_sizes, (M, N), pad, HOG_CHANNELS)
+    order, flat, maps = padded_maps(cell_sizes, (M, N), pad, HOG_CHANNELS)
     cells = orientation_cell_maps(img, order)
     for c, F in maps.items():
         X = cells[c]
@@ -580,7 +578,7 @@ def acf_frame_features(image, cell_sizes, *, pad: int = 2, smooth_channels: floa
     else:
         cells = acf_channel_cell_maps(img, cell_sizes)
     tri = triangle_kernel(smooth_channels)
-    order, flat, maps = _padded_maps(cell_sizes, (M, N), pad, N_ACF_CHANNELS)
+    order, flat, maps = padded_maps(cell_sizes, (M, N), pad, N_ACF_CHANNELS)
     for c, F in maps.items():
         A = cells[c]
         ny, nx = A.shape[:2]

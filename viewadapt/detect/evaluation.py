@@ -29,6 +29,7 @@ from ..metrics import (
 __all__ = ["standardize_boxes", "ground_truth_rows", "evaluate_detections", "in_regions",
            "bottom_centres", "evaluation_rows", "ground_truth_counts", "block_length",
            "block_bootstrap", "frame_matches", "block_resamples", "paired_block_bootstrap",
+           "paired_matches_bootstrap",
            "threshold_at_fppi", "frame_outcome", "summary_numbers", "BOOTSTRAP_BLOCK",
            "BOOTSTRAP_DRAWS"]
 
@@ -279,8 +280,15 @@ def paired_block_bootstrap(dts, reference, gts, *, block: int = BOOTSTRAP_BLOCK,
     if len(dts) != len(gts) or len(reference) != len(gts):
         raise ValueError(f"both methods need detections on the {len(gts)} frames, got "
                          f"{len(dts)} and {len(reference)}")
-    a, b = frame_matches(dts, gts), frame_matches(reference, gts)
+    return paired_matches_bootstrap(frame_matches(dts, gts), frame_matches(reference, gts),
+                                    block=block, draws=draws, seed=seed, level=level)
 
+
+def paired_matches_bootstrap(a, b, *, block: int = BOOTSTRAP_BLOCK,
+                             draws: int = BOOTSTRAP_DRAWS, seed: int = 0,
+                             level: float = 0.95) -> dict:
+    """:func:`paired_block_bootstrap` of two methods' per-frame matches
+    (:func:`frame_matches`; each method matched once however many pairs it is in)."""
     def lamr(ms):
         fppi, miss, _ = accumulate_frames(ms)
         return summary_numbers(fppi, miss)["lamr"]

@@ -113,7 +113,7 @@ class AdaptedLinearOperator(TemplateOperator):
         template_run_scores(x, r.templates, r.t_offset, r.t_rows, r.t_run, r.x_stride,
                             r.starts, r.group, out)
         s = out[r.row_of] + self.bias
-        stage = getattr(self, "stage", None)
+        stage = self.stage
         if stage is None:
             return s
         # the cascade: the windows the fold keeps, rescored with their own normalisation
@@ -204,7 +204,7 @@ class AdaptedLinearOperator(TemplateOperator):
         r = self._runs
         meta.update(bias=float(self.bias), n_features=int(r.n_features))
         arrays.update({f"runs_{k}": getattr(r, k) for k in _RUN_ARRAYS})
-        if getattr(self, "stage", None) is not None:
+        if self.stage is not None:
             m, a = self.stage.to_arrays()
             meta["renorm"] = m
             arrays.update(a)
@@ -364,23 +364,34 @@ def build_adapted_linear_operator(windows: CandidateWindows, weights, bias: floa
     if w.size != n_src or not np.all(np.isfinite(w)):
         raise ValueError(f"weights must be {n_src} finite values over {HOG_WEIGHT_SHAPE} cells "
                          f"(hog_window_features), got {w.size}")
-    if not np.isfinite(tolerance) or tolerance < 0:
-        raise ValueError(f"tolerance must be >= 0 cells, got {tolerance!r}")
-    scale = windows.scale
-    cell = choose_cell_sizes(scale, HOG_CELL, cells_per_source_cell=cells_per_source_cell,
-                             allowed=allowed_cell_sizes)
+    cell, groups = _template_groups(windows, tolerance, cells_per_source_cell, allowed_cell_sizes)
     model = resolve_object_model(object_model)
-    groups = build_template_groups(windows, cell, tolerance)
     for g in groups:
         G = hog_frame_remap(window_mapping(windows, g.prototype, model), g, rule)
         g.template = np.asarray(G.T @ w, dtype=np.float32).reshape(g.shape[0], g.shape[1],
                                                                      HOG_CHANNELS)
+    return _operator(windows, cell, groups, bias, tolerance, hog_frame_features, HOG_CHANNELS)
+
+
+def _template_groups(windows, tolerance, cells_per_source_cell, allowed_cell_sizes):
+    """The frame cell size of every window and the template groups of both builders."""
+    if not np.isfinite(tolerance) or tolerance < 0:
+        raise ValueError(f"tolerance must be >= 0 cells, got {tolerance!r}")
+    cell = choose_cell_sizes(windows.scale, HOG_CELL, cells_per_source_cell=cells_per_source_cell,
+                             allowed=allowed_cell_sizes)
+    return cell, build_template_groups(windows, cell, tolerance)
+
+
+def _operator(windows, cell, groups, bias, tolerance, maker, channels, **feature_kw):
+    """The operator of groups whose templates are set: padding, the frame features'
+    ``maker`` (a function of :data:`~viewadapt.detect.features.FEATURE_MAKERS`) and the
+    run tables, built once offline."""
     pad = required_padding(groups, windows.image_size)
-    make_features = partial(hog_frame_features, cell_sizes=sorted(set(cell.tolist())), pad=pad,
-                            image_size=tuple(windows.image_size))
-    op = AdaptedLinearOperator(windows, cell, groups, pad, bias, make_features)
+    make_features = partial(maker, cell_sizes=sorted(set(cell.tolist())), pad=pad,
+                            image_size=tuple(windows.image_size), **feature_kw)
+    op = AdaptedLinearOperator(windows, cell, groups, pad, bias, make_features, channels)
     op.tolerance = float(tolerance)
-    op._build_runs()                          # the run-time form, built once offline
+    op._build_runs()
     return op
 
 
@@ -411,34 +422,24 @@ def build_adapted_opencv_operator(windows: CandidateWindows, weights, bias: floa
     if w.size != int(np.prod(OPENCV_WEIGHT_SHAPE)) or not np.all(np.isfinite(w)):
         raise ValueError(f"weights must be {int(np.prod(OPENCV_WEIGHT_SHAPE))} finite values "
                          f"over {OPENCV_WEIGHT_SHAPE} cells (opencv_cell_weights), got {w.size}")
-    if not np.isfinite(tolerance) or tolerance < 0:
-        raise ValueError(f"tolerance must be >= 0 cells, got {tolerance!r}")
+    cell, groups = _template_groups(windows, tolerance, cells_per_source_cell, allowed_cell_sizes)
     # one 9-bin weight vector per normalised copy q (channels 9 q ... 9 q + 8)
     wq = w.reshape(OPENCV_WEIGHT_SHAPE[:2] + (OPENCV_CHANNELS // N_HOG_BINS, N_HOG_BINS))
     wq = [wq[:, :, q].ravel() for q in range(wq.shape[2])]
-    cell = choose_cell_sizes(windows.scale, HOG_CELL, cells_per_source_cell=cells_per_source_cell,
-                             allowed=allowed_cell_sizes)
     model = resolve_object_model(object_model)
-    groups = build_template_groups(windows, cell, tolerance)
     for g in groups:
         G9 = cell_hog_remap(window_mapping(windows, g.prototype, model), g, rule).T.tocsr()
         g.template = np.concatenate(
             [np.asarray(G9 @ v, np.float32).reshape(g.shape[0], g.shape[1], N_HOG_BINS)
              for v in wq], axis=2)
-    pad = required_padding(groups, windows.image_size)
     stage = None
     if renorm and isinstance(model, PlaneModel):
-        stage = RenormStage(windows.homographies, stage_cell_sizes(windows.scale,
-                                                                   allowed_cell_sizes),
+        stage = RenormStage(windows.homographies,
+                            stage_cell_sizes(windows.scale, allowed_cell_sizes),
                             opencv_descriptor_weights(w.reshape(OPENCV_WEIGHT_SHAPE)), bias,
-                            threshold=verify_threshold,
-                            rule=rule)
-    make_features = partial(opencv_frame_features, cell_sizes=sorted(set(cell.tolist())),
-                            pad=pad, image_size=tuple(windows.image_size),
-                            raw_cell_sizes=stage.cell_sizes if stage else [])
-    op = AdaptedLinearOperator(windows, cell, groups, pad, bias, make_features, OPENCV_CHANNELS)
-    op.tolerance = float(tolerance)
-    op._build_runs()
+                            threshold=verify_threshold, rule=rule)
+    op = _operator(windows, cell, groups, bias, tolerance, opencv_frame_features,
+                   OPENCV_CHANNELS, raw_cell_sizes=stage.cell_sizes if stage else [])
     if stage is not None:           # the final scores are the windows' own
         op.stage = stage
         op.snapped_homographies = stage.homographies

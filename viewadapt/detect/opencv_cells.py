@@ -30,9 +30,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .._validation import check_image
 from ..geometry import WINDOW_HEIGHT, WINDOW_WIDTH
-from .channels import HOG_CELL, N_HOG_BINS, FrameFeatures, check_frame, gradient_polar
+from .channels import HOG_CELL, N_HOG_BINS, FrameFeatures, check_frame, gradient_bins, padded_maps
 
 __all__ = ["OPENCV_CHANNELS", "OPENCV_WEIGHT_SHAPE", "OPENCV_L2HYS_CLIP", "opencv_cell_weights",
            "opencv_descriptor_weights", "opencv_default_people_detector", "opencv_gradients",
@@ -117,21 +116,10 @@ def block_axis_weights(c: int) -> np.ndarray:
 
 def opencv_gradients(image) -> tuple[np.ndarray, np.ndarray]:
     """``cv2.HOGDescriptor``'s gradients of an image: square-root gamma, central
-    differences (reflect-101 borders), the colour channel of largest magnitude; returns
-    the (M, N) float32 magnitude and bin coordinate ``t`` in ``[0, 9)`` (the magnitude goes
-    ``1 - frac(t)`` to bin ``floor(t)``, centred at ``(b + 1/2) pi / 9``, and ``frac(t)``
-    to the next, as :func:`~viewadapt.detect.channels.fast_orientation_channels` splits
-    it)."""
-    import cv2
-
-    img = cv2.sqrt(check_image(image).astype(np.float32))
-    mag, ang = gradient_polar(img)
-    t = cv2.subtract(cv2.multiply(ang, N_HOG_BINS / np.pi), 0.5)      # in [-0.5, 18)
-    for _ in range(2):                                                 # t mod 9
-        cv2.add(t, float(N_HOG_BINS), t, mask=cv2.compare(t, 0.0, cv2.CMP_LT))
-        cv2.subtract(t, float(N_HOG_BINS), t, mask=cv2.compare(t, float(N_HOG_BINS),
-                                                               cv2.CMP_GE))
-    return mag, t
+    differences (reflect-101 borders), the colour channel of largest magnitude; the (M, N)
+    float32 magnitude and 9-bin coordinate of
+    :func:`~viewadapt.detect.channels.gradient_bins`."""
+    return gradient_bins(image, n_bins=N_HOG_BINS, gamma=True)
 
 
 def opencv_block_cells(gradients, c: int, *, out=None) -> np.ndarray:
@@ -220,14 +208,9 @@ def opencv_frame_features(image, cell_sizes, *, pad: int = 2, image_size=None,
     """
     img = check_frame(image, image_size)
     M, N = img.shape[:2]
-    order = tuple(dict.fromkeys(int(c) for c in cell_sizes))
-    shapes = [(M // c + 2 * pad, N // c + 2 * pad, OPENCV_CHANNELS) for c in order]
-    flat = np.zeros(sum(int(np.prod(s)) for s in shapes), np.float32)
+    order, flat, maps = padded_maps(cell_sizes, (M, N), pad, OPENCV_CHANNELS)
     grad = opencv_gradients(img)
-    maps, off = {}, 0
-    for c, s in zip(order, shapes):
-        maps[c] = flat[off:off + int(np.prod(s))].reshape(s)
-        off += maps[c].size
-        opencv_block_cells(grad, c, out=maps[c][pad:pad + M // c, pad:pad + N // c])
+    for c, F in maps.items():
+        opencv_block_cells(grad, c, out=F[pad:pad + M // c, pad:pad + N // c])
     raw = raw_cell_maps(grad, raw_cell_sizes) if len(raw_cell_sizes) else None
     return OpenCVFrameFeatures(maps, pad, (N, M), _flat=(order, flat), raw=raw)

@@ -31,7 +31,8 @@ import numpy as np
 
 __all__ = ["MAX_INPUT_BYTES", "MAX_JSON_DEPTH", "MAX_CALIBRATION_BYTES",
            "MAX_CALIBRATION_DEPTH", "size_words", "read_limited_text", "json_depth",
-           "check_json_depth", "parse_json", "parse_yaml", "check_yaml", "parse_xml"]
+           "check_json_depth", "parse_json", "read_json_object", "parse_yaml", "check_yaml",
+           "parse_xml"]
 
 #: The largest ground-truth or ignore-region file read (bytes): 50 MB.
 MAX_INPUT_BYTES = 50 * 2 ** 20
@@ -109,6 +110,21 @@ def parse_json(text: str, path, max_depth: int = MAX_JSON_DEPTH):
         return json.loads(text)
     except (ValueError, RecursionError) as exc:
         raise ValueError(f"{path} cannot be parsed: not valid JSON ({exc})") from None
+
+
+def read_json_object(path, what: str = "JSON file", max_bytes: int = MAX_INPUT_BYTES) -> dict:
+    """The JSON object in ``path``, read within bounds (:func:`read_limited_text`, then
+    :func:`check_json_depth` before parsing); not valid JSON, or JSON that is no object, is
+    a one-line ``ValueError`` naming the file."""
+    text = read_limited_text(path, what, max_bytes)
+    check_json_depth(text, path)
+    try:
+        doc = json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise ValueError(f"{path} is not valid JSON: {exc}") from None
+    if not isinstance(doc, dict):
+        raise ValueError(f"{path}: expected a JSON object, got a {type(doc).__name__}")
+    return doc
 
 
 def _yaml_problem(exc) -> str:

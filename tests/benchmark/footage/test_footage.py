@@ -1,6 +1,6 @@
 """``viewadapt bench footage``: every method on a calibrated, annotated clip -- the
 ground-plane filter, paired block-bootstrap differences, and the command on toy frames in
-MOTChallenge layout (no Blender, no ../shared)."""
+MOTChallenge layout (no Blender; the fixtures are built here)."""
 
 import json
 from types import SimpleNamespace
