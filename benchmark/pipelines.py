@@ -16,6 +16,8 @@ from pathlib import Path
 import numpy as np
 
 from viewadapt.cli import common_parser, main
+
+from benchmark.recipes import add_recipe_argument
 from viewadapt.io.files import (
     UserError, atomic_output_dir, atomic_write_text, check_output_dir, claim_output_dir,
     run_metadata,
@@ -111,6 +113,7 @@ def _cmd_demo(args) -> int:
     t0 = time.perf_counter()
     seed = ["--seed", str(args.seed)] + (["--overwrite"] if overwrite else [])
     jobs = ["--jobs", str(args.jobs)]
+    recipe = ["--recipe", args.recipe.name]
     timings = []
 
     def stage(k, name, fn):
@@ -157,11 +160,11 @@ def _cmd_demo(args) -> int:
         return rc
     rc = stage(2, "cross-validation (nine person/scene-disjoint folds)", lambda: main(
         ["bench", "crossval", "--data", str(data), "--out", str(results)] + DEMO_CROSSVAL
-        + jobs + seed))
+        + jobs + seed + recipe))
     if rc:
         return rc
     rc = stage(3, "full-frame detection on the dataset's calibrated frames",
-               lambda: demo_frames(data, out, jobs + seed))
+               lambda: demo_frames(data, out, jobs + seed + recipe))
     if rc:
         return rc
     print(f"\n== viewadapt demo: {what}; HOG/SVM and ACF trained at elevation 0, tested at "
@@ -210,7 +213,7 @@ def _cmd_reproduce(args) -> int:
     out = Path(args.out)
     data, results, frames = out / "data", out / "results", out / "frames"
     seed = ["--seed", str(args.seed)] + (["--overwrite"] if overwrite else [])
-    jobs = ["--jobs", str(args.jobs)]
+    jobs = ["--jobs", str(args.jobs)] + ["--recipe", args.recipe.name]
     stages = {}
 
     def stage(name, argv):
@@ -274,6 +277,7 @@ def register(sub, common) -> None:
                                    "`viewadapt fidelity`. --jobs defaults to all cores here.")
     p.add_argument("--toy", action="store_true",
                    help="use the numpy planar toy dataset even when Blender is installed")
+    add_recipe_argument(p, what="HOG/SVM and ACF")
     p.set_defaults(func=_cmd_demo)
 
     p = sub.add_parser("reproduce", parents=[common_parser(jobs=-1)],
@@ -288,4 +292,5 @@ def register(sub, common) -> None:
                                    "finishes an interrupted render.")
     p.add_argument("--framing", choices=["plane", "silhouette"], default="plane",
                    help="crop framing of the rendered dataset (default plane, the paper's)")
+    add_recipe_argument(p, what="every detector that trains")
     p.set_defaults(func=_cmd_reproduce)

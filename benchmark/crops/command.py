@@ -12,6 +12,8 @@ import numpy as np
 
 from viewadapt.io.bounded import MAX_INPUT_BYTES, check_json_depth, read_limited_text
 
+from benchmark.recipes import add_recipe_argument
+
 __all__ = ["register", "check_results_dir"]
 
 #: how long ``--scheduler`` waits for the Dask scheduler before giving up
@@ -58,14 +60,21 @@ def _read_run(run: Path) -> dict:
     return old
 
 
-def check_results_dir(out: Path, fingerprint: str) -> None:
-    """Refuse to mix results of two datasets in one directory."""
+def check_results_dir(out: Path, fingerprint: str, recipe=None) -> None:
+    """Refuse to mix results of two datasets, or of two source-training recipes
+    (:mod:`benchmark.recipes`; a ``run.json`` that records none was trained the paper's way,
+    ``elevation0``), in one directory."""
     run = Path(out) / "run.json"
     if run.is_file():
         old = _read_run(run)
         if old.get("fingerprint") != fingerprint:
             raise ValueError(f"{out} holds results of another dataset ({old.get('data')}, "
                              f"fingerprint {old.get('fingerprint')}); use another --out")
+        had = old.get("recipe", {"name": "elevation0"})
+        had = had.get("name") if isinstance(had, dict) else had
+        if recipe is not None and had != recipe.name:
+            raise ValueError(f"{out} holds results trained with recipe {had!r}, not "
+                             f"{recipe.name!r}; use another --out")
 
 
 def _incomplete(ds, args):
@@ -86,10 +95,12 @@ def _incomplete(ds, args):
 def _run_json(ds, args, extra=None) -> dict:
     from viewadapt import __version__
 
+    recipe = getattr(args, "recipe", None)
     return {"data": str(ds.root), "fingerprint": ds.fingerprint,
             "renderer": ds.config.get("renderer"), "framing": ds.config.get("framing", "plane"),
             "seed": args.seed, "viewadapt": __version__,
-            "created": time.strftime("%Y-%m-%dT%H:%M:%S")} | (extra or {})
+            "created": time.strftime("%Y-%m-%dT%H:%M:%S")} \
+        | ({"recipe": recipe.to_dict()} if recipe is not None else {}) | (extra or {})
 
 
 def _elevation(text: str) -> float:
@@ -120,6 +131,8 @@ def _config(args, ds):
         cfg.object_models = tuple(args.object_models)
     if getattr(args, "no_upper_bound", False):
         cfg.upper_bound = False
+    if getattr(args, "recipe", None) is not None:
+        cfg.recipe = args.recipe
     if getattr(args, "quick", False):
         cfg.acf_estimators, cfg.acf_stages = 32, (16, 32)
         cfg.acf_max_bins, cfg.acf_max_features = 32, 0.25
@@ -167,7 +180,7 @@ def cmd_crossval(args) -> int:
 
     check_output_dir(args.out, overwrite=args.overwrite)
     ds = load_dataset(args.data)
-    check_results_dir(args.out, ds.fingerprint)
+    check_results_dir(args.out, ds.fingerprint, args.recipe)
     cfg = _config(args, ds)
     incomplete = _incomplete(ds, args)
     cache = FeatureCache(ds, args.cache or (args.out / "cache"), n_jobs=args.jobs)
@@ -254,7 +267,7 @@ def cmd_sweep(args) -> int:
 
     check_output_dir(args.out, overwrite=args.overwrite)
     ds = load_dataset(args.data)
-    check_results_dir(args.out, ds.fingerprint)
+    check_results_dir(args.out, ds.fingerprint, args.recipe)
     cfg = _config(args, ds)
     incomplete = _incomplete(ds, args)
     from benchmark.crops.detectors import detector_spec
@@ -277,6 +290,7 @@ def cmd_sweep(args) -> int:
         plt.close(fig)
         run_path = Path(args.out) / "run.json"
         run = _read_run(run_path) if run_path.is_file() else _run_json(ds, args)
+        run["recipe"] = args.recipe.to_dict()
         run["sweep"] = {"detector": args.detector, "source": args.source, "step": args.step,
                         "sigma": args.sigma, "seconds": round(time.perf_counter() - t0, 1),
                         "incomplete_dataset": incomplete}
@@ -316,6 +330,7 @@ def register(sub, common) -> None:
     data_opts.add_argument("--allow-incomplete", action="store_true",
                            help="run on a dataset missing images its dataset.json plans (an "
                                 "unfinished generate): warns, and run.json and report.md say so")
+    add_recipe_argument(data_opts, what="every detector that trains")
     data_opts.add_argument("--object-models", nargs="+", choices=["plane", "body"],
                            default=None, help="object models of the adapted and image-warping "
                            "rows (default both: the person plane and the mean body)")

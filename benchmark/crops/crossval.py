@@ -43,10 +43,11 @@ from benchmark.data import (
 from benchmark.crops.detectors import detector_spec, feature_key
 from benchmark.crops.features import FeatureCache, background_windows, person_windows
 from benchmark.crops.folds import Fold, make_folds
+from benchmark.recipes import DEFAULT_RECIPE, RECIPES, Recipe
 from benchmark.frames.spec import OBJECT_MODEL_TAGS, RULE_TAGS, variant_label
 
 __all__ = ["CrossvalConfig", "ADAPT_VARIANTS", "EXACT_VARIANTS", "run_crossval",
-           "require_complete"]
+           "require_complete", "training_windows"]
 
 
 def _adapt_variants() -> dict:
@@ -123,6 +124,8 @@ class CrossvalConfig:
     framing: str = "plane"
     seed: int = 0
     n_jobs: int = 1
+    #: the source-training recipe (:mod:`benchmark.recipes`): every method that trains uses it
+    recipe: Recipe = RECIPES[DEFAULT_RECIPE]
     extra: dict = field(default_factory=dict)
 
 
@@ -199,6 +202,22 @@ def exact_remaps(det, s, t, rows, data, cfg, rules, memo=None):
     return out
 
 
+def _suffix(key: str, added: str) -> str:
+    return key if not added else added if not key else f"{key}|{added}"
+
+
+def training_windows(feat, rep, index, key, masks, recipe: Recipe) -> dict:
+    """The features a model of view ``index`` trains on under ``recipe``, by kind
+    (``"person"``, ``"background"``): the rows ``masks[kind]`` of every set
+    :meth:`benchmark.recipes.Recipe.training_suffixes` names,
+    ``feat[(rep, kind, index, key + suffix)]`` (each set is the same windows transformed,
+    so the same rows), stacked in that order."""
+    out = {}
+    for kind, a in recipe.training_suffixes():
+        out.setdefault(kind, []).append(feat[(rep, kind, index, _suffix(key, a))][masks[kind]])
+    return {kind: np.vstack(parts) for kind, parts in out.items()}
+
+
 def fold_masks(meta, fold: Fold, train: bool):
     persons = fold.train_persons if train else fold.test_persons
     scenes = fold.train_scenes if train else fold.test_scenes
@@ -225,7 +244,10 @@ def _task(det, s, t, fold, cfg, data, seed, memo=None):
     def train(key=""):
         pm = fold_masks(data["meta"][("person", es)], fold, True)
         nm = fold_masks(data["meta"][("background", es)], fold, True)
-        Xp, Xn = F[(src_rep, "person", es, key)][pm], F[(src_rep, "background", es, key)][nm]
+        # a pretrained detector trains on nothing: the recipe's sets are not featurised
+        X = training_windows(F, src_rep, es, key, {"person": pm, "background": nm},
+                             RECIPES["elevation0"] if spec.pretrained else cfg.recipe)
+        Xp, Xn = X["person"], X["background"]
         if not spec.pretrained and (len(Xp) == 0 or len(Xn) == 0):
             raise ValueError(f"fold {fold.name}: no training "
                              f"{'positives' if len(Xp) == 0 else 'negatives'} at elevation "
@@ -299,6 +321,11 @@ def prepare(ds: Dataset, cfg: CrossvalConfig, cache: FeatureCache, elevations=No
         for e, i in idx.items():
             for ws in (pw[e], bw[e]):
                 want(ws, i, "", src_rep)
+        if not spec.pretrained:                 # the recipe's sets of each trained view
+            for e in sources:
+                for _, a, ws in cfg.recipe.training_sets(pw[e], bw[e]):
+                    if a:
+                        want(ws, idx[e], a, src_rep)
         for ws in (pw[cfg.target], bw[cfg.target]):
             want(ws, et, "", fine_rep)
         for s in sources:
@@ -315,9 +342,10 @@ def prepare(ds: Dataset, cfg: CrossvalConfig, cache: FeatureCache, elevations=No
                     want(warped, et, key, src_rep)
             if cfg.synthesised and not spec.pretrained:
                 Hinv = np.linalg.inv(H)
-                for ws in (pw[s], bw[s]):
-                    want(ws.warped(Hinv, f"synth{cfg.target:.6f}"), idx[s],
-                         f"synth{cfg.target:.6f}", src_rep)
+                key = f"synth{cfg.target:.6f}"
+                for _, a, ws in cfg.recipe.training_sets(
+                        pw[s], bw[s], warp=lambda w, k=key, M=Hinv: w.warped(M, k)):
+                    want(ws, idx[s], _suffix(key, a), src_rep)
             for v in variant_names(spec, cfg):
                 G[(det, s, cfg.target, v)] = variant_remap(det, maps[ADAPT_VARIANTS[v][2]], v, cfg)
     for ws, i, suffix, reps in requests.values():

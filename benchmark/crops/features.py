@@ -120,6 +120,7 @@ class WindowSet:
         windows the same way keeps positives and negatives alike, so a classifier cannot
         learn the border artefacts as a cue. Without it the warp reads the whole image.
         """
+        self._check_no_camera("warped")
         H = np.asarray(H_window, float)
         # the key names the homography too, so cached features never outlive a change of it
         h = hashlib.sha1(np.round(H / H[2, 2], 9).tobytes()).hexdigest()[:8]
@@ -134,6 +135,7 @@ class WindowSet:
         object model, :func:`benchmark.crops.crossval.warp_field`); each window is cut out first
         and resampled on its own, borders replicated, as :meth:`warped` with ``crop_first``.
         """
+        self._check_no_camera("remapped")
         F = np.ascontiguousarray(field, dtype=np.float32)
         if F.shape != (WINDOW_HEIGHT, WINDOW_WIDTH, 2) or not np.isfinite(F).all():
             raise ValueError(f"field must be a finite ({WINDOW_HEIGHT}, {WINDOW_WIDTH}, 2) "
@@ -143,33 +145,68 @@ class WindowSet:
         items = [(p, (Hi, F)) for p, Hi in self.items]
         return WindowSet(f"{self.key}|{suffix}", items, self.meta)
 
+    def through_camera(self, effects, seed: int = 0) -> "WindowSet":
+        """The same windows, each passed through its own draw of ``effects`` (a
+        :class:`viewadapt.camera.effects.CameraEffects`) after any warp; the draw of window
+        ``i`` is seeded by ``(seed, the set's key, i)``, so it is the same in every run and
+        every process."""
+        import json
+        import zlib
+
+        self._check_no_camera("through_camera")
+        h = hashlib.sha1(json.dumps(effects.to_dict(), sort_keys=True).encode()).hexdigest()[:8]
+        base = zlib.crc32(self.key.encode())
+        items = [(p, H, (effects, (int(seed), base, i))) for i, (p, H) in enumerate(self.items)]
+        return WindowSet(f"{self.key}|cam{h}s{int(seed)}", items, self.meta)
+
+    def _check_no_camera(self, what):
+        if any(len(item) > 2 for item in self.items):
+            raise ValueError(f"{what}: these windows already pass through camera effects, "
+                             "which come last; warp first")
+
     def images(self, root: Path):
         cache = {}
-        for rel, H in self.items:
+        for item in self.items:
+            rel, H = item[0], item[1]
             if rel not in cache:
                 cache.clear()
                 cache[rel] = read_image(root / rel)
-            img = cache[rel]
-            if isinstance(H, tuple):                      # crop first, then warp
-                T, Hw = H
-                x, y = int(round(T[0, 2])), int(round(T[1, 2]))
-                win = np.ascontiguousarray(img[y:y + WINDOW_HEIGHT, x:x + WINDOW_WIDTH])
-                if Hw.ndim == 3:                           # a dense map (object model)
-                    import cv2
+            win = _window(cache[rel], H)
+            if len(item) > 2:                             # camera effects, last
+                from viewadapt.camera.effects import apply_camera_effects
 
-                    yield cv2.remap(win, Hw[..., 0], Hw[..., 1], cv2.INTER_LINEAR,
-                                    borderMode=cv2.BORDER_REPLICATE)
-                else:
-                    yield warp_to_source_view(win, Hw)
-                continue
-            if np.allclose(H[2], [0, 0, 1]) and np.allclose(H[:2, :2], np.eye(2)) and \
-                    float(H[0, 2]).is_integer() and float(H[1, 2]).is_integer():
-                x, y = int(H[0, 2]), int(H[1, 2])
-                if 0 <= x and 0 <= y and x + WINDOW_WIDTH <= img.shape[1] and \
-                        y + WINDOW_HEIGHT <= img.shape[0]:
-                    yield np.ascontiguousarray(img[y:y + WINDOW_HEIGHT, x:x + WINDOW_WIDTH])
-                    continue
-            yield warp_to_source_view(img, H)
+                effects, seed = item[2]
+                win = apply_camera_effects(win, effects.draw(np.random.default_rng(seed)))
+            yield win
+
+
+def _window(img, H):
+    """The window item ``H`` (a matrix, or ``(T, warp)`` to crop with ``T`` first) of ``img``."""
+    if isinstance(H, tuple):                              # crop first, then warp
+        T, Hw = H
+        win = _plain_window(img, T)
+        if win is None:                                   # e.g. a rotated window
+            win = warp_to_source_view(img, T)
+        if Hw.ndim == 3:                                  # a dense map (object model)
+            import cv2
+
+            return cv2.remap(win, Hw[..., 0], Hw[..., 1], cv2.INTER_LINEAR,
+                             borderMode=cv2.BORDER_REPLICATE)
+        return warp_to_source_view(win, Hw)
+    win = _plain_window(img, H)
+    return warp_to_source_view(img, H) if win is None else win
+
+
+def _plain_window(img, H):
+    """The 64x128 window ``H`` cuts out of ``img`` when ``H`` is an integer translation that
+    keeps it inside the image; None otherwise."""
+    if np.allclose(H[2], [0, 0, 1]) and np.allclose(H[:2, :2], np.eye(2)) and \
+            float(H[0, 2]).is_integer() and float(H[1, 2]).is_integer():
+        x, y = int(H[0, 2]), int(H[1, 2])
+        if 0 <= x and 0 <= y and x + WINDOW_WIDTH <= img.shape[1] and \
+                y + WINDOW_HEIGHT <= img.shape[0]:
+            return np.ascontiguousarray(img[y:y + WINDOW_HEIGHT, x:x + WINDOW_WIDTH])
+    return None
 
 
 def person_windows(ds: Dataset, elevation_index: int, rows: pd.DataFrame | None = None) -> WindowSet:
@@ -201,7 +238,12 @@ FEATURE_VERSION = 4
 
 
 class FeatureCache:
-    """Computes features of window sets once per (dataset, window set, representation)."""
+    """Computes features of window sets once per (dataset, window set, representation).
+
+    The matrices it returns are read-only memory maps of its cache files: the operating
+    system pages them in and out, and worker processes receive them by file name rather
+    than as copies, so a paper-scale run holds no more of them in memory than it reads.
+    """
 
     def __init__(self, ds: Dataset, cache_dir, *, n_jobs: int = 1, progress: bool = True):
         self.ds = ds
@@ -214,7 +256,7 @@ class FeatureCache:
         rep = feature_key(rep)
         h = hashlib.sha256(
             f"v{FEATURE_VERSION}|{self.ds.fingerprint}|{ws.key}|{rep}|{len(ws)}".encode())
-        for rel, H in ws.items[:50]:
+        for rel, H, *_ in ws.items[:50]:
             h.update(rel.encode())
             for M in (H if isinstance(H, tuple) else (H,)):
                 h.update(np.round(M, 9).tobytes())
@@ -231,8 +273,8 @@ class FeatureCache:
             return self._mem[f]
         if f.is_file():
             try:
-                X = np.load(f)
-                if X.shape[0] == len(ws):
+                X = np.load(f, mmap_mode="r")
+                if X.ndim == 2 and X.shape[0] == len(ws):
                     self._mem[f] = X
                     return X
             except (ValueError, OSError):
@@ -253,8 +295,9 @@ class FeatureCache:
                 f = self._file(ws, r)
                 with atomic_path(f, suffix=".npy") as tmp:   # unique per writer
                     np.save(tmp, X)
-                self._mem[f] = X
-                out[r] = X
+                self._mem.pop(f, None)
+                mapped = self._load(ws, r)             # None for an empty matrix
+                out[r] = X if mapped is None else mapped
         return out
 
     def _compute(self, ws: WindowSet, reps) -> dict:

@@ -190,6 +190,11 @@ def write_report(out: Path) -> Path:
         lines += [f"Dataset: `{run.get('data')}` (fingerprint `{run.get('fingerprint')}`, "
                   f"renderer `{run.get('renderer')}`, framing `{run.get('framing')}`), "
                   f"seed {run.get('seed')}.", ""]
+        recipe = run.get("recipe") if isinstance(run.get("recipe"), dict) else \
+            {"name": "elevation0", "summary": "recorded by no field: results written before "
+                                              "recipes existed"}
+        lines += [f"Source training: recipe `{recipe.get('name')}` ({recipe.get('summary')}), "
+                  "the same for every method that trains.", ""]
     if (out / "summary.csv").is_file():
         s = pd.read_csv(out / "summary.csv")
         lines += ["## Miss rate at 10⁻² fppw, target π/4", "",

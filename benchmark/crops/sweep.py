@@ -16,7 +16,8 @@ from sklearn import config_context
 from viewadapt.geometry import elevation_homography
 
 from benchmark.crops.crossval import (
-    ADAPT_VARIANTS, CrossvalConfig, fold_masks, prepare, task_seed, variant_remap, view_maps,
+    ADAPT_VARIANTS, CrossvalConfig, fold_masks, prepare, task_seed, training_windows,
+    variant_remap, view_maps,
 )
 from benchmark.crops.detectors import detector_spec, feature_key
 from benchmark.crops.features import FeatureCache
@@ -103,10 +104,15 @@ def run_sweep(ds: Dataset, cfg: CrossvalConfig, cache: FeatureCache, *, detector
     labels_all = np.r_[np.ones(n_pos_all, np.int8), np.zeros(len(meta_n), np.int8)]
     pids_all = np.r_[meta_p["person_id"].to_numpy(), np.full(len(meta_n), "")]
     # per fold: the trained model and its test windows (rows of fine / plain)
-    train = [(fold_masks(data["meta"][("person", es)], fold, True),
-              fold_masks(data["meta"][("background", es)], fold, True), int(seed))
-             for fold, seed in zip(folds, seeds)]
-    data_args = (spec, F[(src_rep, "person", es, "")], F[(src_rep, "background", es, "")], cfg)
+    # the recipe's sets, stacked: each has its kind's rows (training_windows)
+    n_sets = {k: sum(kk == k for kk, _ in cfg.recipe.training_suffixes())
+              for k in ("person", "background")}
+    meta_s = {k: data["meta"][(k, es)] for k in n_sets}
+    X_all = training_windows(F, src_rep, es, "", {k: np.ones(len(m), bool)
+                                                  for k, m in meta_s.items()}, cfg.recipe)
+    train = [tuple(np.tile(fold_masks(meta_s[k], fold, True), n_sets[k]) for k in n_sets)
+             + (int(seed),) for fold, seed in zip(folds, seeds)]
+    data_args = (spec, X_all["person"], X_all["background"], cfg)
     fold_models = [(models or {}).get((detector, float(source), f.name)) for f in folds]
     todo = [k for k, m in enumerate(fold_models) if m is None]
     it = tqdm([train[k] for k in todo], desc="sweep: training", disable=not progress)

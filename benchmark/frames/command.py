@@ -19,11 +19,12 @@ from viewadapt.io import DEFAULT_CACHE_LIMIT_GB, plot_det_figure
 from viewadapt.objectmodel import OBJECT_MODELS
 from viewadapt.remap import ANGLE_RULES
 
-from benchmark.frames.methods import NEGATIVE_CHOICES
+from benchmark.recipes import DEFAULT_RECIPE, add_recipe_argument
 from benchmark.frames.report import (
     accuracy_targets, phase_gap_lines, phase_table, plot_seed_figure, seed_summary, summary_table,
 )
 from benchmark.footage.command import register_footage
+from benchmark.frames.runtime import TIMING_SIZE
 from benchmark.frames.spec import DEFAULT_METHODS, FrameMethod, expand_adapted, method_arg
 
 __all__ = ["register", "cmd_bench_frames", "cmd_bench_runtime", "plot_det_figure"]
@@ -78,7 +79,7 @@ def run_frames_benchmark(data, *, methods, seed=0, quick=False, max_frames=None,
                          cache_limit_gb=DEFAULT_CACHE_LIMIT_GB, models=None, progress=True,
                          tolerance=HOG_TOLERANCE, cells_per_source_cell=CELLS_PER_SOURCE_CELL,
                          upsample_below=None, jobs=1, frame_view=DEFAULT_FRAME_VIEW,
-                         negatives="elevation0", phases=1):
+                         recipe=DEFAULT_RECIPE, phases=1):
     """Detect with every method (``methods``: :class:`~benchmark.frames.spec.FrameMethod` s)
     on every frame.
 
@@ -119,7 +120,7 @@ def run_frames_benchmark(data, *, methods, seed=0, quick=False, max_frames=None,
             print("training HOG/SVM and ACF on the dataset's elevation-0 crops ...",
                   flush=True)
         models = train_source_detectors(load_dataset(data), seed=seed, quick=quick,
-                                        frame_view=frame_view, negatives=negatives)
+                                        frame_view=frame_view, recipe=recipe)
         if progress:
             print(f"  trained in {time.perf_counter() - t0:.0f} s", flush=True)
     groups = _group_by_camera(frames)
@@ -232,7 +233,7 @@ def cmd_bench_frames(args) -> int:
               tolerance=args.tolerance,
               cells_per_source_cell=args.cells_per_source_cell,
               upsample_below=args.upsample_below, jobs=args.jobs, frame_view=args.frame_view,
-              negatives=args.negatives, phases=args.phases)
+              recipe=args.recipe, phases=args.phases)
     if len(seeds) > 1:
         print(f"seed {seeds[0]} (1 of {len(seeds)})", flush=True)
     results, models, dets, frames, info, phase_dets = run_frames_benchmark(
@@ -335,7 +336,8 @@ def cmd_bench_runtime(args) -> int:
                               heights=args.heights, jobs=args.jobs, seed=args.seed,
                               quick=args.quick, cache_dir=args.cache,
                               cache_limit_gb=args.cache_limit,
-                              frame_view=args.frame_view)
+                              frame_view=args.frame_view, recipe=args.recipe,
+                              size=_frame_size(args.size))
     md = format_table(table, info)
     with atomic_output_dir(args.out) as tmp:
         (tmp / "runtime.md").write_text(md)
@@ -385,7 +387,27 @@ def _frame_options() -> argparse.ArgumentParser:
                            "(the crop as the adapted detector reads it from a frame; "
                            f"viewadapt.detect.frameview): default {DEFAULT_FRAME_VIEW}; none = crops "
                            "alone. Ignored with --model")
+    add_recipe_argument(opts, what="HOG/SVM and ACF (ignored with --model, whose file "
+                                   "records its own)")
     return opts
+
+
+def _frame_size(text: str) -> tuple:
+    """'768x576' -> (768, 576): a frame size of at least 64x128 and at most 8192 a side."""
+    try:
+        w, h = (int(v) for v in text.lower().split("x"))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"give the size as WIDTHxHEIGHT, e.g. 768x576, "
+                                         f"not {text!r}") from None
+    if not (64 <= w <= 8192 and 128 <= h <= 8192):
+        raise argparse.ArgumentTypeError(f"a frame size from 64x128 to 8192x8192, got {text!r}")
+    return w, h
+
+
+def _size_text(text: str) -> str:
+    """``--size`` checked (:func:`_frame_size`) and kept as text, ``WIDTHxHEIGHT``."""
+    w, h = _frame_size(text)
+    return f"{w}x{h}"
 
 
 def _all_cores_common(common) -> argparse.ArgumentParser:
@@ -434,11 +456,6 @@ def register(sub, common) -> None:
     p.add_argument("--model", type=Path, default=None,
                    help="reuse trained source detectors (models/source_detectors.npz of "
                         "an earlier run) instead of training")
-    p.add_argument("--negatives", choices=list(NEGATIVE_CHOICES), default="elevation0",
-                   help="training negatives: elevation0 (default) the source elevation's "
-                        "background windows; rotated adds them turned by +-30 and +-60 "
-                        "degrees (orientation-enriched, no target-view data; "
-                        "docs/angle_rules_and_body_model.md). Ignored with --model")
     p.add_argument("--seeds", type=int, default=1,
                    help="train and detect with this many training seeds (--seed, --seed + "
                         "1, ...) and write each method's LAMR per seed, its mean and spread "
@@ -471,5 +488,10 @@ def register(sub, common) -> None:
     p.add_argument("--warp-windows", type=int, default=1000,
                    help="windows timed for the image-warping methods, extrapolated to all "
                         "(default 1000)")
+    p.add_argument("--size", type=_size_text, default=f"{TIMING_SIZE[0]}x{TIMING_SIZE[1]}",
+                   metavar="WxH",
+                   help="frame size every method is timed on, e.g. 768x576 (default "
+                        f"{TIMING_SIZE[0]}x{TIMING_SIZE[1]}, the paper's); the camera keeps "
+                        "its field of view")
     p.set_defaults(func=cmd_bench_runtime)
     register_footage(bsub, common)

@@ -44,6 +44,7 @@ from benchmark.frames.pyramids import (
     pyramid_scales,
 )
 from benchmark.frames.spec import frame_method
+from benchmark.recipes import DEFAULT_RECIPE
 from viewadapt.detect import (
     DEFAULT_FRAME_VIEW, FrameDetector, HOG_DETECTOR, PERSON_BOX_WINDOW,
     check_frame, check_frame_view, detector_kind, person_boxes, train_on_windows,
@@ -53,7 +54,7 @@ from viewadapt.io import SourceDetectors
 from viewadapt.nms import detections_from_scores
 
 __all__ = ["FrameRecord", "load_frames", "train_source_detectors", "dataset_provenance",
-           "NEGATIVE_CHOICES", "FrameMethods",
+           "FrameMethods",
            "evaluate_method", "PAPER_FPS", "warp_scores", "pyramid_scales", "hog_pyramid_detect",
            "acf_pyramid_detect", "acf_pyramid_fast_detect", "ACF_PYRAMID_LAMBDAS", "opencv_detect",
            "GROUND_FILTER_TOLERANCE", "ground_plane_filter"]
@@ -161,14 +162,10 @@ def load_frames(root) -> list:
 # ----------------------------------------------------------------------------- training
 
 
-#: ``negatives`` choices of :func:`train_source_detectors`
-NEGATIVE_CHOICES = ("elevation0", "rotated")
-
-
 def train_source_detectors(ds, *, seed: int = 0, quick: bool = False, source_index: int = 0,
                            progress: bool = False,
                            frame_view: str = DEFAULT_FRAME_VIEW,
-                           negatives: str = "elevation0") -> SourceDetectors:
+                           recipe=DEFAULT_RECIPE) -> SourceDetectors:
     """Linear SVM on :func:`viewadapt.detect.hog_window_features` and ACF boosted trees
     (:func:`viewadapt.detect.train_on_windows`), trained on the dataset's crops of one
     elevation (default the first, 0) and its background windows.
@@ -180,28 +177,24 @@ def train_source_detectors(ds, *, seed: int = 0, quick: bool = False, source_ind
     target data (their measured effect: docs/findings.md). The default is ``"both"``
     (:data:`DEFAULT_FRAME_VIEW`).
 
-    ``negatives``: ``"elevation0"`` (default) the background windows of the source
-    elevation; ``"rotated"`` adds the same windows turned by +-30 and +-60 degrees about
-    their centres (:func:`benchmark.crops.features.rotated_windows`), orientation-enriched
-    negatives with no target-view data.
+    ``recipe`` (a :class:`benchmark.recipes.Recipe` or its name): the window sets the
+    detectors train on (:meth:`~benchmark.recipes.Recipe.training_sets`: the crops, the
+    background windows, the negatives the recipe adds, through its camera effects if any).
+    The models' ``training`` records it.
     """
     from benchmark.crops.features import background_windows, person_windows
+    from benchmark.recipes import get_recipe
 
     check_frame_view(frame_view)
-    if negatives not in NEGATIVE_CHOICES:
-        raise ValueError(f"negatives must be one of {NEGATIVE_CHOICES}, got {negatives!r}")
-    pos = list(person_windows(ds, source_index).images(ds.root))
-    bg = background_windows(ds, source_index, stride=16)
-    neg = list(bg.images(ds.root))
-    if negatives == "rotated":
-        from benchmark.crops.features import ROTATIONS_DEG, rotated_windows
-
-        for a in ROTATIONS_DEG:
-            neg += list(rotated_windows(bg, a).images(ds.root))
+    recipe = get_recipe(recipe)
+    pos, neg = [], []
+    for kind, _, ws in recipe.training_sets(person_windows(ds, source_index),
+                                            background_windows(ds, source_index, stride=16)):
+        (pos if kind == "person" else neg).extend(ws.images(ds.root))
     models = train_on_windows(pos, neg, seed=seed, quick=quick, frame_view=frame_view)
     return replace(models, training=dict(
         seed=seed, frame_view=frame_view, quick=quick, source_index=source_index,
-        negatives=negatives, crops=len(pos), background_windows=len(neg),
+        recipe=recipe.to_dict(), crops=len(pos), background_windows=len(neg),
         dataset=dataset_provenance(ds)))
 
 

@@ -28,82 +28,32 @@ from __future__ import annotations
 import os
 import tempfile
 import time
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from viewadapt.detect import DEFAULT_FRAME_VIEW, DETECTOR_KINDS
+from viewadapt.detect import DEFAULT_FRAME_VIEW, DETECTOR_KINDS, PRETRAINED_KINDS
 from viewadapt.io import DEFAULT_CACHE_LIMIT_GB
 
+from benchmark.frames.runtime_report import (
+    RUNTIME_TARGETS, RuntimeTarget, format_table, judge_runtime, runtime_quantities,
+    runtime_ratios,
+)
+from benchmark.recipes import DEFAULT_RECIPE
+
+# the judging and the report live in benchmark.frames.runtime_report; named here too, the
+# one module a caller of `bench runtime` needs
 __all__ = ["RuntimeTarget", "RUNTIME_TARGETS", "TIMING_SIZE", "timing_camera",
            "single_thread", "stage_bytes", "copy_floor_ms", "timing_frames", "time_one_core",
            "time_all_cores", "measure_runtime", "runtime_quantities", "runtime_ratios",
            "judge_runtime", "run_runtime", "format_table"]
 
-#: frame size (width, height) every method is timed on
+#: frame size (width, height) every method is timed on (the paper's; ``--size`` for another)
 TIMING_SIZE = (384, 288)
-
-
-@dataclass(frozen=True)
-class RuntimeTarget:
-    """A target of ``bench runtime``: a measured quantity, over a baseline's frames per
-    second measured in the same run when there is a baseline, held against a bound.
-
-    Attributes
-    ----------
-    quantity : str
-        What is measured (a key of :func:`runtime_quantities`): a method's name for its
-        frames per second on one core, or a named measurement (``"nms_ms"``,
-        ``"hog_precompute_s"``, ...).
-    baseline : str or None
-        The method whose frames per second (one core) ``quantity`` is divided by: the
-        target is a speed-up; None: ``quantity`` itself is judged.
-    bound : float
-        The least (or, with ``at_most``, the largest) value that meets the target.
-    what : str
-        The target in words, as the report and ``info["targets"]`` name it.
-    at_most : bool
-        True: met when the value is at most ``bound``; False: at least ``bound``.
-    """
-
-    quantity: str
-    baseline: str | None
-    bound: float
-    what: str
-    at_most: bool = False
-
-
-#: the targets ``bench runtime`` judges, in the order the report lists them; speed-ups are
-#: against baselines timed in the same run on the same machine
-RUNTIME_TARGETS = (
-    RuntimeTarget("hog_adapted", None, 30.0, "hog_adapted >= 30 fps (1 core)"),
-    RuntimeTarget("hog_adapted", "hog_warp", 100.0, "hog_adapted >= 100x hog_warp"),
-    RuntimeTarget("hog_adapted", "opencv", 10.0, "hog_adapted >= 10x opencv (4x)"),
-    RuntimeTarget("acf_adapted", None, 15.0, "acf_adapted >= 15 fps (1 core)"),
-    RuntimeTarget("hog_adapted", None, 100.0, "hog_adapted >= 100 fps (1 core)"),
-    RuntimeTarget("acf_adapted", None, 60.0, "acf_adapted >= 60 fps (1 core)"),
-    RuntimeTarget("nms_ms", None, 1.0, "NMS <= 1 ms (both detectors)", at_most=True),
-    RuntimeTarget("hog_precompute_s", None, 30.0, "precompute <= 30 s (hog)", at_most=True),
-    RuntimeTarget("hog_cache_hit_s", None, 1.0, "cache hit <= 1 s (hog)", at_most=True),
-)
-
-#: the speed-ups of the report, (method, baseline) -> name; the paper's beside them
-RATIOS = {("hog_adapted", "hog_warp"): "hog_adapted / hog_warp",
-          ("hog_adapted", "opencv"): "hog_adapted / opencv (4x)",
-          ("hog_adapted", "opencv_native"): "hog_adapted / opencv (native)",
-          ("hog_adapted", "hog_pyramid"): "hog_adapted / hog_pyramid",
-          ("acf_adapted", "acf_warp"): "acf_adapted / acf_warp",
-          ("acf_adapted", "acf_pyramid"): "acf_adapted / acf_pyramid",
-          ("acf_adapted", "acf_pyramid_fast"): "acf_adapted / acf_pyramid_fast"}
-#: the faster of the two ACF pyramids: the baseline the ACF speed-up is claimed against
-FASTER_ACF_PYRAMID = "acf_adapted / faster ACF pyramid"
-PAPER_RATIOS = {"paper: hog_adapted / hog_warp": 11.8 / 0.0666,
-                "paper: acf_adapted / acf_warp": 10.7 / 0.0419,
-                "paper: hog_adapted / hog_pyramid": 11.8 / 0.439,
-                "paper: acf_adapted / acf_pyramid": 10.7 / 3.54,
-                "paper: acf_adapted / acf_pyramid_fast": 10.7 / 3.54,
-                "paper: acf_adapted / faster ACF pyramid": 10.7 / 3.54}
+#: the adapted detectors timed: ours and OpenCV's INRIA-trained one
+TIMED_KINDS = tuple(DETECTOR_KINDS) + tuple(sorted(PRETRAINED_KINDS))
+#: thresholds at the operating point (score 0): NMS sees what a deployment keeps
+_THRESHOLDS = {k: 0.0 for k in TIMED_KINDS}
 
 
 def timing_camera(size=TIMING_SIZE):
@@ -183,16 +133,16 @@ def copy_floor_ms(nbytes, repeat=25):
     return 1e3 * _best(lambda: np.copyto(dst, src), repeat)[0]
 
 
-def _worker(cache_dir, cache_limit_gb, model_path, heights, method, frames, seconds):
+def _worker(cache_dir, cache_limit_gb, model_path, heights, method, frames, seconds, size):
     """Detect frames in a loop for ``seconds``; return the number done and the time."""
     single_thread()
     from benchmark.frames.methods import FrameMethods
     from viewadapt.io import SourceDetectors
 
     models = SourceDetectors.load(model_path)
-    det = FrameMethods(timing_camera(), models, person_heights=heights, cache_dir=cache_dir,
-                       cache_limit_gb=cache_limit_gb, thresholds={"hog": 0.0, "acf": 0.0})
-    for kind in DETECTOR_KINDS:
+    det = FrameMethods(timing_camera(size), models, person_heights=heights, cache_dir=cache_dir,
+                       cache_limit_gb=cache_limit_gb, thresholds=_THRESHOLDS)
+    for kind in TIMED_KINDS:
         if method.startswith(kind + "_adapted"):
             det.adapted.operator(kind)
     det.detect(method, frames[0])                  # warm-up
@@ -231,7 +181,7 @@ def _time_operators(det, models, cam, cache):
     """Each adapted operator's precompute, cache save and cache hit: a dict of seconds,
     template counts and cell sizes per detector kind."""
     info = {}
-    for kind in DETECTOR_KINDS:
+    for kind in TIMED_KINDS:
         t = time.perf_counter()
         op = det.adapted.operator(kind)
         info[f"{kind}_precompute_s"] = round(time.perf_counter() - t, 2)
@@ -284,7 +234,7 @@ def _warp_rows(det, models, frame, warp_windows):
     k = min(warp_windows, n_win)
     idx = np.linspace(0, n_win - 1, k).astype(int)
     rows = []
-    for kind in DETECTOR_KINDS:
+    for kind in TIMED_KINDS:
         t = _best(lambda: warp_scores(frame, det.windows.homographies[idx], models, kind),
                   1)[1]
         rows.append(dict(method=f"{kind}_warp", seconds_per_frame=t / k * n_win,
@@ -321,9 +271,9 @@ def _pyramid_rows(models, frame, size, repeat):
                 _pyramid_pixels(size, 4, 2.0),
                 "4x upsampled, 4 scales per octave, channels at 1 per octave, "
                 f"approximated between (lambda LUV/mag/orient {lam})")]
-    for up, name in ((4, "opencv"), (1, "opencv_native")):
+    for up, name in ((4, "opencv"), (2, "opencv_2x"), (1, "opencv_native")):
         t = _best(lambda: opencv_detect(frame, upsample=up, hit_threshold=0.0),
-                  2 if up == 4 else repeat)[0]
+                  2 if up > 1 else repeat)[0]
         rows.append(row(name, t, _pyramid_pixels(size, up, 1.05),
                         f"detectMultiScale, {up}x, stride 8, scale 1.05"))
     return rows
@@ -367,11 +317,10 @@ def time_one_core(frames, models, cache_dir, *, heights=(1.65, 1.85),
 
     cam = timing_camera(size)
     t = time.perf_counter()
-    # thresholds at the operating point (score 0): NMS sees what a deployment keeps
     det = FrameMethods(cam, models, person_heights=heights, cache_dir=None,
-                       thresholds={"hog": 0.0, "acf": 0.0})
+                       thresholds=_THRESHOLDS)
     info = {"window_selection_s": round(time.perf_counter() - t, 2),
-            "candidate_windows": len(det.windows)}
+            "candidate_windows": len(det.windows), "size": list(size)}
     info.update(_time_operators(det, models, cam, OperatorCache(cache_dir, cache_limit_gb)))
     hog, acf = det.adapted.operator("hog"), det.adapted.operator("acf")
     pw = hog.position_weights()
@@ -381,14 +330,15 @@ def time_one_core(frames, models, cache_dir, *, heights=(1.65, 1.85),
     # the operators' scoring loops against other forms of the same operator
     info["hog_scoring_forms_ms"], info["acf_scoring_forms_ms"] = scoring_forms_ms(
         hog, acf, frames[0], repeat)
-    rows = [_adapted_row(det, kind, frames, repeat) for kind in ("hog", "acf")]
+    rows = [_adapted_row(det, kind, frames, repeat) for kind in TIMED_KINDS]
     rows += _warp_rows(det, models, frames[0], warp_windows)
     rows += _pyramid_rows(models, frames[0], size, repeat)
     return rows, info
 
 
 def time_all_cores(rows, frames, model_path, *, jobs=-1, heights=(1.65, 1.85),
-                   cache_dir=None, cache_limit_gb=DEFAULT_CACHE_LIMIT_GB, seconds=4.0):
+                   cache_dir=None, cache_limit_gb=DEFAULT_CACHE_LIMIT_GB, seconds=4.0,
+                   size=TIMING_SIZE):
     """Frames per second on one core and on all cores, added to each row in place.
 
     Every row gets ``fps_1core`` (from its ``seconds_per_frame``), ``fps_all_cores`` (one
@@ -408,7 +358,7 @@ def time_all_cores(rows, frames, model_path, *, jobs=-1, heights=(1.65, 1.85),
         if r["seconds_per_frame"] < 1.0 and n_jobs > 1:
             res = Parallel(n_jobs=n_jobs)(
                 delayed(_worker)(cache_dir, cache_limit_gb, model_path, heights, r["method"],
-                                 frames, seconds) for _ in range(n_jobs))
+                                 frames, seconds, size) for _ in range(n_jobs))
             r["fps_all_cores"] = sum(n for n, _ in res) / max(t for _, t in res)
         r["paper_fps"] = PAPER_FPS.get(r["method"])
     return n_jobs
@@ -416,8 +366,10 @@ def time_all_cores(rows, frames, model_path, *, jobs=-1, heights=(1.65, 1.85),
 
 def measure_runtime(data, *, n_frames=3, warp_windows=1000, heights=(1.65, 1.85), jobs=-1,
                     seed=0, quick=True, cache_dir=None, throughput_seconds=4.0,
-                    frame_view=DEFAULT_FRAME_VIEW, cache_limit_gb=DEFAULT_CACHE_LIMIT_GB):
-    """Train the detectors on ``data`` and time every method on its frames; judge nothing.
+                    frame_view=DEFAULT_FRAME_VIEW, cache_limit_gb=DEFAULT_CACHE_LIMIT_GB,
+                    recipe=DEFAULT_RECIPE, size=TIMING_SIZE):
+    """Train the detectors on ``data`` and time every method on its frames, ``size``
+    (width, height) large; judge nothing.
 
     The models (and the operator cache, unless ``cache_dir`` is given) live in a temporary
     folder for the run, removed when it ends, whether it succeeds or raises.
@@ -434,9 +386,9 @@ def measure_runtime(data, *, n_frames=3, warp_windows=1000, heights=(1.65, 1.85)
     from benchmark.data import load_dataset
     from benchmark.frames.methods import train_source_detectors
 
-    frames = timing_frames(data, n_frames)
+    frames = timing_frames(data, n_frames, size)
     models = train_source_detectors(load_dataset(data), seed=seed, quick=quick,
-                                    frame_view=frame_view)
+                                    frame_view=frame_view, recipe=recipe)
     with tempfile.TemporaryDirectory(prefix="viewadapt-runtime-") as tmp:
         cache_dir = Path(cache_dir) if cache_dir else Path(tmp) / "cache"
         model_path = Path(tmp) / "models.npz"
@@ -444,72 +396,12 @@ def measure_runtime(data, *, n_frames=3, warp_windows=1000, heights=(1.65, 1.85)
         with single_thread():
             rows, setup = time_one_core(frames, models, cache_dir, heights=heights,
                                         cache_limit_gb=cache_limit_gb,
-                                        warp_windows=warp_windows)
+                                        warp_windows=warp_windows, size=size)
         load = os.getloadavg()[0] if hasattr(os, "getloadavg") else None
         cores = time_all_cores(rows, frames, model_path, jobs=jobs, heights=heights,
                                cache_dir=cache_dir, cache_limit_gb=cache_limit_gb,
-                               seconds=throughput_seconds)
+                               seconds=throughput_seconds, size=size)
     return rows, {"training": models.training, **setup, "cores": cores, "load_average": load}
-
-
-def runtime_quantities(rows, info) -> dict:
-    """The quantities targets are judged on, taken from measurements alone.
-
-    Each method's frames per second on one core (keyed by the method's name; rows without
-    ``fps_1core`` are left out), ``nms_ms`` (the slowest NMS stage among the rows with
-    ``stages``, milliseconds; absent without any) and every number in ``info`` whose key
-    ends in ``_s`` (seconds: ``hog_precompute_s``, ``hog_cache_hit_s``, ...).
-    """
-    q = {r["method"]: r["fps_1core"] for r in rows if r.get("fps_1core") is not None}
-    nms = [st["ms"] for r in rows for st in r.get("stages") or () if st["stage"] == "nms"]
-    if nms:
-        q["nms_ms"] = max(nms)
-    q.update({k: v for k, v in info.items()
-              if k.endswith("_s") and isinstance(v, (int, float)) and not isinstance(v, bool)})
-    return q
-
-
-def runtime_ratios(rows) -> dict:
-    """The report's speed-ups from the rows' frames per second (one core), the paper's
-    beside them (``"paper: "`` and the same name).
-
-    One entry per pair of :data:`RATIOS` both measured, then ``"acf_adapted / faster ACF
-    pyramid"`` (against the faster of ``acf_pyramid`` and ``acf_pyramid_fast``) where all
-    three are, then the paper's ratios.
-    """
-    fps = runtime_quantities(rows, {})
-    out = {name: fps[m] / fps[b] for (m, b), name in RATIOS.items() if m in fps and b in fps}
-    if {"acf_adapted", "acf_pyramid", "acf_pyramid_fast"} <= fps.keys():
-        out[FASTER_ACF_PYRAMID] = fps["acf_adapted"] / max(fps["acf_pyramid"],
-                                                           fps["acf_pyramid_fast"])
-    return {**out, **PAPER_RATIOS}
-
-
-def judge_runtime(rows, info, targets=RUNTIME_TARGETS) -> list:
-    """Each target held against the measurements (:func:`runtime_quantities` of ``rows``
-    and ``info``); measures nothing.
-
-    Returns
-    -------
-    list of dict
-        Per target, in order: ``target`` (its ``what``), ``value`` (the quantity, or the
-        quantity over the baseline's frames per second; None when not judged), ``bound``,
-        ``met`` (bool; None when not judged) and ``missing`` (the quantity or baseline not
-        measured, or not positive for a baseline; None when judged).
-    """
-    q = runtime_quantities(rows, info)
-    out = []
-    for t in targets:
-        value, missing = q.get(t.quantity), None
-        if value is None:
-            missing = t.quantity
-        elif t.baseline is not None:
-            base = q.get(t.baseline)
-            value, missing = (value / base, None) if base else (None, t.baseline)
-        met = None if value is None else bool(value <= t.bound if t.at_most
-                                              else value >= t.bound)
-        out.append(dict(target=t.what, value=value, bound=t.bound, met=met, missing=missing))
-    return out
 
 
 def run_runtime(data, **options):
@@ -529,67 +421,3 @@ def run_runtime(data, **options):
     info["paper_windows"] = PAPER_WINDOWS
     info["targets"] = {v["target"]: v["met"] for v in judge_runtime(rows, info)}
     return rows, info
-
-
-def format_table(rows, info) -> str:
-    """Markdown: ratios first (the headline), then Table 1 with the paper beside ours."""
-    out = ["# Runtime (Table 1 of Wang et al. 2017, this implementation)", "",
-           f"{info['candidate_windows']} candidate windows on a 384x288 frame (paper: "
-           f"{info['paper_windows']} on CAVIAR); HOG: {info['hog_scored_positions']} "
-           f"distinct scored positions, {info['hog_weights_per_window']:.0f} adapted weights "
-           f"each, {info['hog_templates']} shared templates, cell sizes "
-           f"{', '.join(f'{c:g}' for c in info['hog_cell_sizes'])} frame px (under 2 px: "
-           "cells of the 2x-upsampled frame).", "", "## Speed-ups measured in the same run", "",
-           "| ratio | ours | paper |", "|---|---|---|"]
-    r = info["ratios"]
-    for k in ("hog_adapted / hog_warp", "acf_adapted / acf_warp", "hog_adapted / hog_pyramid",
-              "acf_adapted / acf_pyramid", "acf_adapted / acf_pyramid_fast"):
-        out.append(f"| {k} | {r[k]:.0f}x | {r['paper: ' + k]:.0f}x |")
-    k = "acf_adapted / faster ACF pyramid"
-    out.append(f"| **{k}** ({info['faster_acf_pyramid']}: the baseline the ACF speed-up is "
-               f"claimed against; the paper's 3.54 fps is the toolbox's fast pyramid) | "
-               f"{r[k]:.0f}x | {r['paper: ' + k]:.0f}x |")
-    for k in ("hog_adapted / opencv (4x)", "hog_adapted / opencv (native)"):
-        out.append(f"| {k} | {r[k]:.1f}x | - |")
-    out += ["", "## Frames per second", "",
-            "| method | fps, 1 core | fps, all cores | paper fps (1 i7 core) | windows | "
-            "feature pixels | how |", "|---|---|---|---|---|---|---|"]
-    for row in rows:
-        allc = f"{row['fps_all_cores']:.2f}" if row["fps_all_cores"] else "-"
-        paper = f"{row['paper_fps']}" if row["paper_fps"] else "-"
-        win = f"{row['windows']}" if row["windows"] else "-"
-        out.append(f"| {row['method']} | {row['fps_1core']:.3g} | {allc} | {paper} | {win} | "
-                   f"{row['feature_pixels']:.3g} | {row['how']}; {row['detail']} |")
-    out += ["", "## Stages against a memory-bandwidth floor (one core, one frame)", "",
-            "Floor: a plain copy (np.copyto, preallocated) of as many bytes as the stage "
-            "reads and writes at least once, timed in this run -- features: the frame in, the "
-            "cell maps out; scoring: the cell maps and the adapted weights in, the scores out; "
-            "NMS: the scores in, candidates and detections. Fraction = floor / stage (1 = at "
-            "the floor).", "",
-            "| method | stage | ms | MB read + written | floor ms | fraction of floor |",
-            "|---|---|---|---|---|---|"]
-    for row in rows:
-        for st in row.get("stages", ()):
-            out.append(f"| {row['method']} | {st['stage']} | {st['ms']:.2f} | "
-                       f"{st['bytes'] / 1e6:.3g} | {st['floor_ms']:.3f} | "
-                       f"{st['floor_ms'] / st['ms']:.3f} |")
-    out += ["", "## Scoring, forms of the same operator (one core, same scores)", "",
-            "| detector | form | ms per frame |", "|---|---|---|"]
-    for kind in DETECTOR_KINDS:
-        for k, v in info.get(f"{kind}_scoring_forms_ms", {}).items():
-            out.append(f"| {kind.upper()} | {k} | {v} |")
-    out += ["", f"Precompute (one camera, one model): HOG {info['hog_precompute_s']} s, ACF "
-            f"{info['acf_precompute_s']} s; cache hit HOG {info['hog_cache_hit_s']} s, ACF "
-            f"{info['acf_cache_hit_s']} s; window selection {info['window_selection_s']} s.",
-            (f"All cores = {info['cores']} processes, each detecting on its own frames"
-             if info["cores"] > 1 else "All cores not measured (--jobs 1)")
-            + "; load average at the end "
-            + ("n/a" if info["load_average"] is None else f"{info['load_average']:.2f}") + ".",
-            "Detectors trained with " + ", ".join(
-                f"{k}={v}" for k, v in info.get("training", {}).items()) + ".",
-            "", "## Targets", ""]
-    for t in RUNTIME_TARGETS:
-        met = info["targets"].get(t.what)
-        out.append(f"- {t.what}: "
-                   + ("not judged (not measured)" if met is None else "met" if met else "NOT met"))
-    return "\n".join(out) + "\n"

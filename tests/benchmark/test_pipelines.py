@@ -90,7 +90,10 @@ def test_demo_runs_its_stages_and_ends_with_the_summary(tmp_path, monkeypatch, c
     monkeypatch.setattr(cli, "blender_available", lambda: True)
     monkeypatch.setattr(cli, "demo_frames", lambda data, out, extra: calls.append(
         ["frames", str(data)] + extra) or 0)
-    args = argparse.Namespace(out=tmp_path / "demo", seed=3, jobs=2, toy=False)
+    from benchmark.recipes import get_recipe
+
+    args = argparse.Namespace(out=tmp_path / "demo", seed=3, jobs=2, toy=False,
+                              recipe=get_recipe("elevation0"))
     assert cli._cmd_demo(args) == 0
     assert [c[:2] for c in calls] == [["generate", "--preset"], ["bench", "crossval"],
                                       ["frames", str(tmp_path / "demo" / "data")]]
@@ -98,6 +101,9 @@ def test_demo_runs_its_stages_and_ends_with_the_summary(tmp_path, monkeypatch, c
     assert all(x in calls[1] for x in cli.DEMO_CROSSVAL)
     assert all(c[c.index("--seed") + 1] == "3" and c[c.index("--jobs") + 1] == "2"
                for c in calls)
+    # the stages that train get the recipe asked for; rendering trains nothing
+    assert "--recipe" not in calls[0]
+    assert all(c[c.index("--recipe") + 1] == "elevation0" for c in calls[1:])
     tail = capsys.readouterr().out.rstrip().splitlines()
     summary = tail[tail.index(next(t for t in tail if t.startswith("== viewadapt demo"))):]
     assert 5 <= len(summary) <= 12

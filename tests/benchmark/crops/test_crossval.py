@@ -153,11 +153,17 @@ def test_reproduce_runs_every_stage_in_order(tmp_path, monkeypatch):
     calls = []
     monkeypatch.setattr(cli, "main", lambda argv: calls.append(argv) or 0)
     monkeypatch.setattr(cli, "blender_available", lambda: True)
-    args = argparse.Namespace(out=tmp_path / "repro", seed=3, jobs=2, framing="silhouette")
+    from benchmark.recipes import get_recipe
+
+    args = argparse.Namespace(out=tmp_path / "repro", seed=3, jobs=2, framing="silhouette",
+                              recipe=get_recipe("elevation0"))
     assert cli._cmd_reproduce(args) == 0
     assert [c[:2] for c in calls] == [["generate", "--preset"], ["bench", "crossval"],
                                       ["bench", "sweep"], ["bench", "frames"]]
     assert "silhouette" in calls[0] and all("3" in c for c in calls)
+    # every stage that trains gets the one recipe; rendering trains nothing
+    assert "--recipe" not in calls[0]
+    assert all(c[c.index("--recipe") + 1] == "elevation0" for c in calls[1:])
     stages = json.loads((tmp_path / "repro" / "reproduce.json").read_text())["stage_seconds"]
     assert len(stages) == 4
     # a failing stage stops the run with its exit code

@@ -295,8 +295,9 @@ def test_runtime_table_end_to_end(toy, tmp_path):
     rows, info = run_runtime(toy, n_frames=1, warp_windows=8, jobs=1, quick=True,
                              cache_dir=tmp_path / "cache")
     methods = {r["method"] for r in rows}
-    assert {"hog_adapted", "acf_adapted", "hog_warp", "acf_warp", "hog_pyramid",
-            "acf_pyramid", "opencv", "opencv_native"} <= methods
+    assert {"hog_adapted", "acf_adapted", "opencv_adapted", "hog_warp", "acf_warp",
+            "opencv_warp", "hog_pyramid", "acf_pyramid", "opencv", "opencv_2x",
+            "opencv_native"} <= methods
     assert all(r["seconds_per_frame"] > 0 for r in rows)
     assert info["candidate_windows"] > 20000                  # the CAVIAR-like camera
     assert 0 < info["hog_scored_positions"] <= info["candidate_windows"]
@@ -306,12 +307,14 @@ def test_runtime_table_end_to_end(toy, tmp_path):
     assert len(info["acf_scoring_forms_ms"]) == 2
     # the adapted rows' stages, each beside the copy of the bytes it moves (no time checked)
     for r in rows:
-        if r["method"] in ("hog_adapted", "acf_adapted"):
+        if r["method"] in ("hog_adapted", "acf_adapted", "opencv_adapted"):
             assert [st["stage"] for st in r["stages"]] == ["features", "scoring", "nms"]
             assert all(st["bytes"] > 0 and st["floor_ms"] > 0 and st["ms"] > 0
                        for st in r["stages"])
     table = format_table(rows, info)
     assert "hog_adapted / hog_warp" in table and "## Targets" in table
+    assert "opencv_adapted / opencv (2x)" in table and "384x288 frame" in table
+    assert info["opencv_precompute_s"] >= 0 and "opencv_adapted >= 25 fps (1 core)" in table
     # the ACF speed-up is claimed against the faster of the two pyramids, by name
     faster = max(("acf_pyramid", "acf_pyramid_fast"),
                  key=lambda m: next(r["fps_1core"] for r in rows if r["method"] == m))
@@ -321,6 +324,7 @@ def test_runtime_table_end_to_end(toy, tmp_path):
     assert "| hog_adapted | features |" in table and "| acf_adapted | nms |" in table
     # the table says how its detectors were trained and why the all-cores column is empty
     assert info["training"]["frame_view"] == "both" and "frame_view=both" in table
+    assert "recipe=elevation0" in table
     assert "All cores not measured (--jobs 1)" in table
 
 
@@ -463,15 +467,17 @@ def test_detect_takes_the_rule_and_the_object_model(toy, bench, tmp_path):
                str(tmp_path / "bad"), "--object-model", "cube", str(frames[0].path)])
 
 
-def test_rotated_negatives_change_the_training_and_are_recorded(toy):
+def test_the_recipe_changes_the_training_and_is_recorded(toy):
     from benchmark.data import load_dataset
     from benchmark.frames.methods import train_source_detectors
+    from benchmark.recipes import recipe_from_record
 
     ds = load_dataset(toy)
-    plain = train_source_detectors(ds, quick=True, frame_view="none")
-    rotated = train_source_detectors(ds, quick=True, frame_view="none", negatives="rotated")
-    assert rotated.training["negatives"] == "rotated"
+    plain = train_source_detectors(ds, quick=True, frame_view="none", recipe="elevation0")
+    rotated = train_source_detectors(ds, quick=True, frame_view="none", recipe="rotated")
+    assert recipe_from_record(plain.training["recipe"]).name == "elevation0"
+    assert recipe_from_record(rotated.training["recipe"]).name == "rotated"
     assert rotated.training["background_windows"] == 5 * plain.training["background_windows"]
     assert not np.allclose(plain.hog_weights, rotated.hog_weights)
-    with pytest.raises(ValueError, match="negatives must be one of"):
-        train_source_detectors(ds, quick=True, negatives="mirrored")
+    with pytest.raises(ValueError, match="unknown recipe 'mirrored'; choose one of"):
+        train_source_detectors(ds, quick=True, recipe="mirrored")

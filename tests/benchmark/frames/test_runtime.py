@@ -22,7 +22,7 @@ def _row(method, fps, nms_ms=None):
 #: fps (one core) of every method; NMS of the adapted detectors in ms
 FPS = {"hog_adapted": 250.0, "acf_adapted": 40.0, "hog_warp": 2.0, "acf_warp": 0.5,
        "hog_pyramid": 1.0, "acf_pyramid": 4.0, "acf_pyramid_fast": 8.0, "opencv": 30.0,
-       "opencv_native": 100.0}
+       "opencv_native": 100.0, "opencv_2x": 60.0, "opencv_adapted": 20.0, "opencv_warp": 0.1}
 NMS_MS = {"hog_adapted": 0.4, "acf_adapted": 1.5}
 INFO = {"hog_precompute_s": 12.0, "hog_cache_hit_s": 0.2, "acf_precompute_s": 50.0,
         "acf_cache_hit_s": 3.0}
@@ -38,9 +38,10 @@ def _verdicts(rows, info):
 
 def test_the_table_holds_each_target_once_in_words():
     whats = [t.what for t in RUNTIME_TARGETS]
-    assert len(set(whats)) == len(whats) == 9
+    assert len(set(whats)) == len(whats) == 11
     assert {(t.quantity, t.baseline, t.bound) for t in RUNTIME_TARGETS if t.baseline} == {
-        ("hog_adapted", "hog_warp", 100.0), ("hog_adapted", "opencv", 10.0)}
+        ("hog_adapted", "hog_warp", 100.0), ("hog_adapted", "opencv", 10.0),
+        ("opencv_adapted", "opencv_2x", 1.0)}
 
 
 def test_targets_met_and_missed():
@@ -57,6 +58,8 @@ def test_targets_met_and_missed():
         "NMS <= 1 ms (both detectors)": False,           # ACF's 1.5 ms, the slower
         "precompute <= 30 s (hog)": True,                # 12 s (ACF's 50 s not judged)
         "cache hit <= 1 s (hog)": True,                  # 0.2 s
+        "opencv_adapted >= opencv (2x)": False,          # 20 / 60
+        "opencv_adapted >= 25 fps (1 core)": False,      # 20 fps
     }
     assert v["hog_adapted >= 100x hog_warp"]["value"] == pytest.approx(125.0)
     assert v["hog_adapted >= 10x opencv (4x)"]["value"] == pytest.approx(250 / 30)
@@ -118,7 +121,7 @@ def stubbed(monkeypatch, tmp_path):
     monkeypatch.setattr(benchmark.frames.methods, "train_source_detectors",
                         lambda ds, **_: Models())
     monkeypatch.setattr(runtime, "timing_frames",
-                        lambda data, n: [np.zeros((288, 384, 3), np.uint8)])
+                        lambda data, n, size: [np.zeros((288, 384, 3), np.uint8)])
     monkeypatch.setattr(runtime, "time_one_core", time_one_core)
     return root, seen
 
@@ -156,3 +159,14 @@ def test_a_cache_folder_given_is_kept(stubbed, tmp_path):
     run_runtime("data", jobs=1, cache_dir=tmp_path / "cache")
     assert seen == [tmp_path / "cache"] and (tmp_path / "cache" / "operator.npz").exists()
     assert list(root.iterdir()) == []
+
+
+@pytest.mark.parametrize("size", ["768", "768x", "32x128", "768x99999"])
+def test_a_bad_size_is_a_usage_error(size, tmp_path, capsys):
+    from viewadapt.cli import main
+
+    with pytest.raises(SystemExit) as exc:
+        main(["bench", "runtime", "--data", str(tmp_path), "--out", str(tmp_path / "o"),
+              "--size", size])
+    assert exc.value.code == 2 and "--size" in capsys.readouterr().err
+    assert not (tmp_path / "o").exists()

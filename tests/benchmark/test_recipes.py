@@ -1,0 +1,165 @@
+"""benchmark.recipes: the source-training recipe, applied alike by every command that trains."""
+
+import json
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from benchmark.crops.features import WindowSet, rotation_about_centre
+from benchmark.recipes import DEFAULT_RECIPE, RECIPES, Recipe, get_recipe, recipe_from_record
+from benchmark.toydata import make_toy_dataset
+from viewadapt.cli import main
+from viewadapt.geometry import elevation_homography
+from viewadapt.warp import translation, warp_to_source_view
+
+
+@pytest.fixture(scope="module")
+def toy(tmp_path_factory):
+    return make_toy_dataset(tmp_path_factory.mktemp("toy") / "data", n_persons=9, n_scenes=3,
+                            n_backgrounds=2, seed=4)
+
+
+CROSSVAL = ["--quick", "--detectors", "hog", "opencv", "--sources", "0,pi/4",
+            "--object-models", "plane", "--no-upper-bound"]
+
+
+@pytest.fixture(scope="module")
+def runs(toy, tmp_path_factory):
+    root = tmp_path_factory.mktemp("recipes")
+    for name in ("elevation0", "rotated"):
+        assert main(["bench", "crossval", "--data", str(toy), "--out", str(root / name),
+                     "--recipe", name] + CROSSVAL) == 0
+    return root
+
+
+def test_recipes_are_checked_and_found_by_name():
+    assert DEFAULT_RECIPE in RECIPES and get_recipe(RECIPES["rotated"]) is RECIPES["rotated"]
+    assert RECIPES["elevation0"].negative_suffixes() == ()
+    assert RECIPES["rotated"].negative_suffixes() == ("rot-60", "rot-30", "rot+30", "rot+60")
+    for bad in ("mirrored", None, 3):
+        with pytest.raises(ValueError, match="unknown recipe .*; choose one of elevation0, "
+                                             "rotated"):
+            get_recipe(bad)
+    for rot in ((30.0, 30.0), (360.0,), (float("nan"),)):
+        with pytest.raises(ValueError, match="distinct finite angles"):
+            Recipe("x", "y", rotations_deg=rot)
+
+
+def test_a_recipe_is_read_back_from_its_record_and_only_then():
+    for r in RECIPES.values():
+        assert recipe_from_record(json.loads(json.dumps(r.to_dict()))) is r
+    changed = dict(RECIPES["rotated"].to_dict(), rotations_deg=[10.0])
+    assert recipe_from_record(changed) is None                 # same name, other settings
+    assert recipe_from_record(None) is None and recipe_from_record({"name": "new"}) is None
+
+
+def test_a_rotated_window_can_be_cut_out_first_then_warped(toy):
+    """The synthesised rows' rotated negatives: the window rotated (read from the whole
+    image), then warped on its own with its borders replicated, as any crop-first warp."""
+    from benchmark.data import read_image
+
+    R = translation(24, 40) @ rotation_about_centre(30.0)
+    H = np.linalg.inv(elevation_homography(0.0, np.pi / 4))
+    path = next((toy / "background").rglob("*.png")).relative_to(toy)
+    ws = WindowSet("b", [(str(path), R)], pd.DataFrame({"label": [0]}))
+    (got,) = ws.warped(H, "synth").images(toy)
+    img = read_image(toy / path)
+    want = warp_to_source_view(warp_to_source_view(img, R), H)
+    assert np.array_equal(got, want)
+    # and not what the old crop (the translation alone, the rotation dropped) gave
+    assert not np.array_equal(got, warp_to_source_view(img[40:168, 24:88], H))
+
+
+def test_crossval_records_the_recipe_and_trains_every_method_with_it(runs):
+    scores = {n: pd.read_parquet(runs / n / "scores.parquet") for n in ("elevation0", "rotated")}
+    for name in scores:
+        run = json.loads((runs / name / "run.json").read_text())
+        assert run["recipe"]["name"] == name and run["crossval"]["recipe"]["name"] == name
+        assert f"recipe `{name}`" in (runs / name / "report.md").read_text()
+
+    def method_scores(df, det, method):
+        d = df[(df["detector"] == det) & (df["method"] == method)]
+        return d.sort_values(["fold", "path", "x", "y"], na_position="first")["score"].to_numpy()
+
+    a, b = scores["elevation0"], scores["rotated"]
+    # every HOG row that trains changes with the recipe; OpenCV's pretrained one cannot
+    for method in ("unadapted", "adapted", "image warping", "synthesised", "oracle"):
+        assert not np.allclose(method_scores(a, "hog", method), method_scores(b, "hog", method))
+    for method in ("unadapted", "adapted"):
+        assert np.array_equal(method_scores(a, "opencv", method),
+                              method_scores(b, "opencv", method))
+
+
+def test_results_of_two_recipes_are_not_mixed(runs, toy, capsys):
+    before = (runs / "rotated" / "run.json").read_bytes()
+    assert main(["bench", "sweep", "--data", str(toy), "--out", str(runs / "rotated"),
+                 "--recipe", "elevation0", "--quick"]) != 0
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "trained with recipe 'rotated', not 'elevation0'" in err[0]
+    assert (runs / "rotated" / "run.json").read_bytes() == before
+    assert not (runs / "rotated" / "sweep_summary.csv").exists()
+
+
+def test_an_unknown_recipe_is_a_usage_error(toy, tmp_path, capsys):
+    for argv in (["bench", "crossval", "--data", str(toy)], ["bench", "frames", "--data", str(toy)],
+                 ["demo"]):
+        with pytest.raises(SystemExit) as exc:
+            main(argv + ["--out", str(tmp_path / "o"), "--recipe", "mirrored"])
+        assert exc.value.code == 2
+        assert "unknown recipe 'mirrored'" in capsys.readouterr().err
+    assert not (tmp_path / "o").exists()
+
+
+def test_the_sweep_trains_the_crossval_models_under_the_recipe(runs, toy, tmp_path):
+    """The sweep assembles the recipe's negatives itself; its unadapted rows must be the
+    cross-validation's, trained the same way."""
+    out = tmp_path / "sw"
+    assert main(["bench", "sweep", "--data", str(toy), "--out", str(out), "--quick",
+                 "--recipe", "rotated", "--object-models", "plane", "--step",
+                 str(np.pi / 36), "--sigma", "0"]) == 0
+    sw = pd.read_parquet(out / "sweep_scores.parquet")
+    cv = pd.read_parquet(runs / "rotated" / "scores.parquet")
+    cv = cv[(cv["detector"] == "hog") & (cv["method"] == "unadapted")]
+    un = sw[sw["method"] == "unadapted"]
+    key = lambda d: np.sort(d["score"].to_numpy())                  # noqa: E731
+    assert len(un) == len(cv) and np.allclose(key(un), key(cv), atol=1e-5)
+
+
+def test_camera_effects_are_drawn_per_window_reproducibly_and_come_last(toy):
+    from benchmark.crops.features import person_windows
+    from benchmark.data import load_dataset
+    from benchmark.recipes import SURVEILLANCE_CAMERA
+
+    ds = load_dataset(toy)
+    plain = person_windows(ds, 0)
+    cam = plain.through_camera(SURVEILLANCE_CAMERA)
+    a, b = list(cam.images(toy))[:6], list(cam.images(toy))[:6]
+    clean = list(plain.images(toy))[:6]
+    assert all(np.array_equal(x, y) for x, y in zip(a, b))            # the same every run
+    assert all(not np.array_equal(x, c) for x, c in zip(a, clean))
+    # each window its own draw: the residuals of two windows are not one pattern
+    r = [x.astype(float) - c for x, c in zip(a, clean)]
+    assert not np.allclose(r[0], r[1])
+    assert cam.key != plain.key and cam.key != plain.through_camera(SURVEILLANCE_CAMERA,
+                                                                     seed=1).key
+    with pytest.raises(ValueError, match="camera effects, which come last; warp first"):
+        cam.warped(np.eye(3), "w")
+    with pytest.raises(ValueError, match="warp first"):
+        cam.through_camera(SURVEILLANCE_CAMERA)
+
+
+def test_the_camera_recipe_trains_on_every_window_through_the_camera(toy):
+    from benchmark.data import load_dataset
+    from benchmark.frames.methods import train_source_detectors
+
+    ds = load_dataset(toy)
+    r = RECIPES["camera"]
+    assert [k for k, _ in r.training_suffixes()] == ["person"] + ["background"] * 5
+    assert all(a.endswith("cam") for _, a in r.training_suffixes())
+    rotated = train_source_detectors(ds, quick=True, frame_view="none", recipe="rotated")
+    camera = train_source_detectors(ds, quick=True, frame_view="none", recipe="camera")
+    assert camera.training["recipe"]["camera"]["jpeg_quality"] == [30, 90]
+    assert recipe_from_record(camera.training["recipe"]) is r
+    assert camera.training["background_windows"] == rotated.training["background_windows"]
+    assert not np.allclose(camera.hog_weights, rotated.hog_weights)
