@@ -5,7 +5,9 @@
 bins, weighted by the block's separable Gaussian-times-bilinear window -- in two passes
 (along rows, then down columns; 8 multiply-adds per pixel in the first), L2-Hys
 normalises each block and writes each cell's copy from each block that contains it
-(:mod:`viewadapt.detect.opencv_cells`).
+(:mod:`viewadapt.detect.opencv_cells`). :func:`strongest_sqrt_gradient` and
+:func:`angle_bins` are the element-wise steps of an 8-bit image's gradients around
+``cv2.cartToPolar`` (:func:`viewadapt.detect.opencv_cells.opencv_gradients`).
 """
 
 from __future__ import annotations
@@ -14,6 +16,85 @@ import math
 
 import numpy as np
 from numba import njit
+
+
+@njit(cache=True, nogil=True, boundscheck=False, error_model="numpy", inline="always")
+def _row_pass(mag, t, y, c, nx, ax, acc):  # pragma: no cover - compiled
+    """Image row ``y`` along x into ``acc`` (nx - 1, 2, 9): each block's two cell columns,
+    each pixel's magnitude split between its two bins and weighted by ``ax``."""
+    n_bins = 9
+    nbx = nx - 1
+    for bx in range(nbx):
+        for qx in range(2):
+            for b in range(n_bins):
+                acc[bx, qx, b] = 0.0
+    for tile in range(nx):
+        first = tile < nbx
+        second = tile >= 1
+        for i in range(c):
+            x = tile * c + i
+            m = mag[y, x]
+            tt = t[y, x]
+            b0 = int(tt)                 # t >= 0: truncation is the floor
+            f = tt - np.float32(b0)
+            if b0 >= n_bins:
+                b0 -= n_bins
+            b0 = min(max(b0, 0), n_bins - 1)
+            b1 = b0 + 1 if b0 < n_bins - 1 else 0
+            m1 = m * f
+            m0 = m - m1
+            if first:                    # the block's first column of cells
+                w0 = ax[i, 0]
+                w1 = ax[i, 1]
+                acc[tile, 0, b0] += w0 * m0
+                acc[tile, 0, b1] += w0 * m1
+                acc[tile, 1, b0] += w1 * m0
+                acc[tile, 1, b1] += w1 * m1
+            if second:                   # the previous block's second column
+                w0 = ax[c + i, 0]
+                w1 = ax[c + i, 1]
+                acc[tile - 1, 0, b0] += w0 * m0
+                acc[tile - 1, 0, b1] += w0 * m1
+                acc[tile - 1, 1, b0] += w1 * m0
+                acc[tile - 1, 1, b1] += w1 * m1
+
+
+@njit(cache=True, nogil=True, boundscheck=False, error_model="numpy", inline="always")
+def _normalise_row(acc, by, nbx, eps, clip, blk, out):  # pragma: no cover - compiled
+    """L2-Hys of block row ``by``'s blocks ``acc`` ([qy, bx, qx, bin] flat per qy), written
+    as each cell's copy into ``out``; ``blk`` (36,) scratch. Single precision, the sums
+    in four partial sums."""
+    n_bins = 9
+    for bx in range(nbx):
+        for qx in range(2):
+            for qy in range(2):
+                for b in range(n_bins):
+                    blk[(2 * qx + qy) * n_bins + b] = acc[qy, (2 * bx + qx) * n_bins + b]
+        z = np.float32(0.0)
+        s0 = s1 = s2 = s3 = z
+        for k in range(0, 36, 4):
+            s0 += blk[k] * blk[k]
+            s1 += blk[k + 1] * blk[k + 1]
+            s2 += blk[k + 2] * blk[k + 2]
+            s3 += blk[k + 3] * blk[k + 3]
+        scale = np.float32(1.0) / (np.sqrt((s0 + s1) + (s2 + s3)) + eps)
+        s0 = s1 = s2 = s3 = z
+        for k in range(0, 36, 4):
+            v0 = min(blk[k] * scale, clip)
+            v1 = min(blk[k + 1] * scale, clip)
+            v2 = min(blk[k + 2] * scale, clip)
+            v3 = min(blk[k + 3] * scale, clip)
+            blk[k], blk[k + 1], blk[k + 2], blk[k + 3] = v0, v1, v2, v3
+            s0 += v0 * v0
+            s1 += v1 * v1
+            s2 += v2 * v2
+            s3 += v3 * v3
+        scale = np.float32(1.0) / (np.sqrt((s0 + s1) + (s2 + s3)) + np.float32(1e-3))
+        for qx in range(2):
+            for qy in range(2):
+                q = 2 * qx + qy
+                for b in range(n_bins):
+                    out[by + qy, bx + qx, q * n_bins + b] = blk[q * n_bins + b] * scale
 
 
 @njit(cache=True, nogil=True, boundscheck=False, error_model="numpy")
@@ -25,73 +106,96 @@ def opencv_block_cells(mag, t, c, ax, eps, clip, out):  # pragma: no cover - com
     ``[0, n_bins)`` (bin ``floor(t)`` gets ``1 - frac``, the next bin ``frac``); ``ax``
     (2c, 2) float32 the window's weight of each block pixel row (or column) for the block's
     two cells; ``eps`` the L2 floor, ``clip`` the L2-Hys threshold.
+
+    One image row at a time: the row along x (:func:`_row_pass`), then added, weighted
+    by the row's place in each block, into the two block rows that contain it; a block
+    row is normalised and written when its last image row is in.
     """
     n_bins = 9
     ny, nx = mag.shape[0] // c, mag.shape[1] // c
-    out[:] = 0
     if ny < 2 or nx < 2:
+        out[:] = 0
         return
     nbx, nby = nx - 1, ny - 1
-    rows = np.zeros((ny * c, nbx, 2, n_bins), np.float32)
-    for y in range(ny * c):
-        for tile in range(nx):
-            for i in range(c):
-                x = tile * c + i
-                m = mag[y, x]
-                tt = t[y, x]
-                b0 = int(tt)                 # t >= 0: truncation is the floor
-                f = tt - b0
-                if b0 >= n_bins:
-                    b0 -= n_bins
-                b1 = b0 + 1 if b0 < n_bins - 1 else 0
-                m1 = m * f
-                m0 = m - m1
-                if tile < nbx:               # the block's first column of cells
-                    w0 = ax[i, 0]
-                    w1 = ax[i, 1]
-                    rows[y, tile, 0, b0] += w0 * m0
-                    rows[y, tile, 0, b1] += w0 * m1
-                    rows[y, tile, 1, b0] += w1 * m0
-                    rows[y, tile, 1, b1] += w1 * m1
-                if tile >= 1:                # the previous block's second column
-                    w0 = ax[c + i, 0]
-                    w1 = ax[c + i, 1]
-                    rows[y, tile - 1, 0, b0] += w0 * m0
-                    rows[y, tile - 1, 0, b1] += w0 * m1
-                    rows[y, tile - 1, 1, b0] += w1 * m0
-                    rows[y, tile - 1, 1, b1] += w1 * m1
-    # down the columns: one block row at a time, each image row's blocks in one
-    # contiguous sweep (qx, bin inner), accumulated into both cells of the block's column
-    blk = np.empty((nbx, 2, 2, n_bins), np.float32)               # [bx, qx, qy, bin]
-    for by in range(nby):
-        blk[:] = 0
-        for r in range(2 * c):
-            row = rows[by * c + r]
-            w0 = ax[r, 0]
-            w1 = ax[r, 1]
-            for bx in range(nbx):
-                for qx in range(2):
-                    for b in range(n_bins):
-                        v = row[bx, qx, b]
-                        blk[bx, qx, 0, b] += w0 * v
-                        blk[bx, qx, 1, b] += w1 * v
-        for bx in range(nbx):
-            s = 0.0
-            for qx in range(2):
-                for qy in range(2):
-                    for b in range(n_bins):
-                        s += blk[bx, qx, qy, b] * blk[bx, qx, qy, b]
-            scale = 1.0 / (math.sqrt(s) + eps)
-            s = 0.0
-            for qx in range(2):
-                for qy in range(2):
-                    for b in range(n_bins):
-                        v = min(blk[bx, qx, qy, b] * scale, clip)
-                        blk[bx, qx, qy, b] = v
-                        s += v * v
-            scale = 1.0 / (math.sqrt(s) + 1e-3)
-            for qx in range(2):
-                for qy in range(2):
-                    q = 2 * qx + qy
-                    for b in range(n_bins):
-                        out[by + qy, bx + qx, q * n_bins + b] = blk[bx, qx, qy, b] * scale
+    # copies whose block does not exist: all on the grid's border, zeroed first
+    for x in range(nx):
+        out[0, x, :] = 0
+        out[ny - 1, x, :] = 0
+    for y in range(ny):
+        out[y, 0, :] = 0
+        out[y, nx - 1, :] = 0
+    n = nbx * 2 * n_bins
+    row = np.empty((nbx, 2, n_bins), np.float32)                  # [bx, qx, bin]
+    rf = row.ravel()
+    # two block rows in flight, each [qy, bx, qx, bin]: ``cur`` (this cell row is its
+    # first) and ``prev`` (its second)
+    cur = np.zeros((2, n), np.float32)
+    prev = np.zeros((2, n), np.float32)
+    blk = np.empty(4 * n_bins, np.float32)                        # [qx, qy, bin]
+    for cy in range(ny):
+        for r in range(c):
+            _row_pass(mag, t, cy * c + r, c, nx, ax, row)
+            if cy < nby:
+                w0 = ax[r, 0]
+                w1 = ax[r, 1]
+                for k in range(n):
+                    cur[0, k] += w0 * rf[k]
+                    cur[1, k] += w1 * rf[k]
+            if cy >= 1:
+                w0 = ax[c + r, 0]
+                w1 = ax[c + r, 1]
+                for k in range(n):
+                    prev[0, k] += w0 * rf[k]
+                    prev[1, k] += w1 * rf[k]
+        if cy >= 1:                                               # block row cy - 1 is done
+            _normalise_row(prev, cy - 1, nbx, eps, clip, blk, out)
+        cur, prev = prev, cur
+        for k in range(n):
+            cur[0, k] = 0.0
+            cur[1, k] = 0.0
+
+
+@njit(cache=True, nogil=True, boundscheck=False, error_model="numpy")
+def strongest_sqrt_gradient(img, root, gx, gy):  # pragma: no cover - compiled
+    """Central differences of ``root[img]`` (``img`` (M, N, K) uint8, ``root`` (256,)
+    float32 its square roots; reflect-101 borders, M, N >= 2) of the channel of largest
+    ``dx**2 + dy**2`` per pixel (ties keep the earlier channel), into (M, N) ``gx, gy``."""
+    M, N, K = img.shape
+    for i in range(M):
+        up = i - 1 if i > 0 else 1
+        down = i + 1 if i < M - 1 else M - 2
+        for j in range(N):
+            left = j - 1 if j > 0 else 1
+            right = j + 1 if j < N - 1 else N - 2
+            bx = root[img[i, right, 0]] - root[img[i, left, 0]]
+            by = root[img[down, j, 0]] - root[img[up, j, 0]]
+            best = bx * bx + by * by
+            for k in range(1, K):
+                x = root[img[i, right, k]] - root[img[i, left, k]]
+                y = root[img[down, j, k]] - root[img[up, j, k]]
+                m = x * x + y * y
+                if m > best:
+                    best = m
+                    bx = x
+                    by = y
+            gx[i, j] = bx
+            gy[i, j] = by
+
+
+@njit(cache=True, nogil=True, boundscheck=False, error_model="numpy")
+def angle_bins(ang, scale, n_bins, t):  # pragma: no cover - compiled
+    """``t = ang * scale - 1/2`` taken into ``[0, n_bins)`` (the product in double
+    precision, rounded to float32, then the float32 steps; ``ang`` in ``[0, 2 pi)``: at
+    most two turns of ``n_bins`` either way), into ``t``."""
+    M, N = ang.shape
+    half = np.float32(0.5)
+    nb = np.float32(n_bins)
+    for i in range(M):
+        for j in range(N):
+            v = np.float32(np.float64(ang[i, j]) * scale) - half
+            for _ in range(2):
+                if v < 0:
+                    v += nb
+                if v >= nb:
+                    v -= nb
+            t[i, j] = v

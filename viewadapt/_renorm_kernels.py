@@ -1,14 +1,15 @@
 """Compiled loops of the per-window normalisation stage (numba), loaded on first use.
 
 :func:`raw_cell_sums` sums each pixel's magnitude, split between its two orientation bins,
-into ``c x c`` cells (hard spatial binning). :func:`renorm_scores` scores windows of an
-OpenCV HOG/SVM from those cells: each source cell's histogram is the frame cells' under
-the image of that cell (an axis-aligned rectangle, its centre mapped by the window's
-homography and its sides by the homography's Jacobian there: ``S``), its orientations
-mapped by the covariant rule at the window's centre (``A``); then the window's own 2x2-cell
-blocks are L2-Hys normalised as ``cv2.HOGDescriptor`` does and dotted with the SVM's
-weights (:mod:`viewadapt.detect.renorm`). Frame cells outside a map read as zero, so no
-stored table can make the loops read outside the maps.
+into ``c x c`` cells (hard spatial binning; :func:`sum_cells` sums such cells into larger
+ones). :func:`renorm_scores` scores windows of an OpenCV HOG/SVM from those cells: each
+source cell's histogram is the frame cells' under the image of that cell (an axis-aligned
+rectangle, its centre mapped by the window's homography and its sides by the homography's
+Jacobian there: ``S``), its orientations mapped by the covariant rule at the window's
+centre (``A``); then the window's own 2x2-cell blocks are L2-Hys normalised as
+``cv2.HOGDescriptor`` does and dotted with the SVM's weights
+(:mod:`viewadapt.detect.renorm`). Frame cells outside a map read as zero, so no stored
+table can make the loops read outside the maps.
 """
 
 from __future__ import annotations
@@ -25,20 +26,43 @@ def raw_cell_sums(mag, t, c, out):  # pragma: no cover - compiled
     ``1 - frac``) and the next (``frac``), written into ``out``."""
     n_bins = 9
     ny, nx = mag.shape[0] // c, mag.shape[1] // c
-    out[:] = 0
-    for y in range(ny * c):
-        cy = y // c
-        for x in range(nx * c):
-            m = mag[y, x]
-            tt = t[y, x]
-            b0 = int(tt)
-            f = tt - b0
-            if b0 >= n_bins:
-                b0 -= n_bins
-            b1 = b0 + 1 if b0 < n_bins - 1 else 0
-            cx = x // c
-            out[cy, cx, b0] += m * (1.0 - f)
-            out[cy, cx, b1] += m * f
+    for cy in range(ny):
+        for cx in range(nx):
+            for b in range(n_bins):
+                out[cy, cx, b] = 0.0
+    for cy in range(ny):
+        for r in range(c):
+            y = cy * c + r
+            for cx in range(nx):
+                for i in range(c):
+                    x = cx * c + i
+                    m = mag[y, x]
+                    tt = t[y, x]
+                    b0 = int(tt)             # t >= 0: truncation is the floor
+                    f = tt - np.float32(b0)
+                    if b0 >= n_bins:
+                        b0 -= n_bins
+                    b0 = min(max(b0, 0), n_bins - 1)
+                    b1 = b0 + 1 if b0 < n_bins - 1 else 0
+                    m1 = m * f
+                    out[cy, cx, b0] += m - m1
+                    out[cy, cx, b1] += m1
+
+
+@njit(cache=True, nogil=True, boundscheck=False, error_model="numpy")
+def sum_cells(src, k, out):  # pragma: no cover - compiled
+    """(ny // k, nx // k, B) sums of ``src`` (ny, nx, B) over ``k x k`` cells into ``out``."""
+    my, mx = src.shape[0] // k, src.shape[1] // k
+    nb = src.shape[2]
+    for y in range(my):
+        for x in range(mx):
+            for b in range(nb):
+                out[y, x, b] = 0.0
+        for r in range(k):
+            for x in range(mx):
+                for i in range(k):
+                    for b in range(nb):
+                        out[y, x, b] += src[y * k + r, x * k + i, b]
 
 
 @njit(cache=True, nogil=True, inline="always")
@@ -81,6 +105,7 @@ def _angle_taps(j00, j01, j10, j11, rule, lo, hi, frac):  # pragma: no cover - c
         f = tt - b0
         if b0 >= n_bins:
             b0 -= n_bins
+        b0 = min(max(b0, 0), n_bins - 1)         # (a non-finite Jacobian: still a bin)
         lo[k] = b0
         hi[k] = b0 + 1 if b0 < n_bins - 1 else 0
         frac[k] = f
@@ -89,21 +114,33 @@ def _angle_taps(j00, j01, j10, j11, rule, lo, hi, frac):  # pragma: no cover - c
 @njit(cache=True, nogil=True, boundscheck=False, error_model="numpy", inline="always")
 def _block_score(block, weights, at, eps, clip):  # pragma: no cover - compiled
     """``weights[at:at + 36] . L2Hys(block)`` (OpenCV's ``normalizeBlockHistogram``);
-    ``block`` is overwritten."""
-    ss = 0.0
-    for k in range(len(block)):
-        ss += block[k] * block[k]
-    sc = 1.0 / (math.sqrt(ss) + eps)
-    ss = 0.0
-    for k in range(len(block)):
-        v = min(block[k] * sc, clip)
-        block[k] = v
-        ss += v * v
-    sc = 1.0 / (math.sqrt(ss) + 1e-3)
-    total = 0.0
-    for k in range(len(block)):
-        total += weights[at + k] * block[k] * sc
-    return total
+    ``block`` (36,) is overwritten. Sums in four interleaved partial sums."""
+    s0 = s1 = s2 = s3 = 0.0
+    for k in range(0, 36, 4):
+        s0 += block[k] * block[k]
+        s1 += block[k + 1] * block[k + 1]
+        s2 += block[k + 2] * block[k + 2]
+        s3 += block[k + 3] * block[k + 3]
+    sc = 1.0 / (math.sqrt((s0 + s1) + (s2 + s3)) + eps)
+    s0 = s1 = s2 = s3 = 0.0
+    for k in range(0, 36, 4):
+        v0 = min(block[k] * sc, clip)
+        v1 = min(block[k + 1] * sc, clip)
+        v2 = min(block[k + 2] * sc, clip)
+        v3 = min(block[k + 3] * sc, clip)
+        block[k], block[k + 1], block[k + 2], block[k + 3] = v0, v1, v2, v3
+        s0 += v0 * v0
+        s1 += v1 * v1
+        s2 += v2 * v2
+        s3 += v3 * v3
+    sc = 1.0 / (math.sqrt((s0 + s1) + (s2 + s3)) + 1e-3)
+    s0 = s1 = s2 = s3 = 0.0
+    for k in range(0, 36, 4):
+        s0 += weights[at + k] * block[k]
+        s1 += weights[at + k + 1] * block[k + 1]
+        s2 += weights[at + k + 2] * block[k + 2]
+        s3 += weights[at + k + 3] * block[k + 3]
+    return ((s0 + s1) + (s2 + s3)) * sc
 
 
 @njit(cache=True, nogil=True, boundscheck=False, error_model="numpy")
@@ -172,23 +209,21 @@ def renorm_scores(flat, offsets, dims, size_of, cells, H, weights, bias, eps, cl
 
 
 @njit(cache=True, nogil=True, boundscheck=False, error_model="numpy")
-def _axis_taps(centre, jac, c, n, ax, role, first, w):  # pragma: no cover - compiled
-    """Weights ``w[k]`` of frame cells ``first .. first + len(w) - 1`` along one axis for
-    one cell role of a 2c-px block: each of the block's 16 source pixels (``ax[i, role]``
-    its OpenCV window weight) spread over the frame cells its image ``centre + jac (i -
-    7.5)`` (length ``|jac|``) overlaps, per frame pixel of it."""
-    w[:] = 0
-    half = 0.5 * abs(jac)
-    for i in range(16):
-        xf = centre + jac * (i - 7.5)
-        a, b = xf - half, xf + half
-        u0 = int(math.floor((a + 0.5) / c))
-        u1 = int(math.floor((b + 0.5) / c))
-        for u in range(max(u0, 0), min(u1, n - 1) + 1):
-            ov = min(b, c * (u + 1) - 0.5) - max(a, c * u - 0.5)
-            k = u - first
-            if ov > 0 and 0 <= k < len(w):
-                w[k] += ax[i, role] * ov / max(2.0 * half, 1e-12)
+def _axis_tables(ax, cum, tab):  # pragma: no cover - compiled
+    """Tables of the block taps of :func:`renorm_scores_binned` from ``ax`` (16, 2):
+    ``tab[o, r, i]`` the weight of the
+    ``i``-th source pixel from the low end of the block's image (``o`` 0: pixels in order,
+    a positive Jacobian; 1: reversed) for cell role ``r``, ``cum[o, r, i]`` the sum of
+    ``tab[o, r, :i]``."""
+    for o in range(2):
+        for r in range(2):
+            acc = 0.0
+            for i in range(16):
+                a = ax[i, r] if o == 0 else ax[15 - i, r]
+                tab[o, r, i] = a
+                cum[o, r, i] = acc
+                acc += a
+            cum[o, r, 16] = acc
 
 
 @njit(cache=True, nogil=True, boundscheck=False, error_model="numpy")
@@ -198,15 +233,38 @@ def renorm_scores_binned(flat, offsets, dims, size_of, cells, H, weights, bias, 
     histograms are the frame cells under the block's image weighted by OpenCV's Gaussian
     block window times each cell's bilinear tent (``ax``: (16, 2), the weights along one
     axis of a 16-px block), carried through the block's affine approximation (its centre
-    and Jacobian under ``H[n]``)."""
+    and Jacobian under ``H[n]``).
+
+    Per axis, the weight of a frame cell for one of the block's two cell roles is the
+    integral over the cell of the block's 16 source pixels' weights (each spread over its
+    image, per frame pixel), read from running sums at the cell's two ends
+    (:func:`_axis_tables`). The weights are separable: the cells are summed down the rows
+    first, then along ``u``. A window's 105 blocks are gathered first, then mapped to the
+    source bins, normalised and scored all together, block index innermost. (No helper
+    taking arrays is called per block: each such call would count references.)
+    """
     n_bins = 9
+    nq = 4 * n_bins
+    nb = 7 * 15
     lo = np.empty(n_bins, np.int64)              # frame bin k -> source bins lo, hi
     hi = np.empty(n_bins, np.int64)
     frac = np.empty(n_bins, np.float32)
-    block = np.empty(4 * n_bins, np.float32)
-    raw = np.empty((2, 2, n_bins), np.float32)
-    wx = np.empty((2, 24), np.float32)
-    wy = np.empty((2, 24), np.float32)
+    p0 = np.empty(24 * n_bins, np.float32)       # a block's rows of cells summed for cy = 0
+    p1 = np.empty(24 * n_bins, np.float32)       # and for cy = 1
+    w = np.empty((2, 2, 24), np.float32)         # [axis, role, cell] weights of one block
+    cum = np.empty((2, 2, 17), np.float64)
+    tab = np.empty((2, 2, 16), np.float64)
+    _axis_tables(ax, cum, tab)
+    geo = np.empty((nb, 2, 2), np.float64)       # [block, axis]: centre, Jacobian
+    ext = np.empty((nb, 2, 2), np.int64)         # [block, axis]: first cell, count
+    raws = np.empty((nq, nb), np.float32)        # [frame channel, block]
+    blocks = np.empty((nq, nb), np.float32)      # [source channel, block]
+    wt = np.empty((nq, nb), np.float32)          # the weights, [channel, block]
+    for b in range(nb):
+        for k in range(nq):
+            wt[k, b] = weights[b * nq + k]
+    ss = np.empty(nb, np.float64)
+    sc = np.empty(nb, np.float64)
     for n in range(len(out)):
         s = size_of[n]
         c = cells[s]
@@ -215,42 +273,127 @@ def renorm_scores_binned(flat, offsets, dims, size_of, cells, H, weights, bias, 
         Hn = H[n]
         _, _, j00, j01, j10, j11 = _map(Hn, 31.5, 63.5)
         _angle_taps(j00, j01, j10, j11, rule, lo, hi, frac)
+        inv = 1.0 / (c * c)
+        # each block's centre (source pixel 8 bx + 7.5, 8 by + 7.5), Jacobian and the
+        # frame cells that can hold its image
+        for b in range(nb):
+            px, py, a00, a01, a10, a11 = _map(Hn, 8.0 * (b // 15) + 7.5, 8.0 * (b % 15) + 7.5)
+            ex = 8.0 * abs(a00) + 1.0
+            ey = 8.0 * abs(a11) + 1.0
+            u0 = max(int(math.floor((px - ex + 0.5) / c)), 0)
+            v0 = max(int(math.floor((py - ey + 0.5) / c)), 0)
+            geo[b, 0, 0], geo[b, 0, 1], geo[b, 1, 0], geo[b, 1, 1] = px, a00, py, a11
+            ext[b, 0, 0] = u0
+            ext[b, 0, 1] = min(int(math.floor((px + ex + 0.5) / c)), nx - 1) - u0 + 1
+            ext[b, 1, 0] = v0
+            ext[b, 1, 1] = min(int(math.floor((py + ey + 0.5) / c)), ny - 1) - v0 + 1
+        for b in range(nb):
+            u0, nu, v0, nv = ext[b, 0, 0], ext[b, 0, 1], ext[b, 1, 0], ext[b, 1, 1]
+            if nu <= 0 or nv <= 0:
+                for k in range(nq):
+                    raws[k, b] = 0.0
+                continue
+            nu = min(nu, 24)
+            nv = min(nv, 24)
+            for a in range(2):
+                centre, jac = geo[b, a, 0], geo[b, a, 1]
+                first = u0 if a == 0 else v0
+                hl = abs(jac)                      # a source pixel's image length
+                o = 0 if jac > 0 else 1
+                low = centre - 8.0 * hl            # the block's image starts here
+                ih = 1.0 / hl if hl > 0.0 else 0.0
+                scale = hl / max(hl, 1e-12)
+                g0 = g1 = 0.0
+                for k in range((nu if a == 0 else nv) + 1):
+                    # the source pixels' weight below the cell boundary c (first + k) - 1/2
+                    q = (c * (first + k) - 0.5 - low) * ih
+                    if not q > 0.0:                # also NaN
+                        q = 0.0
+                    if q > 16.0:
+                        q = 16.0
+                    i = min(int(q), 15)
+                    f = q - i
+                    h0 = cum[o, 0, i] + tab[o, 0, i] * f
+                    h1 = cum[o, 1, i] + tab[o, 1, i] * f
+                    if k > 0:
+                        w[a, 0, k - 1] = (h0 - g0) * scale
+                        w[a, 1, k - 1] = (h1 - g1) * scale
+                    g0, g1 = h0, h1
+            # cells of zero weight in both roles at the ends add nothing
+            ua, ub = 0, nu
+            while ua < ub and w[0, 0, ua] == 0 and w[0, 1, ua] == 0:
+                ua += 1
+            while ub > ua and w[0, 0, ub - 1] == 0 and w[0, 1, ub - 1] == 0:
+                ub -= 1
+            L = (ub - ua) * n_bins
+            for j in range(L):
+                p0[j] = 0.0
+                p1[j] = 0.0
+            for v in range(nv):
+                y0 = w[1, 0, v]
+                y1 = w[1, 1, v]
+                if y0 == 0 and y1 == 0:
+                    continue
+                at = base + ((v0 + v) * nx + u0 + ua) * n_bins
+                fr = flat[at:at + L]               # (a view: no index wraparound)
+                for j in range(L):
+                    f = fr[j]
+                    p0[j] += y0 * f
+                    p1[j] += y1 * f
+            for k in range(n_bins):
+                r00 = r01 = r10 = r11 = np.float32(0.0)
+                for u in range(ua, ub):
+                    x0 = w[0, 0, u]
+                    x1 = w[0, 1, u]
+                    at = (u - ua) * n_bins + k
+                    r00 += x0 * p0[at]
+                    r01 += x0 * p1[at]
+                    r10 += x1 * p0[at]
+                    r11 += x1 * p1[at]
+                raws[k, b] = r00
+                raws[n_bins + k, b] = r01
+                raws[2 * n_bins + k, b] = r10
+                raws[3 * n_bins + k, b] = r11
+        # frame bins -> source bins (A), per cell area
+        for k in range(nq):
+            for b in range(nb):
+                blocks[k, b] = 0.0
+        for k in range(n_bins):
+            f1 = np.float32(frac[k] * inv)
+            f0 = np.float32(inv) - f1
+            for q in range(4):
+                src = raws[q * n_bins + k]
+                d0 = blocks[q * n_bins + lo[k]]
+                for b in range(nb):
+                    d0[b] += f0 * src[b]
+                d1 = blocks[q * n_bins + hi[k]]
+                for b in range(nb):
+                    d1[b] += f1 * src[b]
+        # L2-Hys (OpenCV's normalizeBlockHistogram) and the weights, every block at once
+        for b in range(nb):
+            ss[b] = 0.0
+        for k in range(nq):
+            row = blocks[k]
+            for b in range(nb):
+                ss[b] += row[b] * row[b]
+        for b in range(nb):
+            sc[b] = 1.0 / (math.sqrt(ss[b]) + eps)
+            ss[b] = 0.0
+        for k in range(nq):
+            row = blocks[k]
+            for b in range(nb):
+                v = min(row[b] * sc[b], clip)
+                row[b] = v
+                ss[b] += v * v
+        for b in range(nb):
+            sc[b] = 1.0 / (math.sqrt(ss[b]) + 1e-3)
+            ss[b] = 0.0
+        for k in range(nq):
+            row = blocks[k]
+            wk = wt[k]
+            for b in range(nb):
+                ss[b] += wk[b] * row[b]
         total = bias
-        for bx in range(7):
-            for by in range(15):
-                # the block's centre (source pixel 8 bx + 7.5, 8 by + 7.5) and Jacobian
-                px, py, a00, a01, a10, a11 = _map(Hn, 8.0 * bx + 7.5, 8.0 * by + 7.5)
-                ex = 8.0 * abs(a00) + 1.0
-                ey = 8.0 * abs(a11) + 1.0
-                u0 = max(int(math.floor((px - ex + 0.5) / c)), 0)
-                v0 = max(int(math.floor((py - ey + 0.5) / c)), 0)
-                nu = min(int(math.floor((px + ex + 0.5) / c)), nx - 1) - u0 + 1
-                nv = min(int(math.floor((py + ey + 0.5) / c)), ny - 1) - v0 + 1
-                raw[:] = 0
-                if nu > 0 and nv > 0:
-                    nu = min(nu, 24)
-                    nv = min(nv, 24)
-                    for r in range(2):
-                        _axis_taps(px, a00, c, nx, ax, r, u0, wx[r, :nu])
-                        _axis_taps(py, a11, c, ny, ax, r, v0, wy[r, :nv])
-                    for v in range(nv):
-                        for u in range(nu):
-                            at = base + ((v0 + v) * nx + (u0 + u)) * n_bins
-                            for cx in range(2):
-                                for cy in range(2):
-                                    wgt = wx[cx, u] * wy[cy, v]
-                                    if wgt == 0:
-                                        continue
-                                    for k in range(n_bins):
-                                        raw[cx, cy, k] += wgt * flat[at + k]
-                inv = 1.0 / (c * c)
-                block[:] = 0
-                for cx in range(2):
-                    for cy in range(2):
-                        at = (2 * cx + cy) * n_bins
-                        for k in range(n_bins):
-                            v2 = raw[cx, cy, k] * inv
-                            block[at + lo[k]] += (1.0 - frac[k]) * v2
-                            block[at + hi[k]] += frac[k] * v2
-                total += _block_score(block, weights, (bx * 15 + by) * 4 * n_bins, eps, clip)
+        for b in range(nb):
+            total += ss[b] * sc[b]
         out[n] = total

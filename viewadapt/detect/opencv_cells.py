@@ -114,12 +114,36 @@ def block_axis_weights(c: int) -> np.ndarray:
     return gauss[:, None] * tent
 
 
+#: Square roots of the 8-bit values (the gamma of :func:`opencv_gradients`).
+_ROOTS = np.sqrt(np.arange(256, dtype=np.float32))
+
+
 def opencv_gradients(image) -> tuple[np.ndarray, np.ndarray]:
     """``cv2.HOGDescriptor``'s gradients of an image: square-root gamma, central
     differences (reflect-101 borders), the colour channel of largest magnitude; the (M, N)
     float32 magnitude and 9-bin coordinate of
-    :func:`~viewadapt.detect.channels.gradient_bins`."""
-    return gradient_bins(image, n_bins=N_HOG_BINS, gamma=True)
+    :func:`~viewadapt.detect.channels.gradient_bins`. An 8-bit image of at least 2 x 2
+    pixels takes one compiled pass from its values' square roots to the strongest
+    channel's differences, and the bin coordinates another, around ``cv2.cartToPolar``:
+    the same float32 operations as :func:`~viewadapt.detect.channels.gradient_bins`."""
+    import cv2
+
+    from .._opencv_kernels import angle_bins, strongest_sqrt_gradient
+
+    img = np.asarray(image)
+    if img.ndim == 2:
+        img = img[:, :, None]
+    if img.dtype != np.uint8 or img.ndim != 3 or img.shape[2] not in (1, 3) \
+            or min(img.shape[:2]) < 2:
+        return gradient_bins(image, n_bins=N_HOG_BINS, gamma=True)
+    M, N = img.shape[:2]
+    gx = np.empty((M, N), np.float32)
+    gy = np.empty((M, N), np.float32)
+    strongest_sqrt_gradient(img, _ROOTS, gx, gy)
+    mag, ang = cv2.cartToPolar(gx, gy)
+    t = np.empty_like(ang)
+    angle_bins(ang, N_HOG_BINS / np.pi, N_HOG_BINS, t)
+    return mag, t
 
 
 def opencv_block_cells(gradients, c: int, *, out=None) -> np.ndarray:
@@ -165,8 +189,9 @@ def raw_cell_maps(gradients, cell_sizes) -> tuple[dict, np.ndarray, np.ndarray]:
     """Raw 9-bin cell sums of :func:`~viewadapt.detect.opencv_cells.opencv_gradients` at
     each cell size, hard spatial binning: ``(maps, flat, offsets)`` with ``maps[c]`` a
     (M // c, N // c, 9) float32 view into ``flat`` starting at ``offsets[i]`` for the
-    ``i``-th size of ``cell_sizes``."""
-    from .._renorm_kernels import raw_cell_sums
+    ``i``-th size of ``cell_sizes``. A size that is a multiple of a smaller one asked for
+    is summed from that size's cells (the same pixels), the others from the pixels."""
+    from .._renorm_kernels import raw_cell_sums, sum_cells
 
     mag, t = gradients
     M, N = mag.shape
@@ -177,7 +202,18 @@ def raw_cell_maps(gradients, cell_sizes) -> tuple[dict, np.ndarray, np.ndarray]:
     maps = {}
     for c, s, off in zip(sizes, shapes, offsets):
         maps[c] = flat[off:off + int(np.prod(s))].reshape(s)
-        raw_cell_sums(mag, t, c, maps[c])
+    done = []
+    for c in sorted(maps):
+        d = max((d for d in done if c % d == 0), default=0)
+        if d:
+            sum_cells(maps[d], c // d, maps[c])
+        else:
+            raw_cell_sums(mag, t, c, maps[c])
+        done.append(c)
+    for c, s, off in zip(sizes, shapes, offsets):                 # a size asked for twice
+        region = flat[off:off + int(np.prod(s))]
+        if region.ctypes.data != maps[c].ctypes.data:
+            region[:] = maps[c].ravel()
     return maps, flat, offsets[:-1]
 
 
