@@ -33,7 +33,7 @@ from __future__ import annotations
 import argparse
 from dataclasses import dataclass
 
-from viewadapt.camera.effects import CameraEffects
+from viewadapt.camera.effects import SURVEILLANCE_CAMERA, CameraEffects
 
 __all__ = ["Recipe", "RECIPES", "DEFAULT_RECIPE", "SURVEILLANCE_CAMERA", "get_recipe",
            "add_recipe_argument", "recipe_from_record"]
@@ -120,17 +120,6 @@ def _rotated():
     return ROTATIONS_DEG
 
 
-#: Camera effects of surveillance footage, each range set from what such cameras do (not
-#: fitted to any clip): slight defocus, corner fall-off, white balance and exposure off by
-#: up to 15 % and 30 %, a few levels of sensor noise, a tone curve either side of linear,
-#: effective resolution down to half (interlacing, cheap optics) and JPEG/MPEG-like
-#: compression.
-SURVEILLANCE_CAMERA = CameraEffects(blur_sigma=(0.0, 1.2), vignetting=(0.0, 0.3),
-                                    white_balance=0.15, exposure=(0.7, 1.3),
-                                    noise_sigma=(1.0, 6.0), gamma=(0.8, 1.25),
-                                    downscale=(0.5, 1.0), jpeg_quality=(30, 90))
-
-
 #: The recipes by name. ``elevation0`` is the paper's training (source-view negatives only);
 #: ``rotated`` adds the rotated background windows (docs/angle_rules_and_body_model.md,
 #: "Retraining with other negatives").
@@ -172,13 +161,15 @@ def recipe_from_record(record) -> Recipe | None:
     return r if record == r.to_dict() else None
 
 
-def add_recipe_argument(parser, *, what: str = "the source detectors") -> None:
-    """``--recipe NAME`` on ``parser`` (default :data:`DEFAULT_RECIPE`)."""
+def add_recipe_argument(parser, *, what: str = "the source detectors",
+                        default: str = DEFAULT_RECIPE, why: str = "") -> None:
+    """``--recipe NAME`` on ``parser`` (default :data:`DEFAULT_RECIPE`, or ``default``
+    with the reason ``why`` stated in the help)."""
     lines = "; ".join(f"{r.name}: {r.summary}" for r in RECIPES.values())
-    parser.add_argument("--recipe", type=_recipe_type, default=RECIPES[DEFAULT_RECIPE],
+    parser.add_argument("--recipe", type=_recipe_type, default=get_recipe(default),
                         metavar="NAME",
                         help=f"source-training recipe of {what}, the same for every method "
-                             f"that trains (default {DEFAULT_RECIPE}): {lines}")
+                             f"that trains (default {default}{why}): {lines}")
 
 
 def _recipe_type(text: str) -> Recipe:

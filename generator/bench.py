@@ -5,6 +5,11 @@ directory with the same code path as ``viewadapt generate`` (one process, all co
 prints images/s per image kind, then extrapolates the time of the paper-scale dataset
 (7956 crops + backgrounds + frames). Warm-up (Blender, anny, the first scene) is timed
 separately and excluded from the rates.
+
+``--camera-effects surveillance`` renders the same sample twice in one run, without and
+with the camera effects (:mod:`generator.camera_effects`), and prints each image kind's
+cost with effects as a ratio of its cost without; the target is at most
+:data:`EFFECTS_COST_TARGET` times.
 """
 
 from __future__ import annotations
@@ -14,17 +19,21 @@ import tempfile
 import time
 from pathlib import Path
 
-__all__ = ["run_benchmark", "time_preset", "main"]
+__all__ = ["run_benchmark", "time_preset", "effects_cost", "main", "EFFECTS_COST_TARGET"]
+
+#: the most an image with camera effects may cost, as a multiple of the same image without
+EFFECTS_COST_TARGET = 1.5
 
 
 def run_benchmark(*, persons: int = 6, scenes: int = 3, samples: int | None = None,
-                  threads: int | None = None, renderer: str = "cycles", out=None) -> dict:
+                  threads: int | None = None, renderer: str = "cycles", out=None,
+                  camera_effects: str = "none") -> dict:
     """Time crops, backgrounds and frames; returns a dict of rates and the extrapolation."""
     from . import pipeline
     from .sampling import plan_dataset, preset_config
     from .specs import load_roster, load_scenes
 
-    over = {"renderer": renderer}
+    over = {"renderer": renderer, "camera_effects": camera_effects}
     if samples:
         over["samples"] = samples
     paper = preset_config("paper", **over)
@@ -61,11 +70,18 @@ def run_benchmark(*, persons: int = 6, scenes: int = 3, samples: int | None = No
     est = n_crops / rates["person"] + n_bg / rates["background"] + n_frames / rates["frame"]
     if tmp is not None:
         tmp.cleanup()
-    return {"renderer": renderer, "threads": threads, "cpus": ncpu,
+    return {"renderer": renderer, "camera_effects": camera_effects, "threads": threads,
+            "cpus": ncpu,
             "samples": sub.samples, "warmup_s": warm, "rates": rates,
             "counts": {k: v[0] for k, v in per_kind.items()},
             "paper": {"crops": n_crops, "backgrounds": n_bg, "frames": n_frames,
                       "estimated_s": est}}
+
+
+def effects_cost(without: dict, with_effects: dict) -> dict:
+    """Per image kind, the cost (seconds per image) with camera effects as a multiple of
+    the cost without, from two :func:`run_benchmark` results of the same sample."""
+    return {k: without["rates"][k] / with_effects["rates"][k] for k in without["rates"]}
 
 
 def time_preset(name: str = "tiny", *, renderer: str = "cycles", jobs: int = 1) -> dict:
@@ -90,6 +106,9 @@ def main(argv=None) -> int:
     ap.add_argument("--samples", type=int)
     ap.add_argument("--threads", type=int)
     ap.add_argument("--renderer", choices=("cycles", "pyrender", "both"), default="both")
+    ap.add_argument("--camera-effects", choices=("none", "surveillance"), default="none",
+                    help="surveillance: render the sample without and with camera effects "
+                         f"and print the cost ratio (target <= {EFFECTS_COST_TARGET}x)")
     ap.add_argument("--preset", choices=("tiny", "small"),
                     help="instead: time the whole preset end to end with Cycles "
                          "(the tiny preset's target is <= 3 min here)")
@@ -110,13 +129,24 @@ def main(argv=None) -> int:
             except ImportError:
                 print("pyrender: not installed here (optional: pip install pyrender); skipping")
                 continue
-        _report(run_benchmark(persons=args.persons, scenes=args.scenes, samples=args.samples,
-                              threads=args.threads, renderer=renderer))
+        kw = dict(persons=args.persons, scenes=args.scenes, samples=args.samples,
+                  threads=args.threads, renderer=renderer)
+        plain = run_benchmark(**kw)
+        _report(plain)
+        if args.camera_effects != "none":
+            fx = run_benchmark(camera_effects=args.camera_effects, **kw)
+            _report(fx)
+            ratios = effects_cost(plain, fx)
+            print(f"  cost with {args.camera_effects} effects / without: " + ", ".join(
+                f"{k} {v:.2f}x" for k, v in ratios.items())
+                + f"  (target <= {EFFECTS_COST_TARGET}x: "
+                + ("met" if max(ratios.values()) <= EFFECTS_COST_TARGET else "NOT met") + ")")
     return 0
 
 
 def _report(r) -> None:
-    print(f"renderer {r['renderer']}  threads {r['threads']}/{r['cpus']} cpus  "
+    print(f"renderer {r['renderer']}  effects {r['camera_effects']}  "
+          f"threads {r['threads']}/{r['cpus']} cpus  "
           f"crop samples {r['samples']}  warm-up {r['warmup_s']:.1f} s")
     for k in ("person", "background", "frame"):
         print(f"  {k:10s} {r['counts'][k]:4d} images  {r['rates'][k]:6.2f} images/s")

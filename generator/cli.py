@@ -18,6 +18,10 @@ __all__ = ["register", "cmd_generate", "cmd_verify", "cmd_preview", "parse_eleva
 
 #: two elevations closer than this (radians) are one view given twice
 SAME_ELEVATION = 1e-9
+#: ``--preset`` and ``--camera-effects`` choices (generator.sampling.PRESETS and
+#: generator.camera_effects.CAMERA_EFFECTS, written out so that ``--help`` imports neither)
+PRESET_NAMES = ("tiny", "demo", "small", "paper", "realistic")
+CAMERA_EFFECT_NAMES = ("none", "surveillance")
 
 
 def parse_elevations(text: str) -> tuple[float, ...]:
@@ -72,6 +76,8 @@ def cmd_generate(args) -> int:
         over["elevations"] = parse_elevations(args.elevations)
     if args.framing:
         over["framing"] = args.framing
+    if getattr(args, "camera_effects", None) is not None:
+        over["camera_effects"] = args.camera_effects
     for name in ("samples", "instances", "persons", "scenes", "frames"):
         v = getattr(args, name, None)
         if v is not None:
@@ -136,10 +142,11 @@ def register(subparsers, common_parser: argparse.ArgumentParser) -> None:
                     "truncated or corrupt one rendered again) or, with a larger --frames, "
                     "extends a finished one; dataset.json records the content hash of a "
                     "complete set (the same for the same seed and settings).")
-    p.add_argument("--preset", choices=("tiny", "demo", "small", "paper"), default="tiny",
+    p.add_argument("--preset", choices=PRESET_NAMES, default="tiny",
                    help="dataset size (tiny: 6 persons x 3 scenes, ~1 min; demo: 18 x 9 at "
                         "elevations 0 and pi/4 only, for `viewadapt demo`; small: 24 x 9 x 2 "
-                        "instances; paper: 68 x 13 x 3 = 7956 crops)")
+                        "instances; paper: 68 x 13 x 3 = 7956 crops; realistic: small "
+                        "through surveillance-camera effects)")
     p.add_argument("--renderer", choices=("cycles", "pyrender"), default="cycles")
     p.add_argument("--shard", metavar="I/N", help="render only block I of N (job arrays)")
     p.add_argument("--scheduler", metavar="ADDRESS",
@@ -156,6 +163,13 @@ def register(subparsers, common_parser: argparse.ArgumentParser) -> None:
                    help="calibrated surveillance frames in total, spread over the scenes "
                         "(presets: tiny 1, demo 1, small 9, paper 26); frame k of a scene is the "
                         "same whatever the total, so a larger --frames extends a set")
+    p.add_argument("--camera-effects", choices=CAMERA_EFFECT_NAMES,
+                   help="camera effects every image passes through before it is written, "
+                        "each image its own draw, recorded in the manifest's camera_effects "
+                        "column (surveillance: blur, vignetting, white balance, exposure, "
+                        "sensor noise, tone curve, lower resolution, JPEG; none: clean "
+                        "renders); default: the preset's (realistic: surveillance, the "
+                        "others: none)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_generate)
 

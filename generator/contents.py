@@ -17,6 +17,7 @@ import os
 from pathlib import Path, PurePosixPath
 
 from . import specs
+from .camera_effects import effects_ranges
 from .manifest import spec_hashes, versions
 from .sampling import GeneratorConfig, Plan, WorkUnit, image_relpath, plan_dataset
 from .specs import default_roster_path, default_scene_dir, load_roster, load_scenes
@@ -64,7 +65,13 @@ def dataset_spec_paths(meta: dict) -> tuple[Path, Path]:
 
 
 def dataset_metadata(config: GeneratorConfig, seed: int, plan: Plan, scene_dir, roster) -> dict:
+    """The ``dataset.json`` of a plan; with camera effects on, ``camera_effects`` records
+    the setting's name and the ranges each image's parameters were drawn from."""
     scene_dir = Path(scene_dir)
+    ranges = effects_ranges(config.camera_effects)
+    effects = ({"camera_effects": {"name": config.camera_effects, "ranges": ranges.to_dict(),
+                                   "per_image": "manifest column camera_effects"}}
+               if ranges is not None else {})
     return {
         "format": "viewadapt-multiview-v1",
         "preset": config.preset,
@@ -83,6 +90,7 @@ def dataset_metadata(config: GeneratorConfig, seed: int, plan: Plan, scene_dir, 
                      "supersample": config.supersample, "light_tree": config.light_tree,
                      "fast_gi": config.fast_gi, "max_bounces": config.max_bounces},
         "config": config.to_dict(),
+        **effects,
         "persons": list(plan.persons),
         "scenes": list(plan.scenes),
         "specs": {"scene_dir": spec_path_record(scene_dir),

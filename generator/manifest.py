@@ -37,7 +37,7 @@ __all__ = ["MANIFEST_COLUMNS", "INT_COLUMNS", "FLOAT_COLUMNS", "part_path", "rea
            "write_part", "png_is_complete", "assemble_manifest", "read_manifest",
            "json_matrix", "versions", "spec_hashes", "write_depth", "read_depth",
            "depth_is_complete", "content_hash", "HASH_EXCLUDED", "DATA_FILES",
-           "dataset_files", "MAX_COCO_BYTES"]
+           "dataset_files", "MAX_COCO_BYTES", "OPTIONAL_COLUMNS", "manifest_columns"]
 
 #: the largest ``frames_coco.json`` read back (bytes): 256 MB. It lists every frame (about
 #: 1 KB each) and every person in one (about 0.7 KB each), growing with ``--frames``; the
@@ -56,6 +56,18 @@ MANIFEST_COLUMNS = [
     "distance", "person_height", "n_persons", "width", "height", "seed", "render_seed",
     "renderer", "samples", "supersample", "depth_path",
 ]
+
+#: Columns after :data:`MANIFEST_COLUMNS` that a manifest has only when some row has them:
+#: ``camera_effects``, the JSON parameters of the camera effects each image went through
+#: (:mod:`generator.camera_effects`; only in datasets made with effects on, so a dataset
+#: without them has the manifest, and the content hash, of a generator without effects).
+OPTIONAL_COLUMNS = ["camera_effects"]
+
+
+def manifest_columns(rows: list[dict]) -> list[str]:
+    """The columns of a manifest of ``rows``: :data:`MANIFEST_COLUMNS`, then each of
+    :data:`OPTIONAL_COLUMNS` some row has."""
+    return MANIFEST_COLUMNS + [c for c in OPTIONAL_COLUMNS if any(c in r for r in rows)]
 
 
 def json_matrix(a) -> str:
@@ -227,7 +239,7 @@ def assemble_manifest(out, uids: list[str]):
                     a = {k: v for k, v in ann.items() if k != "file_name"}
                     a.update(id=len(coco["annotations"]) + 1, image_id=img["id"])
                     coco["annotations"].append(a)
-    df = pd.DataFrame(rows, columns=MANIFEST_COLUMNS)
+    df = pd.DataFrame(rows, columns=manifest_columns(rows))
     df = _typed(df)
     import io
 

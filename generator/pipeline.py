@@ -18,6 +18,11 @@ file is removed and rendered again; inside an unfinished unit every sound image 
 disk is kept and only the rest is rendered; a larger ``frames`` extends a finished set. Person
 crops also get a depth map of the posed body (``depth/``, numpy, no rendering): a dataset
 rendered before depth maps existed gets them from a rerun, without re-rendering.
+
+Camera effects (``config.camera_effects``, :mod:`generator.camera_effects`): with them on,
+every image is rendered to a hidden raw file, passed through its own draw of the effects
+(seeded from its sample's seed and its path) and written; the draw is recorded in the
+manifest row's ``camera_effects`` (and, for frames, in ``frames_coco.json``).
 """
 
 from __future__ import annotations
@@ -37,6 +42,9 @@ from viewadapt.io.files import UserError, atomic_write_text, check_output_dir, w
 from viewadapt.io.locks import hold_output_dir
 from viewadapt.surface import surface_depth
 
+from .camera_effects import (
+    NO_EFFECTS, draw_image_effects, effects_json, raw_render_path, render_with_effects,
+)
 from .contents import (
     dataset_metadata, depth_relpath, planned_paths, unit_depth_paths, unit_paths,
 )
@@ -46,7 +54,7 @@ from .manifest import (
 )
 from .resume import check_depth, check_image, check_resumable, interrupted, pending_units
 from .sampling import (
-    GeneratorConfig, WorkUnit, image_relpath, plan_dataset, select_shard,
+    GeneratorConfig, WorkUnit, derive_seed, image_relpath, plan_dataset, select_shard,
 )
 from .specs import default_roster_path, default_scene_dir, load_roster, load_scenes
 
@@ -161,8 +169,10 @@ def _remove_stale_temporaries(out: Path, unit: WorkUnit) -> None:
     for rel in unit_paths(unit) + unit_depth_paths(unit):
         p = out / rel
         if p.parent.is_dir():
-            for tmp in p.parent.glob(f".{p.stem}.*"):
-                tmp.unlink(missing_ok=True)
+            # and the raw render of an image with camera effects, and that file's temporaries
+            for pattern in (f".{p.stem}.*", f".{raw_render_path(p).name}.*"):
+                for tmp in p.parent.glob(pattern):
+                    tmp.unlink(missing_ok=True)
     pp = part_path(out, unit.uid)
     if pp.parent.is_dir():
         for tmp in pp.parent.glob(f".{pp.name}.*"):
@@ -197,18 +207,32 @@ def run_unit(payload: dict) -> dict:
     rows, coco = [], None
     n_rendered = n_kept = n_repaired = 0
     plane_inv = np.linalg.inv(window_to_plane(config.person_height))
+    effects_on = config.camera_effects != NO_EFFECTS
 
-    def render_to(rel, cam, width, height, samples, seed):
+    def render_to(rel, cam, width, height, samples, seed, sample_seed):
+        """Render the image ``rel`` unless a sound one is kept; with camera effects on,
+        return its effects parameters (drawn whether or not it is rendered)."""
         nonlocal n_rendered, n_kept, n_repaired
         path = out / rel
+        params = (draw_image_effects(config.camera_effects,
+                                     derive_seed(sample_seed, "camera_effects", rel))
+                  if effects_on else None)
         problem = check_image(path, (width, height))     # a full check; a bad file goes
         if problem is None:
             n_kept += 1
-            return
+            return params
         renderer.set_camera(cam.K, cam.R, cam.t, width, height, config.supersample)
-        renderer.render(path, samples=samples, seed=seed)
+        if params is None:
+            renderer.render(path, samples=samples, seed=seed)
+        else:
+            render_with_effects(renderer, path, params, samples=samples, seed=seed)
         n_rendered += 1
         n_repaired += problem != "missing"
+        return params
+
+    def record_effects(row, params):
+        if effects_on:                   # off: the rows of a generator without effects
+            row["camera_effects"] = effects_json(params)
 
     if unit.kind == "person":
         person = persons[unit.samples[0].person_id]
@@ -229,13 +253,14 @@ def run_unit(payload: dict) -> dict:
                 rel = image_relpath("person", spec.id, person_id=person.id,
                                     instance=s.instance, elevation_index=e)
                 rs = _render_seed(s.seed, e)
-                render_to(rel, cam, w, h, config.samples, rs)
+                fx = render_to(rel, cam, w, h, config.samples, rs, s.seed)
                 drel = depth_relpath(rel)
                 if check_depth(out / drel, (h, w)) is not None:
                     write_depth(out / drel, surface_depth(verts, faces, cam, (h, w)))
                 row = _base_row(config, "person", rel, spec.id, s.lighting, cam, w, h,
                                 s.seed, rs, config.samples)
                 row["depth_path"] = drel
+                record_effects(row, fx)
                 box = silhouette_box(pts, cam, w, h)
                 row.update(person_id=person.id, instance=s.instance,
                            elevation=float(config.elevations[e]), elevation_index=e,
@@ -254,9 +279,10 @@ def run_unit(payload: dict) -> dict:
             for e, (cam, H) in enumerate(zip(s.cameras, s.homographies)):
                 rel = image_relpath("background", spec.id, index=s.index, elevation_index=e)
                 rs = _render_seed(s.seed, e)
-                render_to(rel, cam, w, h, config.background_samples, rs)
+                fx = render_to(rel, cam, w, h, config.background_samples, rs, s.seed)
                 row = _base_row(config, "background", rel, spec.id, s.lighting, cam, w, h,
                                 s.seed, rs, config.background_samples)
+                record_effects(row, fx)
                 row.update(instance=s.index, elevation=float(config.elevations[e]),
                            elevation_index=e, azimuth=s.azimuth, ground_x=s.ground_xy[0],
                            ground_y=s.ground_xy[1],
@@ -279,7 +305,7 @@ def run_unit(payload: dict) -> dict:
             renderer.set_lighting(s.lighting)
             rel = image_relpath("frame", spec.id, index=s.index)
             rs = _render_seed(s.seed, 0)
-            render_to(rel, s.camera, w, h, config.frame_samples, rs)
+            fx = render_to(rel, s.camera, w, h, config.frame_samples, rs, s.seed)
             anns = frame_annotations(s.camera, w, h, annot_in, layout)
             row = _base_row(config, "frame", rel, spec.id, s.lighting, s.camera, w, h, s.seed,
                             rs, config.frame_samples)
@@ -289,6 +315,7 @@ def run_unit(payload: dict) -> dict:
             row.update(instance=s.index, elevation=math.nan, elevation_index=-1,
                        azimuth=math.nan, ground_x=math.nan, ground_y=math.nan,
                        n_persons=len(s.persons))
+            record_effects(row, fx)
             rows.append(row)
             coco["images"].append({
                 "file_name": rel, "width": w, "height": h, "scene_id": spec.id,
@@ -296,6 +323,8 @@ def run_unit(payload: dict) -> dict:
                 "R": s.camera.R.tolist(), "t": s.camera.t.tolist(),
                 "camera_height": fc.height, "camera_tilt": math.radians(fc.tilt_deg),
                 "lighting": s.lighting.to_columns()})
+            if fx is not None:
+                coco["images"][-1]["camera_effects"] = fx
             for fp, a in zip(s.persons, anns):
                 Hw = window_to_image_homography(s.camera, fp.ground_xy, config.person_height)
                 coco["annotations"].append({

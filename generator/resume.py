@@ -16,6 +16,7 @@ from viewadapt.io.files import RunError, UserError
 
 from .contents import unit_depth_paths, unit_paths
 from .manifest import depth_is_complete, read_part
+from .camera_effects import NO_EFFECTS
 from .png import normalize_png, png_problem
 from .sampling import GeneratorConfig
 
@@ -27,15 +28,18 @@ __all__ = ["OPTION_NAMES", "config_differences", "check_resumable", "image_size"
 OPTION_NAMES = {"preset": "--preset", "n_persons": "--persons", "n_scenes": "--scenes",
                 "instances": "--instances", "elevations": "--elevations",
                 "framing": "--framing", "renderer": "--renderer", "samples": "--samples",
-                "frames": "--frames"}
+                "frames": "--frames", "camera_effects": "--camera-effects"}
 
 
 def _normalised(config: dict) -> dict:
-    """A config dict with the defaults of fields it lacks (written by an older version)."""
+    """A config dict with the defaults of fields it lacks (written by an older version, or
+    left out of ``dataset.json``: ``camera_effects`` while ``"none"``)."""
     try:
-        return GeneratorConfig.from_dict(config).to_dict()
+        d = GeneratorConfig.from_dict(config).to_dict()
     except (TypeError, ValueError):
-        return dict(config)
+        d = dict(config)
+    d.setdefault("camera_effects", NO_EFFECTS)
+    return d
 
 
 def _show(v) -> str:

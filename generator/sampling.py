@@ -24,7 +24,9 @@ from viewadapt.geometry import (
     PERSON_HEIGHT_M, Camera, camera_from_pose, crop_camera, window_to_image_homography,
 )
 
+from .camera_effects import NO_EFFECTS, check_camera_effects
 from .layout import SceneLayout, footprint_distance, layout_scene, segments_clear
+from .lighting import Lighting, blackbody_rgb, sample_lighting
 from .specreader import check_field_types
 from .specs import PersonSpec, SceneSpec, load_roster, load_scenes
 
@@ -73,6 +75,12 @@ class GeneratorConfig:
         Cycles samples per pixel for crops / backgrounds / frames.
     supersample : int
         Render at this factor and area-downsample (1 = rely on the pixel filter).
+    camera_effects : str
+        Camera effects every image passes through before it is written
+        (:data:`generator.camera_effects.CAMERA_EFFECTS`: ``"none"``, the default, or
+        ``"surveillance"``); each image gets its own draw, recorded in the manifest.
+        ``to_dict`` leaves the field out while it is ``"none"``, so the ``dataset.json`` of
+        a dataset without effects is that of a generator without the setting.
     """
 
     preset: str = "custom"
@@ -100,6 +108,7 @@ class GeneratorConfig:
     max_bounces: int = 4
     scene_ids: tuple = ()
     person_ids: tuple = ()
+    camera_effects: str = NO_EFFECTS
 
     def validate(self) -> "GeneratorConfig":
         def bad(msg):
@@ -132,6 +141,7 @@ class GeneratorConfig:
         cw, ch = self.crop_size
         if bw < cw or bh < ch:
             bad(f"background_size {bw}x{bh} must hold a {cw}x{ch} window")
+        check_camera_effects(self.camera_effects, bad)
         return self
 
     def to_dict(self) -> dict:
@@ -139,6 +149,8 @@ class GeneratorConfig:
         for k, v in d.items():
             if isinstance(v, tuple):
                 d[k] = list(v)
+        if d["camera_effects"] == NO_EFFECTS:     # off: the config of a generator without it
+            del d["camera_effects"]
         return d
 
     @classmethod
@@ -164,11 +176,15 @@ PRESETS = {
     # 7 backgrounds of 256x256 per scene: 13 x 7 x 117 = 10,647 negative windows per
     # elevation at the cross-validation's 16 px stride (at least 10,000, as the paper's)
     "paper": dict(n_persons=68, n_scenes=13, instances=3, backgrounds_per_scene=7, frames=26),
+    # `small` through surveillance-camera effects (blur, noise, JPEG, ...), per image
+    "realistic": dict(n_persons=24, n_scenes=9, instances=2, backgrounds_per_scene=3,
+                      frames=9, camera_effects="surveillance"),
 }
 
 
 def preset_config(name: str, **overrides) -> GeneratorConfig:
-    """The :class:`GeneratorConfig` of a preset (``tiny``, ``demo``, ``small``, ``paper``)."""
+    """The :class:`GeneratorConfig` of a preset (``tiny``, ``demo``, ``small``, ``paper``,
+    ``realistic``)."""
     if name not in PRESETS:
         raise ValueError(f"unknown preset {name!r}; choose one of {', '.join(PRESETS)}")
     kw = dict(PRESETS[name], preset=name)
@@ -207,75 +223,6 @@ def select_shard(units: list, shard: tuple[int, int] | None) -> list:
     i, n = shard
     k = len(units)
     return list(units[(i * k) // n:((i + 1) * k) // n])
-
-
-# --------------------------------------------------------------------------- lighting
-
-
-def blackbody_rgb(kelvin: float) -> tuple[float, float, float]:
-    """Approximate linear RGB of a black body, normalised to max 1 (Tanner Helland's fit)."""
-    t = kelvin / 100.0
-    if t <= 66:
-        r = 255.0
-        g = 99.4708025861 * math.log(t) - 161.1195681661
-        b = 0.0 if t <= 19 else 138.5177312231 * math.log(t - 10) - 305.0447927307
-    else:
-        r = 329.698727446 * (t - 60) ** -0.1332047592
-        g = 288.1221695283 * (t - 60) ** -0.0755148492
-        b = 255.0
-    srgb = np.clip(np.array([r, g, b]) / 255.0, 0, 1)
-    lin = np.where(srgb <= 0.04045, srgb / 12.92, ((srgb + 0.055) / 1.055) ** 2.4)
-    lin = lin / lin.max()
-    return tuple(float(round(v, 6)) for v in lin)
-
-
-@dataclass(frozen=True)
-class Lighting:
-    """One draw of a scene's lighting (shared by all elevations of a sample)."""
-
-    sun_elevation: float          # radians; NaN without a sun
-    sun_azimuth: float            # radians, direction *towards* the sun, CCW from +X
-    sun_strength: float           # W/m^2 (Blender sun strength); 0 without a sun
-    sun_color: tuple
-    sun_angle: float              # angular diameter, radians (shadow softness)
-    sky_strength: float
-    sky_horizon: tuple
-    sky_zenith: tuple
-    area_strengths: tuple         # W, per area light of the scene
-    area_colors: tuple
-    exposure: float
-
-    def to_columns(self) -> dict:
-        def rgb(c):
-            return ",".join(f"{v:.4f}" for v in c)
-        return {"sun_elevation": self.sun_elevation, "sun_azimuth": self.sun_azimuth,
-                "sun_strength": self.sun_strength, "sun_color": rgb(self.sun_color),
-                "sky_strength": self.sky_strength, "sky_horizon": rgb(self.sky_horizon),
-                "sky_zenith": rgb(self.sky_zenith),
-                "area_light_strength": float(np.sum(self.area_strengths)),
-                "n_area_lights": len(self.area_strengths), "exposure": self.exposure}
-
-
-def sample_lighting(spec: SceneSpec, rng: np.random.Generator) -> Lighting:
-    L = spec.lighting
-    if L.sun is not None:
-        el = math.radians(rng.uniform(*L.sun.elevation_deg))
-        az = math.radians(rng.uniform(*L.sun.azimuth_deg)) % (2 * math.pi)
-        strength = float(rng.uniform(*L.sun.strength))
-        color = blackbody_rgb(rng.uniform(*L.sun.temperature))
-        angle = math.radians(L.sun.angle_deg)
-    else:
-        el, az, strength, color, angle = math.nan, math.nan, 0.0, (1.0, 1.0, 1.0), 0.0
-    tint = np.clip(1.0 + rng.normal(0, L.sky.tint, 3), 0.5, 1.5)
-    horizon = tuple(float(v) for v in np.clip(np.array(L.sky.horizon) * tint, 0, 1))
-    zenith = tuple(float(v) for v in np.clip(np.array(L.sky.zenith) * tint, 0, 1))
-    sky = float(rng.uniform(*L.sky.strength))
-    global_scale = rng.uniform(0.7, 1.3)
-    area_s = tuple(float(rng.uniform(*a.strength) * global_scale) for a in L.area_lights)
-    area_c = tuple(blackbody_rgb(rng.uniform(*a.temperature)) for a in L.area_lights)
-    exposure = float(rng.uniform(*L.exposure))
-    return Lighting(el, az, strength, color, angle, sky, horizon, zenith, area_s, area_c,
-                    exposure)
 
 
 # --------------------------------------------------------------------------- samples

@@ -27,7 +27,7 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-__all__ = ["CameraEffects", "apply_camera_effects", "EFFECT_KEYS"]
+__all__ = ["CameraEffects", "apply_camera_effects", "EFFECT_KEYS", "SURVEILLANCE_CAMERA"]
 
 #: The parameters :meth:`CameraEffects.draw` returns, in the order they are applied.
 EFFECT_KEYS = ("blur_sigma", "vignetting", "gains", "noise_sigma", "gamma", "downscale",
@@ -115,6 +115,17 @@ class CameraEffects:
     def to_dict(self) -> dict:
         """The ranges, JSON-ready (lists for the tuples)."""
         return {k: (list(v) if isinstance(v, tuple) else v) for k, v in asdict(self).items()}
+
+
+#: Camera effects of surveillance footage, each range set from what such cameras do (not
+#: fitted to any clip): slight defocus, corner fall-off, white balance and exposure off by
+#: up to 15 % and 30 %, a few levels of sensor noise, a tone curve either side of linear,
+#: effective resolution down to half (interlacing, cheap optics) and JPEG/MPEG-like
+#: compression. The training recipes and the generator's ``surveillance`` setting use it.
+SURVEILLANCE_CAMERA = CameraEffects(blur_sigma=(0.0, 1.2), vignetting=(0.0, 0.3),
+                                    white_balance=0.15, exposure=(0.7, 1.3),
+                                    noise_sigma=(1.0, 6.0), gamma=(0.8, 1.25),
+                                    downscale=(0.5, 1.0), jpeg_quality=(30, 90))
 
 
 def apply_camera_effects(image, params: dict) -> np.ndarray:
