@@ -1,0 +1,128 @@
+"""Source models compared on one real clip, paired: ``python -m benchmark.studies.footage_models``.
+
+Runs the same methods (default: adapted HOG and ACF) with each of several source-detector
+files (``SourceDetectors``, e.g. ``models/source_detectors.npz`` of ``bench frames`` runs
+trained under different recipes or on different renders) on one calibrated, annotated
+clip, as ``viewadapt bench footage`` runs them, and writes each (model, method)'s LAMR with
+its block-bootstrap interval and, for every model after the first, the paired LAMR
+difference from the first model's same method (the same resampled blocks of frames:
+:func:`viewadapt.detect.evaluation.paired_matches_bootstrap`).
+
+Writes ``models_summary.md``, ``models_summary.csv`` and ``run.json`` under ``--out``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+__all__ = ["compare_models", "main"]
+
+
+def compare_models(clip, models: dict, methods, *, heights, block: int = 10,
+                   seed: int = 0) -> list[dict]:
+    """One row per (model label, method): LAMR, its interval and, for every model after
+    the first, the paired difference from the first model's same method.
+
+    ``models`` maps a label to a loaded :class:`viewadapt.io.SourceDetectors`; the clip is
+    read once per model (frames in the same order each time).
+    """
+    from benchmark.footage.run import run_footage
+    from viewadapt.commands.detect import evaluation_summary
+    from viewadapt.detect.evaluation import (
+        evaluation_rows, frame_matches, paired_matches_bootstrap,
+    )
+
+    size = clip.camera.image_size
+    runs = {label: run_footage(clip, methods, m, heights=heights)
+            for label, m in models.items()}
+    first = next(iter(runs))
+    truth = runs[first].truth
+    gt = [(t.boxes, t.occlusion, size, t.ignore) for t in truth]
+
+    def matched(run, m):
+        return frame_matches(*evaluation_rows(run.detections[m], gt, regions=clip.regions))
+
+    rows = []
+    for m in methods:
+        ref = matched(runs[first], m)
+        for label, run in runs.items():
+            if run.keys != runs[first].keys:            # pragma: no cover - same stream
+                raise RuntimeError("the clip's frames were read in another order")
+            ev, _ = evaluation_summary(run.detections[m], truth, size, regions=clip.regions,
+                                       block=block, seed=seed)
+            row = {"model": label, "method": m.name, "lamr": ev["lamr"],
+                   "lamr_low": ev["lamr_ci95"][0], "lamr_high": ev["lamr_ci95"][1],
+                   "fps": run.n_frames / run.seconds[m] if run.seconds[m] else float("inf")}
+            if label != first:
+                d = paired_matches_bootstrap(matched(run, m), ref, block=block, seed=seed)
+                row.update(reference=first, difference=d["difference"],
+                           difference_low=d["ci"][0], difference_high=d["ci"][1])
+            rows.append(row)
+    return rows
+
+
+def _lines(rows, first) -> list[str]:
+    out = ["| model | method | LAMR (95 %) | − " + first + " (paired 95 %) | frames/s |",
+           "|---|---|---|---|---|"]
+    for r in rows:
+        diff = (f"{r['difference']:+.3f} ({r['difference_low']:+.3f}…{r['difference_high']:+.3f})"
+                if "difference" in r else "–")
+        out.append(f"| {r['model']} | {r['method']} | {r['lamr']:.3f} ({r['lamr_low']:.3f}–"
+                   f"{r['lamr_high']:.3f}) | {diff} | {r['fps']:.1f} |")
+    return out
+
+
+def main(argv=None) -> int:
+    import pandas as pd
+
+    from benchmark.footage.run import open_clip
+    from benchmark.frames.spec import FrameMethod
+    from viewadapt.geometry import PERSON_HEIGHT_M
+    from viewadapt.io import SourceDetectors
+    from viewadapt.io.files import atomic_output_dir, check_output_dir, run_metadata
+
+    ap = argparse.ArgumentParser(prog="python -m benchmark.studies.footage_models",
+                                 description=__doc__.split("\n\n")[1])
+    ap.add_argument("inputs", nargs="+", help="the clip's frames, as bench footage reads them")
+    ap.add_argument("--calibration", type=Path, required=True)
+    ap.add_argument("--boxes", type=Path, required=True)
+    ap.add_argument("--ignore", type=Path, default=None)
+    ap.add_argument("--model", action="append", required=True, metavar="LABEL=FILE",
+                    help="a source-detector file and its label; the first is the reference")
+    ap.add_argument("--methods", nargs="+", default=["hog_adapted", "acf_adapted"])
+    ap.add_argument("--every", type=int, default=1)
+    ap.add_argument("--block", type=int, default=10, help="bootstrap block, frames")
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--out", type=Path, required=True)
+    args = ap.parse_args(argv)
+    models = {}
+    for item in args.model:
+        label, sep, path = item.partition("=")
+        if not sep or not label or not path:
+            ap.error(f"--model must be LABEL=FILE, got {item!r}")
+        models[label] = SourceDetectors.load(Path(path))
+    check_output_dir(args.out)
+    methods = [FrameMethod.parse(m) for m in args.methods]
+    clip = open_clip(args.inputs, args.calibration, args.boxes, args.ignore,
+                     every=args.every)
+    rows = compare_models(clip, models, methods, heights=(PERSON_HEIGHT_M,),
+                          block=args.block, seed=args.seed)
+    lines = _lines(rows, next(iter(models)))
+    with atomic_output_dir(args.out) as tmp:
+        (tmp / "models_summary.md").write_text("\n".join(lines) + "\n")
+        pd.DataFrame(rows).to_csv(tmp / "models_summary.csv", index=False,
+                                  float_format="%.5f")
+        (tmp / "run.json").write_text(json.dumps(run_metadata(
+            args.seed, inputs=[str(p) for p in args.inputs], models=dict(
+                (label, {"path": path, "training": models[label].training})
+                for label, _, path in (m.partition("=") for m in args.model)),
+            methods=args.methods, every=args.every, block=args.block), indent=2,
+            default=str))
+    print("\n".join(lines))
+    return 0
+
+
+if __name__ == "__main__":  # pragma: no cover
+    raise SystemExit(main())
