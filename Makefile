@@ -19,8 +19,10 @@ $(STAMP): pyproject.toml
 
 venv: $(STAMP)
 
+# -n auto: one pytest worker per core (pytest-xdist), --dist loadfile keeps each file's
+# module fixtures in one worker
 test: $(STAMP)
-	$(BIN)/python -m pytest -q
+	$(BIN)/python -m pytest -q -n auto --dist loadfile
 
 demo: $(STAMP)
 	$(BIN)/viewadapt demo --out demo-output
