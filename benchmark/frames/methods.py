@@ -165,7 +165,7 @@ def load_frames(root) -> list:
 def train_source_detectors(ds, *, seed: int = 0, quick: bool = False, source_index: int = 0,
                            progress: bool = False,
                            frame_view: str = DEFAULT_FRAME_VIEW,
-                           recipe=DEFAULT_RECIPE) -> SourceDetectors:
+                           recipe=DEFAULT_RECIPE, extra_negatives=()) -> SourceDetectors:
     """Linear SVM on :func:`viewadapt.detect.hog_window_features` and ACF boosted trees
     (:func:`viewadapt.detect.train_on_windows`), trained on the dataset's crops of one
     elevation (default the first, 0) and its background windows.
@@ -181,6 +181,10 @@ def train_source_detectors(ds, *, seed: int = 0, quick: bool = False, source_ind
     detectors train on (:meth:`~benchmark.recipes.Recipe.training_sets`: the crops, the
     background windows, the negatives the recipe adds, through its camera effects if any).
     The models' ``training`` records it.
+
+    ``extra_negatives``: further :class:`~benchmark.crops.features.WindowSet` s of
+    negatives (e.g. rectified windows of rendered frames), read from the dataset's root
+    and added as they are (no recipe treatment); the training record counts them by key.
     """
     from benchmark.crops.features import background_windows, person_windows
     from benchmark.recipes import get_recipe
@@ -191,11 +195,19 @@ def train_source_detectors(ds, *, seed: int = 0, quick: bool = False, source_ind
     for kind, _, ws in recipe.training_sets(person_windows(ds, source_index),
                                             background_windows(ds, source_index, stride=16)):
         (pos if kind == "person" else neg).extend(ws.images(ds.root))
+    n_background = len(neg)
+    extra = {}
+    for ws in extra_negatives:
+        neg.extend(ws.images(ds.root))
+        extra[ws.key] = len(ws)
     models = train_on_windows(pos, neg, seed=seed, quick=quick, frame_view=frame_view)
-    return replace(models, training=dict(
+    training = dict(
         seed=seed, frame_view=frame_view, quick=quick, source_index=source_index,
-        recipe=recipe.to_dict(), crops=len(pos), background_windows=len(neg),
-        dataset=dataset_provenance(ds)))
+        recipe=recipe.to_dict(), crops=len(pos), background_windows=n_background,
+        dataset=dataset_provenance(ds))
+    if extra:
+        training["extra_negatives"] = extra
+    return replace(models, training=training)
 
 
 def dataset_provenance(ds) -> dict:

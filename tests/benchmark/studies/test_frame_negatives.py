@@ -1,0 +1,66 @@
+"""benchmark.studies.frame_negatives: person-free windows of rendered frames as negatives."""
+
+import json
+
+import numpy as np
+import pytest
+
+from benchmark.frames.methods import load_frames
+from benchmark.studies.frame_negatives import _iou, frame_negative_windows, main
+from tests.toy_frames import small_toy_frames
+from viewadapt.detect import person_boxes
+from viewadapt.io import SourceDetectors
+
+
+@pytest.fixture(scope="module")
+def toy(tmp_path_factory):
+    return small_toy_frames(tmp_path_factory.mktemp("fneg") / "data")
+
+
+def test_iou_of_boxes():
+    a = np.array([[0, 0, 10, 10], [20, 20, 5, 5]], float)
+    b = np.array([[5, 0, 10, 10], [0, 0, 10, 10]], float)
+    assert np.allclose(_iou(a, b), [[50 / 150, 1.0], [0.0, 0.0]])
+
+
+def test_drawn_windows_are_person_free_inside_and_seeded(toy):
+    from viewadapt.detect import select_candidate_windows
+
+    frames = load_frames(toy)
+    ws, report = frame_negative_windows(frames, per_frame=30, max_iou=0.1, seed=3)
+    assert [r["drawn"] for r in report] == [min(30, r["person_free"]) for r in report]
+    assert len(ws) == sum(r["drawn"] for r in report) > 0
+    by_path = {str(f.path): f for f in frames}
+    for (path, H), (_, row) in zip(ws.items, ws.meta.iterrows()):
+        f = by_path[str(path)]
+        cw = select_candidate_windows(f.camera, f.camera.image_size)
+        j = int(np.flatnonzero(np.all(np.isclose(cw.homographies, H), axis=(1, 2)))[0])
+        box = cw.person_boxes()[j]
+        if len(f.gt):
+            assert _iou(box, f.gt).max() < 0.1
+        w, h = f.camera.image_size
+        c = cw.window_corners()[j]
+        assert (c >= 0).all() and (c[:, 0] <= w - 1).all() and (c[:, 1] <= h - 1).all()
+        assert row["label"] == 0
+    again, _ = frame_negative_windows(frames, per_frame=30, max_iou=0.1, seed=3)
+    other, _ = frame_negative_windows(frames, per_frame=30, max_iou=0.1, seed=4)
+    assert all(np.array_equal(a[1], b[1]) for a, b in zip(ws.items, again.items))
+    assert any(not np.array_equal(a[1], b[1]) for a, b in zip(ws.items, other.items))
+    tall, rep = frame_negative_windows(frames, per_frame=10 ** 6, min_height=60, seed=3)
+    assert 0 < len(tall) == sum(r["person_free"] for r in rep)
+    assert all(r["person_free"] <= r["tall_enough"] < r["inside"] for r in rep)
+    assert (person_boxes(np.stack([H for _, H in tall.items]))[:, 3] >= 60).all()
+    wins = list(ws.images(toy))
+    assert wins[0].shape == (128, 64, 3) and wins[0].dtype == np.uint8
+
+
+def test_main_trains_with_the_added_negatives(toy, tmp_path):
+    out = tmp_path / "out"
+    assert main(["--data", str(toy), "--out", str(out), "--per-frame", "20", "--quick"]) == 0
+    rec = json.loads((out / "frame_negatives.json").read_text())
+    models = SourceDetectors.load(out / "source_detectors.npz")
+    extra = models.training["extra_negatives"]
+    assert list(extra.values()) == [rec["negatives"]] and rec["negatives"] > 0
+    assert models.training["background_windows"] > 0
+    with pytest.raises(SystemExit):
+        main(["--data", str(toy), "--out", str(tmp_path / "o2"), "--per-frame", "0"])
