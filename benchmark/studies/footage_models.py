@@ -6,7 +6,10 @@ trained under different recipes or on different renders) on one calibrated, anno
 clip, as ``viewadapt bench footage`` runs them, and writes each (model, method)'s LAMR with
 its block-bootstrap interval and, for every model after the first, the paired LAMR
 difference from the first model's same method (the same resampled blocks of frames:
-:func:`viewadapt.detect.evaluation.paired_matches_bootstrap`).
+:func:`viewadapt.detect.evaluation.paired_matches_bootstrap`). A label may name several
+files (``LABEL=A,B,C``: the same training at several seeds, whose spread on a real clip
+can be as large as a recipe's effect); it is then compared by its mean LAMR, with the
+lowest and highest beside it.
 
 Writes ``models_summary.md``, ``models_summary.csv`` and ``run.json`` under ``--out``.
 """
@@ -17,7 +20,35 @@ import argparse
 import json
 from pathlib import Path
 
+import numpy as np
+
 __all__ = ["compare_models", "main"]
+
+
+def _group_bootstrap(groups, ref, *, block: int, seed: int, draws: int = 1000,
+                     level: float = 0.95) -> dict:
+    """Mean LAMR of the models in ``groups`` minus that of ``ref`` (each a list of
+    per-frame matches, one per model), with the percentile interval of a paired circular
+    block bootstrap over frames: every model of both groups on the same resampled frames.
+    The training seeds are held fixed, so the interval is over frames only."""
+    from viewadapt.detect.evaluation import block_resamples, summary_numbers
+    from viewadapt.metrics import accumulate_frames
+
+    def lamr(ms):
+        fppi, miss, _ = accumulate_frames(ms)
+        return summary_numbers(fppi, miss)["lamr"]
+
+    def mean_lamr(models, sel=None):
+        return float(np.mean([lamr(m if sel is None else [m[i] for i in sel])
+                              for m in models]))
+
+    idx, length = block_resamples(len(ref[0]), block=block, draws=draws, seed=seed)
+    diffs = [mean_lamr(groups, sel) - mean_lamr(ref, sel) for sel in idx
+             if any(ref[0][i].n_positives for i in sel)]
+    tail = 100 * (1 - level) / 2
+    return {"difference": mean_lamr(groups) - mean_lamr(ref),
+            "ci": [float(np.percentile(diffs, tail)), float(np.percentile(diffs, 100 - tail))],
+            "block_frames": length}
 
 
 def compare_models(clip, models: dict, methods, *, heights, block: int = 10,
@@ -25,8 +56,12 @@ def compare_models(clip, models: dict, methods, *, heights, block: int = 10,
     """One row per (model label, method): LAMR, its interval and, for every model after
     the first, the paired difference from the first model's same method.
 
-    ``models`` maps a label to a loaded :class:`viewadapt.io.SourceDetectors`; the clip is
-    read once per model (frames in the same order each time).
+    ``models`` maps a label to a loaded :class:`viewadapt.io.SourceDetectors`, or to a list
+    of them (e.g. one per training seed): a label's LAMR is then the mean over its models,
+    ``lamr_low``/``lamr_high`` the lowest and highest of them (the spread over seeds, not
+    an interval), and its difference from the first label is that of the means, with a
+    block-bootstrap interval over frames. The clip is read once per model (frames in the
+    same order each time).
     """
     from benchmark.footage.run import run_footage
     from viewadapt.commands.detect import evaluation_summary
@@ -35,10 +70,13 @@ def compare_models(clip, models: dict, methods, *, heights, block: int = 10,
     )
 
     size = clip.camera.image_size
-    runs = {label: run_footage(clip, methods, m, heights=heights)
-            for label, m in models.items()}
+    groups = {label: (list(m) if isinstance(m, (list, tuple)) else [m])
+              for label, m in models.items()}
+    runs = {label: [run_footage(clip, methods, m, heights=heights) for m in ms]
+            for label, ms in groups.items()}
     first = next(iter(runs))
-    truth = runs[first].truth
+    truth = runs[first][0].truth
+    keys = runs[first][0].keys
     gt = [(t.boxes, t.occlusion, size, t.ignore) for t in truth]
 
     def matched(run, m):
@@ -46,17 +84,30 @@ def compare_models(clip, models: dict, methods, *, heights, block: int = 10,
 
     rows = []
     for m in methods:
-        ref = matched(runs[first], m)
-        for label, run in runs.items():
-            if run.keys != runs[first].keys:            # pragma: no cover - same stream
+        ref = [matched(r, m) for r in runs[first]]
+        for label, group in runs.items():
+            if any(run.keys != keys for run in group):      # pragma: no cover - same stream
                 raise RuntimeError("the clip's frames were read in another order")
-            ev, _ = evaluation_summary(run.detections[m], truth, size, regions=clip.regions,
-                                       block=block, seed=seed)
-            row = {"model": label, "method": m.name, "lamr": ev["lamr"],
-                   "lamr_low": ev["lamr_ci95"][0], "lamr_high": ev["lamr_ci95"][1],
-                   "fps": run.n_frames / run.seconds[m] if run.seconds[m] else float("inf")}
+            evs = [evaluation_summary(run.detections[m], truth, size, regions=clip.regions,
+                                      block=block, seed=seed)[0] for run in group]
+            fps = [run.n_frames / run.seconds[m] if run.seconds[m] else float("inf")
+                   for run in group]
+            if len(group) == 1:
+                row = {"model": label, "method": m.name, "models": 1, "lamr": evs[0]["lamr"],
+                       "lamr_low": evs[0]["lamr_ci95"][0],
+                       "lamr_high": evs[0]["lamr_ci95"][1], "fps": fps[0]}
+            else:
+                lamrs = [ev["lamr"] for ev in evs]
+                row = {"model": label, "method": m.name, "models": len(group),
+                       "lamr": float(np.mean(lamrs)), "lamr_low": min(lamrs),
+                       "lamr_high": max(lamrs), "fps": float(np.median(fps)),
+                       "lamr_each": " ".join(f"{v:.3f}" for v in lamrs)}
             if label != first:
-                d = paired_matches_bootstrap(matched(run, m), ref, block=block, seed=seed)
+                mine = [matched(run, m) for run in group]
+                if len(group) == 1 and len(ref) == 1:
+                    d = paired_matches_bootstrap(mine[0], ref[0], block=block, seed=seed)
+                else:
+                    d = _group_bootstrap(mine, ref, block=block, seed=seed)
                 row.update(reference=first, difference=d["difference"],
                            difference_low=d["ci"][0], difference_high=d["ci"][1])
             rows.append(row)
@@ -64,12 +115,14 @@ def compare_models(clip, models: dict, methods, *, heights, block: int = 10,
 
 
 def _lines(rows, first) -> list[str]:
-    out = ["| model | method | LAMR (95 %) | − " + first + " (paired 95 %) | frames/s |",
+    out = ["| model | method | LAMR (95 %; of several models: their mean (lowest–highest)) "
+           "| − " + first + " (paired 95 %, over frames) | frames/s |",
            "|---|---|---|---|---|"]
     for r in rows:
         diff = (f"{r['difference']:+.3f} ({r['difference_low']:+.3f}…{r['difference_high']:+.3f})"
                 if "difference" in r else "–")
-        out.append(f"| {r['model']} | {r['method']} | {r['lamr']:.3f} ({r['lamr_low']:.3f}–"
+        n = f" [{r['models']} models]" if r["models"] > 1 else ""
+        out.append(f"| {r['model']}{n} | {r['method']} | {r['lamr']:.3f} ({r['lamr_low']:.3f}–"
                    f"{r['lamr_high']:.3f}) | {diff} | {r['fps']:.1f} |")
     return out
 
@@ -89,20 +142,26 @@ def main(argv=None) -> int:
     ap.add_argument("--calibration", type=Path, required=True)
     ap.add_argument("--boxes", type=Path, required=True)
     ap.add_argument("--ignore", type=Path, default=None)
-    ap.add_argument("--model", action="append", required=True, metavar="LABEL=FILE",
-                    help="a source-detector file and its label; the first is the reference")
+    ap.add_argument("--model", action="append", required=True, metavar="LABEL=FILE[,FILE...]",
+                    help="a source-detector file and its label, or several files (e.g. one "
+                         "per training seed) compared by their mean LAMR; the first label "
+                         "is the reference")
     ap.add_argument("--methods", nargs="+", default=["hog_adapted", "acf_adapted"])
     ap.add_argument("--every", type=int, default=1)
     ap.add_argument("--block", type=int, default=10, help="bootstrap block, frames")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--out", type=Path, required=True)
     args = ap.parse_args(argv)
-    models = {}
+    models, paths = {}, {}
     for item in args.model:
         label, sep, path = item.partition("=")
-        if not sep or not label or not path:
-            ap.error(f"--model must be LABEL=FILE, got {item!r}")
-        models[label] = SourceDetectors.load(Path(path))
+        files = [p for p in path.split(",") if p]
+        if not sep or not label or not files:
+            ap.error(f"--model must be LABEL=FILE[,FILE...], got {item!r}")
+        if label in models:
+            ap.error(f"--model label {label!r} given twice")
+        paths[label] = files
+        models[label] = [SourceDetectors.load(Path(p)) for p in files]
     check_output_dir(args.out)
     methods = [FrameMethod.parse(m) for m in args.methods]
     clip = open_clip(args.inputs, args.calibration, args.boxes, args.ignore,
@@ -115,9 +174,10 @@ def main(argv=None) -> int:
         pd.DataFrame(rows).to_csv(tmp / "models_summary.csv", index=False,
                                   float_format="%.5f")
         (tmp / "run.json").write_text(json.dumps(run_metadata(
-            args.seed, inputs=[str(p) for p in args.inputs], models=dict(
-                (label, {"path": path, "training": models[label].training})
-                for label, _, path in (m.partition("=") for m in args.model)),
+            args.seed, inputs=[str(p) for p in args.inputs], models={
+                label: [{"path": p, "training": m.training}
+                        for p, m in zip(paths[label], models[label])]
+                for label in models},
             methods=args.methods, every=args.every, block=args.block), indent=2,
             default=str))
     print("\n".join(lines))

@@ -60,6 +60,7 @@ def test_another_model_is_paired_against_the_first(clip, tmp_path):
     assert first["lamr_low"] <= first["lamr"] <= first["lamr_high"]
     run = json.loads((out / "run.json").read_text())
     assert list(run["models"]) == ["first", "second"]
+    assert run["models"]["second"][0]["path"] == str(other)
     assert "| second | hog_adapted |" in (out / "models_summary.md").read_text()
 
 
@@ -69,3 +70,21 @@ def test_a_model_without_a_label_is_refused(clip, tmp_path, capsys):
         main([str(toy.img1), "--calibration", str(toy.calibration), "--boxes", str(toy.gt),
               "--model", str(toy.model), "--out", str(tmp_path / "o")])
     assert "LABEL=FILE" in capsys.readouterr().err
+
+
+def test_a_label_of_several_models_is_compared_by_its_mean(clip):
+    toy, other = clip
+    c = open_clip([str(toy.img1)], toy.calibration, toy.gt)
+    a, b = SourceDetectors.load(toy.model), SourceDetectors.load(other)
+    methods = [FrameMethod.parse("hog_adapted")]
+    single = compare_models(c, {"a": a, "b": b}, methods, heights=(1.75,))
+    rows = compare_models(c, {"a": [a, a], "ab": [a, b]}, methods, heights=(1.75,), block=2)
+    la, lb = single[0]["lamr"], single[1]["lamr"]
+    assert rows[0]["models"] == 2 and rows[0]["lamr"] == pytest.approx(la)
+    assert rows[0]["lamr_low"] == rows[0]["lamr_high"] == pytest.approx(la)
+    r = rows[1]
+    assert r["lamr"] == pytest.approx((la + lb) / 2)
+    assert (r["lamr_low"], r["lamr_high"]) == pytest.approx((min(la, lb), max(la, lb)))
+    assert r["lamr_each"] == f"{la:.3f} {lb:.3f}"
+    assert r["difference"] == pytest.approx((lb - la) / 2)
+    assert r["difference_low"] <= r["difference"] + 1e-9 <= r["difference_high"] + 2e-9
