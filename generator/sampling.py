@@ -162,6 +162,9 @@ class GeneratorConfig:
 
 PAPER_ELEVATIONS = (0.0, math.pi / 8, math.pi / 4)
 
+#: the ``small`` preset's sizes, which ``realistic`` shares
+_SMALL = dict(n_persons=24, n_scenes=9, instances=2, backgrounds_per_scene=3, frames=9)
+
 PRESETS = {
     # renders in well under 3 minutes on 2 cores; supports 3x3 person/scene folds
     "tiny": dict(n_persons=6, n_scenes=3, instances=1, backgrounds_per_scene=1, frames=1),
@@ -171,14 +174,13 @@ PRESETS = {
     "demo": dict(n_persons=18, n_scenes=9, instances=1, backgrounds_per_scene=3, frames=1,
                  elevations=(0.0, math.pi / 4)),
     # enough crops for meaningful DET curves
-    "small": dict(n_persons=24, n_scenes=9, instances=2, backgrounds_per_scene=3, frames=9),
+    "small": _SMALL,
     # Wang et al. 2017: 3 instances x 68 persons x 13 scenes x 3 elevations = 7956 crops
     # 7 backgrounds of 256x256 per scene: 13 x 7 x 117 = 10,647 negative windows per
     # elevation at the cross-validation's 16 px stride (at least 10,000, as the paper's)
     "paper": dict(n_persons=68, n_scenes=13, instances=3, backgrounds_per_scene=7, frames=26),
     # `small` through surveillance-camera effects (blur, noise, JPEG, ...), per image
-    "realistic": dict(n_persons=24, n_scenes=9, instances=2, backgrounds_per_scene=3,
-                      frames=9, camera_effects="surveillance"),
+    "realistic": dict(_SMALL, camera_effects="surveillance"),
 }
 
 

@@ -6,7 +6,7 @@ trained under different recipes or on different renders) on one calibrated, anno
 clip, as ``viewadapt bench footage`` runs them, and writes each (model, method)'s LAMR with
 its block-bootstrap interval and, for every model after the first, the paired LAMR
 difference from the first model's same method (the same resampled blocks of frames:
-:func:`viewadapt.detect.evaluation.paired_matches_bootstrap`). A label may name several
+:func:`viewadapt.detect.evaluation.paired_groups_bootstrap`). A label may name several
 files (``LABEL=A,B,C``: the same training at several seeds, whose spread on a real clip
 can be as large as a recipe's effect); it is then compared by its mean LAMR, with the
 lowest and highest beside it.
@@ -25,32 +25,6 @@ import numpy as np
 __all__ = ["compare_models", "main"]
 
 
-def _group_bootstrap(groups, ref, *, block: int, seed: int, draws: int = 1000,
-                     level: float = 0.95) -> dict:
-    """Mean LAMR of the models in ``groups`` minus that of ``ref`` (each a list of
-    per-frame matches, one per model), with the percentile interval of a paired circular
-    block bootstrap over frames: every model of both groups on the same resampled frames.
-    The training seeds are held fixed, so the interval is over frames only."""
-    from viewadapt.detect.evaluation import block_resamples, summary_numbers
-    from viewadapt.metrics import accumulate_frames
-
-    def lamr(ms):
-        fppi, miss, _ = accumulate_frames(ms)
-        return summary_numbers(fppi, miss)["lamr"]
-
-    def mean_lamr(models, sel=None):
-        return float(np.mean([lamr(m if sel is None else [m[i] for i in sel])
-                              for m in models]))
-
-    idx, length = block_resamples(len(ref[0]), block=block, draws=draws, seed=seed)
-    diffs = [mean_lamr(groups, sel) - mean_lamr(ref, sel) for sel in idx
-             if any(ref[0][i].n_positives for i in sel)]
-    tail = 100 * (1 - level) / 2
-    return {"difference": mean_lamr(groups) - mean_lamr(ref),
-            "ci": [float(np.percentile(diffs, tail)), float(np.percentile(diffs, 100 - tail))],
-            "block_frames": length}
-
-
 def compare_models(clip, models: dict, methods, *, heights, block: int = 10,
                    seed: int = 0) -> list[dict]:
     """One row per (model label, method): LAMR, its interval and, for every model after
@@ -66,7 +40,7 @@ def compare_models(clip, models: dict, methods, *, heights, block: int = 10,
     from benchmark.footage.run import run_footage
     from viewadapt.commands.detect import evaluation_summary
     from viewadapt.detect.evaluation import (
-        evaluation_rows, frame_matches, paired_matches_bootstrap,
+        evaluation_rows, frame_matches, matches_lamr, paired_groups_bootstrap,
     )
 
     size = clip.camera.image_size
@@ -77,37 +51,33 @@ def compare_models(clip, models: dict, methods, *, heights, block: int = 10,
     first = next(iter(runs))
     truth = runs[first][0].truth
     keys = runs[first][0].keys
+    if any(run.keys != keys for group in runs.values() for run in group):  # pragma: no cover
+        raise RuntimeError("the clip's frames were read in another order")
     gt = [(t.boxes, t.occlusion, size, t.ignore) for t in truth]
-
-    def matched(run, m):
-        return frame_matches(*evaluation_rows(run.detections[m], gt, regions=clip.regions))
 
     rows = []
     for m in methods:
-        ref = [matched(r, m) for r in runs[first]]
+        matches = {label: [frame_matches(*evaluation_rows(run.detections[m], gt,
+                                                          regions=clip.regions))
+                           for run in group] for label, group in runs.items()}
         for label, group in runs.items():
-            if any(run.keys != keys for run in group):      # pragma: no cover - same stream
-                raise RuntimeError("the clip's frames were read in another order")
-            evs = [evaluation_summary(run.detections[m], truth, size, regions=clip.regions,
-                                      block=block, seed=seed)[0] for run in group]
             fps = [run.n_frames / run.seconds[m] if run.seconds[m] else float("inf")
                    for run in group]
-            if len(group) == 1:
-                row = {"model": label, "method": m.name, "models": 1, "lamr": evs[0]["lamr"],
-                       "lamr_low": evs[0]["lamr_ci95"][0],
-                       "lamr_high": evs[0]["lamr_ci95"][1], "fps": fps[0]}
-            else:
-                lamrs = [ev["lamr"] for ev in evs]
+            if len(group) == 1:                      # one model: LAMR with its interval
+                ev = evaluation_summary(group[0].detections[m], truth, size,
+                                        regions=clip.regions, block=block, seed=seed)[0]
+                row = {"model": label, "method": m.name, "models": 1, "lamr": ev["lamr"],
+                       "lamr_low": ev["lamr_ci95"][0], "lamr_high": ev["lamr_ci95"][1],
+                       "fps": fps[0]}
+            else:                                    # several: their mean and spread
+                lamrs = [matches_lamr(ms) for ms in matches[label]]
                 row = {"model": label, "method": m.name, "models": len(group),
                        "lamr": float(np.mean(lamrs)), "lamr_low": min(lamrs),
                        "lamr_high": max(lamrs), "fps": float(np.median(fps)),
                        "lamr_each": " ".join(f"{v:.3f}" for v in lamrs)}
             if label != first:
-                mine = [matched(run, m) for run in group]
-                if len(group) == 1 and len(ref) == 1:
-                    d = paired_matches_bootstrap(mine[0], ref[0], block=block, seed=seed)
-                else:
-                    d = _group_bootstrap(mine, ref, block=block, seed=seed)
+                d = paired_groups_bootstrap(matches[label], matches[first], block=block,
+                                            seed=seed)
                 row.update(reference=first, difference=d["difference"],
                            difference_low=d["ci"][0], difference_high=d["ci"][1])
             rows.append(row)

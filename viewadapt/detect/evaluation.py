@@ -29,7 +29,7 @@ from ..metrics import (
 __all__ = ["standardize_boxes", "ground_truth_rows", "evaluate_detections", "in_regions",
            "bottom_centres", "evaluation_rows", "ground_truth_counts", "block_length",
            "block_bootstrap", "frame_matches", "block_resamples", "paired_block_bootstrap",
-           "paired_matches_bootstrap",
+           "paired_matches_bootstrap", "paired_groups_bootstrap", "matches_lamr",
            "threshold_at_fppi", "frame_outcome", "summary_numbers", "BOOTSTRAP_BLOCK",
            "BOOTSTRAP_DRAWS"]
 
@@ -284,20 +284,39 @@ def paired_block_bootstrap(dts, reference, gts, *, block: int = BOOTSTRAP_BLOCK,
                                     block=block, draws=draws, seed=seed, level=level)
 
 
+def matches_lamr(matches) -> float:
+    """The log-average miss rate (:func:`summary_numbers`) of per-frame matches
+    (:func:`frame_matches`)."""
+    fppi, miss, _ = accumulate_frames(matches)
+    return summary_numbers(fppi, miss)["lamr"]
+
+
 def paired_matches_bootstrap(a, b, *, block: int = BOOTSTRAP_BLOCK,
                              draws: int = BOOTSTRAP_DRAWS, seed: int = 0,
                              level: float = 0.95) -> dict:
     """:func:`paired_block_bootstrap` of two methods' per-frame matches
     (:func:`frame_matches`; each method matched once however many pairs it is in)."""
-    def lamr(ms):
-        fppi, miss, _ = accumulate_frames(ms)
-        return summary_numbers(fppi, miss)["lamr"]
+    return paired_groups_bootstrap([a], [b], block=block, draws=draws, seed=seed,
+                                   level=level)
 
-    idx, length = block_resamples(len(a), block=block, draws=draws, seed=seed)
-    diffs = [lamr([a[i] for i in sel]) - lamr([b[i] for i in sel]) for sel in idx
-             if any(a[i].n_positives for i in sel)]
+
+def paired_groups_bootstrap(a, b, *, block: int = BOOTSTRAP_BLOCK,
+                            draws: int = BOOTSTRAP_DRAWS, seed: int = 0,
+                            level: float = 0.95) -> dict:
+    """Mean LAMR of the methods ``a`` minus that of the methods ``b`` (each a list of
+    per-frame matches, :func:`frame_matches`, e.g. one detector per training seed), with
+    the percentile interval of a paired circular block bootstrap: every method of both
+    lists on the same resampled frames. Whatever varies between the methods of a list
+    (their training) is held fixed: the interval is over frames only."""
+    def mean_lamr(group, sel=None):
+        return float(np.mean([matches_lamr(ms if sel is None else [ms[i] for i in sel])
+                              for ms in group]))
+
+    idx, length = block_resamples(len(a[0]), block=block, draws=draws, seed=seed)
+    diffs = [mean_lamr(a, sel) - mean_lamr(b, sel) for sel in idx
+             if any(a[0][i].n_positives for i in sel)]
     tail = 100 * (1 - level) / 2
-    return {"difference": float(lamr(a) - lamr(b)),
+    return {"difference": mean_lamr(a) - mean_lamr(b),
             "ci": ([float(np.percentile(diffs, tail)), float(np.percentile(diffs, 100 - tail))]
                    if diffs else [None, None]),
             "draws_used": len(diffs), "block_frames": length}
