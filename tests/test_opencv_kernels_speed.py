@@ -91,7 +91,7 @@ def test_block_cells_of_a_grid_too_small_for_a_block_are_zero():
     mag, t = _gradients((7, 30), 5)
     out = np.full((1, 7, OPENCV_CHANNELS), 3.0, np.float32)
     block_kernel(mag, t, 4, block_axis_weights(4).astype(np.float32), np.float32(1.8),
-                 np.float32(0.2), out)
+                 np.float32(0.2), out, 0, 1)
     assert np.all(out == 0)
 
 
@@ -114,7 +114,7 @@ def test_sum_cells_sums_k_by_k_cells():
     rng = np.random.default_rng(7)
     src = rng.random((11, 14, 9)).astype(np.float32)
     out = np.full((3, 4, 9), np.nan, np.float32)
-    sum_cells(src, 3, out)
+    sum_cells(src, 3, out, 0, 3)
     np.testing.assert_allclose(out, src[:9, :12].reshape(3, 3, 4, 3, 9).sum(axis=(1, 3)),
                                rtol=1e-6)
 
@@ -234,3 +234,33 @@ def test_binned_stage_matches_the_pixelwise_reference(rule):
     want = _reference_scores(maps, sizes, H, cell, weights.astype(np.float64), 0.5, rule)
     np.testing.assert_allclose(got, want, rtol=0, atol=2e-5)
     assert np.ptp(want) > 0.1                               # the windows differ
+
+
+@pytest.mark.parametrize("c, rows", [(4, (3, 7)), (4, (0, 2)), (6, (5, 8)), (8, (0, 5)),
+                                     (5, (6, 99))])
+def test_block_cells_of_some_rows_are_those_of_the_whole_grid(c, rows):
+    """Only the rows asked for are written, each as in the whole grid's computation."""
+    mag, t = _gradients((45, 61), 11 + c)
+    ny, nx = 45 // c, 61 // c
+    whole = opencv_block_cells((mag, t), c)
+    part = opencv_block_cells((mag, t), c, out=np.full((ny, nx, OPENCV_CHANNELS), 5.0,
+                                                      np.float32), rows=rows)
+    y0, y1 = rows[0], min(rows[1], ny)
+    np.testing.assert_array_equal(part[y0:y1], whole[y0:y1])
+    assert np.all(part[:y0] == 5) and np.all(part[y1:] == 5)
+
+
+def test_raw_cell_maps_of_some_rows_cover_the_sizes_summed_from_them():
+    """A size summed from a smaller one gets its rows even when the smaller one's rows are
+    asked for elsewhere; the rows not asked for are 0."""
+    mag, t = _gradients((60, 50), 13)
+    whole, _, _ = raw_cell_maps((mag, t), [2, 4, 5])
+    rows = {2: (0, 3), 4: (10, 14), 5: (2, 4)}
+    part, _, _ = raw_cell_maps((mag, t), [2, 4, 5], rows)
+    for c, (y0, y1) in rows.items():
+        np.testing.assert_array_equal(part[c][y0:y1], whole[c][y0:y1])
+        if c != 2:
+            assert not part[c][:y0].any() and not part[c][y1:].any()
+    # the 2-px rows under the 4-px rows asked for were computed too (the span of both)
+    np.testing.assert_array_equal(part[2][:28], whole[2][:28])
+    assert not part[2][28:].any()

@@ -60,10 +60,10 @@ def _row_pass(mag, t, y, c, nx, ax, acc):  # pragma: no cover - compiled
 
 
 @njit(cache=True, nogil=True, boundscheck=False, error_model="numpy", inline="always")
-def _normalise_row(acc, by, nbx, eps, clip, blk, out):  # pragma: no cover - compiled
+def _normalise_row(acc, by, nbx, eps, clip, blk, out, cy0, cy1):  # pragma: no cover - compiled
     """L2-Hys of block row ``by``'s blocks ``acc`` ([qy, bx, qx, bin] flat per qy), written
-    as each cell's copy into ``out``; ``blk`` (36,) scratch. Single precision, the sums
-    in four partial sums."""
+    as each cell's copy into the rows ``cy0 <= y < cy1`` of ``out``; ``blk`` (36,) scratch.
+    Single precision, the sums in four partial sums."""
     n_bins = 9
     for bx in range(nbx):
         for qx in range(2):
@@ -92,15 +92,19 @@ def _normalise_row(acc, by, nbx, eps, clip, blk, out):  # pragma: no cover - com
         scale = np.float32(1.0) / (np.sqrt((s0 + s1) + (s2 + s3)) + np.float32(1e-3))
         for qx in range(2):
             for qy in range(2):
+                if by + qy < cy0 or by + qy >= cy1:
+                    continue
                 q = 2 * qx + qy
                 for b in range(n_bins):
                     out[by + qy, bx + qx, q * n_bins + b] = blk[q * n_bins + b] * scale
 
 
 @njit(cache=True, nogil=True, boundscheck=False, error_model="numpy")
-def opencv_block_cells(mag, t, c, ax, eps, clip, out):  # pragma: no cover - compiled
+def opencv_block_cells(mag, t, c, ax, eps, clip, out, cy0, cy1):  # pragma: no cover - compiled
     """Block-normalised cells of size ``c`` into ``out`` (ny, nx, 36), zeros where a cell's
-    block does not exist.
+    block does not exist; only cell rows ``cy0 <= cy < cy1`` are computed (the image rows
+    of their blocks are read, no others), the other rows of ``out`` are left as they are
+    (``0, ny``: every row).
 
     ``mag`` (M, N) float32 gradient magnitudes; ``t`` (M, N) float32 bin coordinates in
     ``[0, n_bins)`` (bin ``floor(t)`` gets ``1 - frac``, the next bin ``frac``); ``ax``
@@ -117,11 +121,18 @@ def opencv_block_cells(mag, t, c, ax, eps, clip, out):  # pragma: no cover - com
         out[:] = 0
         return
     nbx, nby = nx - 1, ny - 1
+    cy0, cy1 = max(cy0, 0), min(cy1, ny)
+    if cy0 >= cy1:
+        return
+    # the block rows cy0 - 1 .. cy1 - 1 hold the rows' copies; their cell rows ya .. yb - 1
+    ya, yb = max(cy0 - 1, 0), min(cy1 + 1, ny)
     # copies whose block does not exist: all on the grid's border, zeroed first
     for x in range(nx):
-        out[0, x, :] = 0
-        out[ny - 1, x, :] = 0
-    for y in range(ny):
+        if cy0 == 0:
+            out[0, x, :] = 0
+        if cy1 == ny:
+            out[ny - 1, x, :] = 0
+    for y in range(cy0, cy1):
         out[y, 0, :] = 0
         out[y, nx - 1, :] = 0
     n = nbx * 2 * n_bins
@@ -132,7 +143,7 @@ def opencv_block_cells(mag, t, c, ax, eps, clip, out):  # pragma: no cover - com
     cur = np.zeros((2, n), np.float32)
     prev = np.zeros((2, n), np.float32)
     blk = np.empty(4 * n_bins, np.float32)                        # [qx, qy, bin]
-    for cy in range(ny):
+    for cy in range(ya, yb):
         for r in range(c):
             _row_pass(mag, t, cy * c + r, c, nx, ax, row)
             if cy < nby:
@@ -141,14 +152,14 @@ def opencv_block_cells(mag, t, c, ax, eps, clip, out):  # pragma: no cover - com
                 for k in range(n):
                     cur[0, k] += w0 * rf[k]
                     cur[1, k] += w1 * rf[k]
-            if cy >= 1:
+            if cy > ya:
                 w0 = ax[c + r, 0]
                 w1 = ax[c + r, 1]
                 for k in range(n):
                     prev[0, k] += w0 * rf[k]
                     prev[1, k] += w1 * rf[k]
-        if cy >= 1:                                               # block row cy - 1 is done
-            _normalise_row(prev, cy - 1, nbx, eps, clip, blk, out)
+        if cy > ya:                                               # block row cy - 1 is done
+            _normalise_row(prev, cy - 1, nbx, eps, clip, blk, out, cy0, cy1)
         cur, prev = prev, cur
         for k in range(n):
             cur[0, k] = 0.0

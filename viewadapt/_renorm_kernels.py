@@ -21,16 +21,18 @@ from numba import njit
 
 
 @njit(cache=True, nogil=True, boundscheck=False, error_model="numpy")
-def raw_cell_sums(mag, t, c, out):  # pragma: no cover - compiled
+def raw_cell_sums(mag, t, c, out, cy0, cy1):  # pragma: no cover - compiled
     """(M // c, N // c, 9) cell sums of ``mag`` split between bins ``floor(t)`` (weight
-    ``1 - frac``) and the next (``frac``), written into ``out``."""
+    ``1 - frac``) and the next (``frac``), written into the cell rows ``cy0 <= cy < cy1``
+    of ``out`` (the others are left as they are)."""
     n_bins = 9
     ny, nx = mag.shape[0] // c, mag.shape[1] // c
-    for cy in range(ny):
+    cy0, cy1 = max(cy0, 0), min(cy1, ny)
+    for cy in range(cy0, cy1):
         for cx in range(nx):
             for b in range(n_bins):
                 out[cy, cx, b] = 0.0
-    for cy in range(ny):
+    for cy in range(cy0, cy1):
         for r in range(c):
             y = cy * c + r
             for cx in range(nx):
@@ -50,11 +52,12 @@ def raw_cell_sums(mag, t, c, out):  # pragma: no cover - compiled
 
 
 @njit(cache=True, nogil=True, boundscheck=False, error_model="numpy")
-def sum_cells(src, k, out):  # pragma: no cover - compiled
-    """(ny // k, nx // k, B) sums of ``src`` (ny, nx, B) over ``k x k`` cells into ``out``."""
+def sum_cells(src, k, out, y0, y1):  # pragma: no cover - compiled
+    """(ny // k, nx // k, B) sums of ``src`` (ny, nx, B) over ``k x k`` cells into the rows
+    ``y0 <= y < y1`` of ``out`` (the others are left as they are)."""
     my, mx = src.shape[0] // k, src.shape[1] // k
     nb = src.shape[2]
-    for y in range(my):
+    for y in range(max(y0, 0), min(y1, my)):
         for x in range(mx):
             for b in range(nb):
                 out[y, x, b] = 0.0

@@ -123,8 +123,30 @@ class AdaptedLinearOperator(TemplateOperator):
         return final
 
     def frame_features(self, image) -> FrameFeatures:
-        """The frame's feature maps this operator reads."""
+        """The frame's feature maps this operator reads (OpenCV's cells: only the cell rows
+        it reads, :meth:`read_rows`)."""
+        if getattr(self.features, "func", None) is opencv_frame_features:
+            rows, raw_rows = self.read_rows()
+            return self.features(image, rows=rows, raw_rows=raw_rows)
         return self.features(image)
+
+    def read_rows(self) -> tuple[dict, dict]:
+        """``(rows, raw_rows)``: per cell size ``c``, the cell rows ``(y0, y1)`` of the
+        frame's (unpadded) map that some template reads, and those of the raw cells the
+        normalisation stage can read (empty without a stage). Computed once per stage."""
+        cached = getattr(self, "_read_rows", None)
+        if cached is None or cached[0] is not self.stage:
+            h = self.image_size[1]
+            rows = {}
+            for g in self.groups:
+                oy = g.origin[1] + g.shifts[:, 1]
+                y0, y1 = int(oy.min()), int(oy.max()) + g.shape[0]
+                a, b = rows.get(g.cell_size, (y0, y1))
+                rows[g.cell_size] = (min(a, y0), max(b, y1))
+            rows = {c: (max(a, 0), min(b, h // c)) for c, (a, b) in rows.items()}
+            raw = self.stage.read_rows(self.image_size) if self.stage is not None else {}
+            self._read_rows = (self.stage, rows, raw)
+        return self._read_rows[1:]
 
     def layout(self, channels=None):
         """Offsets and (rows, columns) of each cell size's padded map in
@@ -190,6 +212,7 @@ class AdaptedLinearOperator(TemplateOperator):
         # the templates are views into the run tables: pickle them once (there)
         state = self.__dict__.copy()
         state["groups"] = [replace(g, template=None) for g in self.groups]
+        state.pop("_read_rows", None)
         return state
 
     def __setstate__(self, state):

@@ -146,7 +146,7 @@ def opencv_gradients(image) -> tuple[np.ndarray, np.ndarray]:
     return mag, t
 
 
-def opencv_block_cells(gradients, c: int, *, out=None) -> np.ndarray:
+def opencv_block_cells(gradients, c: int, *, out=None, rows=None) -> np.ndarray:
     """Block-normalised cells of size ``c`` from :func:`opencv_gradients`.
 
     Every 2x2-cell block of the image's ``c``-px cell grid (one-cell stride) is
@@ -162,6 +162,10 @@ def opencv_block_cells(gradients, c: int, *, out=None) -> np.ndarray:
     c : int
     out : (M // c, N // c, 36) float32 ndarray, optional
         Written in place (copies of blocks that do not exist are 0); returned.
+    rows : (int, int), optional
+        Compute only the cell rows ``rows[0] <= y < rows[1]`` (reading only the image rows
+        of their blocks); the other rows of ``out`` are left as they are (zeros when ``out``
+        is made here). Default: every row.
 
     Returns
     -------
@@ -173,9 +177,10 @@ def opencv_block_cells(gradients, c: int, *, out=None) -> np.ndarray:
     ny, nx = mag.shape[0] // c, mag.shape[1] // c
     if out is None:
         out = np.zeros((ny, nx, OPENCV_CHANNELS), np.float32)
+    y0, y1 = (0, ny) if rows is None else (int(rows[0]), int(rows[1]))
     kernel(mag, t, int(c), block_axis_weights(c).astype(np.float32),
            np.float32(0.1 * OPENCV_CHANNELS * (c / HOG_CELL) ** 2), np.float32(OPENCV_L2HYS_CLIP),
-           out)
+           out, y0, y1)
     return out
 
 
@@ -185,12 +190,15 @@ def opencv_window_features(window) -> np.ndarray:
     return opencv_block_cells(opencv_gradients(check_frame(window)), HOG_CELL)
 
 
-def raw_cell_maps(gradients, cell_sizes) -> tuple[dict, np.ndarray, np.ndarray]:
+def raw_cell_maps(gradients, cell_sizes, rows=None) -> tuple[dict, np.ndarray, np.ndarray]:
     """Raw 9-bin cell sums of :func:`~viewadapt.detect.opencv_cells.opencv_gradients` at
     each cell size, hard spatial binning: ``(maps, flat, offsets)`` with ``maps[c]`` a
     (M // c, N // c, 9) float32 view into ``flat`` starting at ``offsets[i]`` for the
     ``i``-th size of ``cell_sizes``. A size that is a multiple of a smaller one asked for
-    is summed from that size's cells (the same pixels), the others from the pixels."""
+    is summed from that size's cells (the same pixels), the others from the pixels.
+    ``rows``: optional dict ``c -> (y0, y1)``, the only cell rows of size ``c`` computed
+    (the others are 0; a size others are summed from gets the span of theirs too); a size
+    it does not name is computed whole."""
     from .._renorm_kernels import raw_cell_sums, sum_cells
 
     mag, t = gradients
@@ -198,18 +206,28 @@ def raw_cell_maps(gradients, cell_sizes) -> tuple[dict, np.ndarray, np.ndarray]:
     sizes = [int(c) for c in cell_sizes]
     shapes = [(M // c, N // c, N_HOG_BINS) for c in sizes]
     offsets = np.r_[0, np.cumsum([int(np.prod(s)) for s in shapes])].astype(np.int64)
-    flat = np.empty(int(offsets[-1]), np.float32)
+    flat = (np.empty if rows is None else np.zeros)(int(offsets[-1]), np.float32)
     maps = {}
     for c, s, off in zip(sizes, shapes, offsets):
         maps[c] = flat[off:off + int(np.prod(s))].reshape(s)
-    done = []
+    parent = {}
     for c in sorted(maps):
-        d = max((d for d in done if c % d == 0), default=0)
+        d = max((d for d in parent if c % d == 0), default=0)
+        parent[c] = d
+    want = {c: (0, maps[c].shape[0]) if rows is None or c not in rows
+            else (int(rows[c][0]), int(rows[c][1])) for c in maps}
+    for c in sorted(maps, reverse=True):           # a parent's rows cover its children's
+        d = parent[c]
         if d:
-            sum_cells(maps[d], c // d, maps[c])
+            k = c // d
+            y0, y1 = want[d]
+            want[d] = (min(y0, k * want[c][0]), max(y1, k * want[c][1]))
+    for c in sorted(maps):
+        d = parent[c]
+        if d:
+            sum_cells(maps[d], c // d, maps[c], *want[c])
         else:
-            raw_cell_sums(mag, t, c, maps[c])
-        done.append(c)
+            raw_cell_sums(mag, t, c, maps[c], *want[c])
     for c, s, off in zip(sizes, shapes, offsets):                 # a size asked for twice
         region = flat[off:off + int(np.prod(s))]
         if region.ctypes.data != maps[c].ctypes.data:
@@ -232,11 +250,12 @@ class OpenCVFrameFeatures(FrameFeatures):
 
 
 def opencv_frame_features(image, cell_sizes, *, pad: int = 2, image_size=None,
-                          raw_cell_sizes=()) -> OpenCVFrameFeatures:
+                          raw_cell_sizes=(), rows=None, raw_rows=None) -> OpenCVFrameFeatures:
     """OpenCV's block-normalised cells of a frame at several cell sizes, native resolution:
     the gradients once (:func:`opencv_gradients`), the cells of each size from them
     (:func:`opencv_block_cells`), and the raw 9-bin cells of each of ``raw_cell_sizes``
-    (:func:`raw_cell_maps`).
+    (:func:`raw_cell_maps`). ``rows`` and ``raw_rows`` (dicts ``c -> (y0, y1)``, optional)
+    limit a size's maps to the cell rows an operator reads (the others are 0).
 
     Returns
     -------
@@ -247,6 +266,7 @@ def opencv_frame_features(image, cell_sizes, *, pad: int = 2, image_size=None,
     order, flat, maps = padded_maps(cell_sizes, (M, N), pad, OPENCV_CHANNELS)
     grad = opencv_gradients(img)
     for c, F in maps.items():
-        opencv_block_cells(grad, c, out=F[pad:pad + M // c, pad:pad + N // c])
-    raw = raw_cell_maps(grad, raw_cell_sizes) if len(raw_cell_sizes) else None
+        opencv_block_cells(grad, c, out=F[pad:pad + M // c, pad:pad + N // c],
+                           rows=None if rows is None else rows.get(c))
+    raw = raw_cell_maps(grad, raw_cell_sizes, raw_rows) if len(raw_cell_sizes) else None
     return OpenCVFrameFeatures(maps, pad, (N, M), _flat=(order, flat), raw=raw)

@@ -122,6 +122,34 @@ class RenormStage:
             renorm_scores(*args, out)
         return out
 
+    def read_rows(self, image_size) -> dict:
+        """``c -> (y0, y1)``: the rows of the raw cell map of each size ``c`` that
+        :meth:`scores` can read on a frame of ``image_size`` (width, height), for any of
+        the windows -- the frame cells under each block's (or cell's) affine image, as the
+        compiled loops bound them, and a row more on each side."""
+        h = int(image_size[1])
+        if self.binning == "opencv":    # each block's centre, its reach 8 |J_yy| + 1 px
+            points = [(8.0 * bx + 7.5, 8.0 * by + 7.5) for bx in range(7) for by in range(15)]
+            half, margin = 8.0, 1.0
+        else:                           # each cell's centre, its reach 4 |J_yy|
+            points = [(8.0 * i + 3.5, 8.0 * j + 3.5) for i in range(8) for j in range(16)]
+            half, margin = 4.0, 0.0
+        out = {}
+        for c in self.cell_sizes:
+            H = self.homographies[self.cell == c]
+            ny = h // c
+            y0, y1 = ny, 0
+            for x, y in points:
+                w = H[:, 2, 0] * x + H[:, 2, 1] * y + H[:, 2, 2]
+                py = (H[:, 1, 0] * x + H[:, 1, 1] * y + H[:, 1, 2]) / w
+                ey = half * np.abs((H[:, 1, 1] - py * H[:, 2, 1]) / w) + margin
+                lo = np.floor((py - ey + 0.5) / c)
+                hi = np.floor((py + ey + 0.5) / c)
+                y0 = min(y0, int(max(lo.min() - 1, 0)))      # a row more each side:
+                y1 = max(y1, int(min(hi.max() + 1, ny - 1)) + 1)  # rounding
+            out[c] = (y0, max(y0, y1))
+        return out
+
     def to_arrays(self) -> tuple[dict, dict]:
         """``(meta, arrays)`` of the stage (its homographies are the operator's)."""
         return (dict(threshold=self.threshold, rule=self.rule, bias=self.bias,

@@ -275,3 +275,35 @@ def test_a_frame_detector_with_its_own_opencv_weights(camera, tmp_path):
     assert len(list(cache.glob("operator-*.npz"))) == 2          # one cache entry each
     with pytest.raises(ValueError, match="kinds\\['hog'\\] must be a detector kind"):
         FrameDetector(camera, None, kinds={"hog": opencv_kind(mine, -0.2)})
+
+
+def test_the_operator_reads_only_the_cell_rows_it_computes(camera):
+    """Every map row outside :meth:`read_rows` can hold anything: the scores -- the fold's
+    and the normalisation stage's, every window rescored -- do not change; and the rows left
+    out are a real part of the maps on this camera."""
+    frame = _scene((SIZE[1], SIZE[0]), 13)
+    W, b = opencv_default_people_detector()
+    op = build_adapted_opencv_operator(select_candidate_windows(camera), W, b,
+                                       verify_threshold=-1e9)
+    whole = op.features(frame)
+    want = op.scores(whole)
+    assert np.isfinite(want).all()
+    rows, raw_rows = op.read_rows()
+    assert set(rows) == set(op.cell_sizes) and set(raw_rows) == set(op.stage.cell_sizes)
+    rng = np.random.default_rng(3)
+    left_out = 0
+    p = whole.pad
+    for c, F in whole.maps.items():
+        y0, y1 = rows[c]
+        inner = F[p:F.shape[0] - p]
+        left_out += y0 + len(inner) - y1
+        inner[:y0] = rng.uniform(0, 1, inner[:y0].shape)
+        inner[y1:] = rng.uniform(0, 1, inner[y1:].shape)
+    for c, R in whole.raw[0].items():
+        y0, y1 = raw_rows[c]
+        left_out += y0 + len(R) - y1
+        R[:y0] = rng.uniform(0, 50, R[:y0].shape)
+        R[y1:] = rng.uniform(0, 50, R[y1:].shape)
+    assert left_out > 0
+    np.testing.assert_array_equal(op.scores(whole), want)
+    np.testing.assert_array_equal(op.scores(op.frame_features(frame)), want)
