@@ -229,7 +229,7 @@ def test_binned_stage_matches_the_pixelwise_reference(rule):
     renorm_scores_binned(flat, np.asarray(offsets, np.int64), dims,
                          np.array([lut[c] for c in cell], np.int64), np.array(sizes, np.int64),
                          H, weights, np.float32(0.5), np.float32(0.1 * OPENCV_CHANNELS),
-                         np.float32(OPENCV_L2HYS_CLIP), rule,
+                         np.float32(OPENCV_L2HYS_CLIP), rule, 8, 16,
                          block_axis_weights(8).astype(np.float32), got)
     want = _reference_scores(maps, sizes, H, cell, weights.astype(np.float64), 0.5, rule)
     np.testing.assert_allclose(got, want, rtol=0, atol=2e-5)

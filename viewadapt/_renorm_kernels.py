@@ -148,14 +148,15 @@ def _block_score(block, weights, at, eps, clip):  # pragma: no cover - compiled
 
 @njit(cache=True, nogil=True, boundscheck=False, error_model="numpy")
 def renorm_scores(flat, offsets, dims, size_of, cells, H, weights, bias, eps, clip,
-                  rule, out):  # pragma: no cover - compiled
-    """Scores of windows ``n`` (their homographies ``H[n]``, canonical 64x128 -> frame px)
-    from the raw cell map of size ``cells[size_of[n]]``: ``flat[offsets[s]:]`` laid out
-    ``(dims[s, 0], dims[s, 1], 9)``. ``weights`` (3780,) OpenCV's descriptor layout;
+                  rule, ncx, ncy, out):  # pragma: no cover - compiled
+    """Scores of windows ``n`` (their homographies ``H[n]``, the detector's window of
+    ``ncx x ncy`` 8-px cells (64x128: 8 x 16) -> frame px) from the raw cell map of size
+    ``cells[size_of[n]]``: ``flat[offsets[s]:]`` laid out ``(dims[s, 0], dims[s, 1], 9)``.
+    ``weights`` ((ncx - 1) (ncy - 1) 36,) OpenCV's descriptor layout;
     ``rule`` 0 = covariant (``J^T``), 1 = none (orientations kept), 2 = the paper's eq. (3)
     read literally (``J^-1``; :func:`viewadapt.remap.map_angles`)."""
     n_bins = 9
-    src = np.empty((16, 8, n_bins), np.float32)
+    src = np.empty((ncy, ncx, n_bins), np.float32)
     lo = np.empty(n_bins, np.int64)              # frame bin k -> source bins lo, hi
     hi = np.empty(n_bins, np.int64)
     frac = np.empty(n_bins, np.float32)
@@ -168,10 +169,10 @@ def renorm_scores(flat, offsets, dims, size_of, cells, H, weights, bias, eps, cl
         base = offsets[s]
         Hn = H[n]
         # A from the Jacobian at the window's centre
-        _, _, j00, j01, j10, j11 = _map(Hn, 31.5, 63.5)
+        _, _, j00, j01, j10, j11 = _map(Hn, 4.0 * ncx - 0.5, 4.0 * ncy - 0.5)
         _angle_taps(j00, j01, j10, j11, rule, lo, hi, frac)
-        for j in range(16):
-            for i in range(8):
+        for j in range(ncy):
+            for i in range(ncx):
                 px, py, a00, a01, a10, a11 = _map(Hn, 8.0 * i + 3.5, 8.0 * j + 3.5)
                 ex = 4.0 * abs(a00)
                 ey = 4.0 * abs(a11)
@@ -200,14 +201,15 @@ def renorm_scores(flat, offsets, dims, size_of, cells, H, weights, bias, eps, cl
                     src[j, i, lo[k]] += (1.0 - frac[k]) * h[k] * scale
                     src[j, i, hi[k]] += frac[k] * h[k] * scale
         total = bias
-        for bx in range(7):
-            for by in range(15):
+        for bx in range(ncx - 1):
+            for by in range(ncy - 1):
                 for cx in range(2):
                     for cy in range(2):
                         q = 2 * cx + cy
                         for b in range(n_bins):
                             block[q * n_bins + b] = src[by + cy, bx + cx, b]
-                total += _block_score(block, weights, (bx * 15 + by) * 4 * n_bins, eps, clip)
+                total += _block_score(block, weights, (bx * (ncy - 1) + by) * 4 * n_bins,
+                                      eps, clip)
         out[n] = total
 
 
@@ -231,7 +233,7 @@ def _axis_tables(ax, cum, tab):  # pragma: no cover - compiled
 
 @njit(cache=True, nogil=True, boundscheck=False, error_model="numpy")
 def renorm_scores_binned(flat, offsets, dims, size_of, cells, H, weights, bias, eps, clip,
-                         rule, ax, out):  # pragma: no cover - compiled
+                         rule, ncx, ncy, ax, out):  # pragma: no cover - compiled
     """:func:`renorm_scores` with OpenCV's own spatial binning: each block's four cell
     histograms are the frame cells under the block's image weighted by OpenCV's Gaussian
     block window times each cell's bilinear tent (``ax``: (16, 2), the weights along one
@@ -242,13 +244,15 @@ def renorm_scores_binned(flat, offsets, dims, size_of, cells, H, weights, bias, 
     integral over the cell of the block's 16 source pixels' weights (each spread over its
     image, per frame pixel), read from running sums at the cell's two ends
     (:func:`_axis_tables`). The weights are separable: the cells are summed down the rows
-    first, then along ``u``. A window's 105 blocks are gathered first, then mapped to the
-    source bins, normalised and scored all together, block index innermost. (No helper
-    taking arrays is called per block: each such call would count references.)
+    first, then along ``u``. A window's blocks (105 in a 64x128 window) are gathered
+    first, then mapped to the source bins, normalised and scored all together, block index
+    innermost. (No helper taking arrays is called per block: each such call would count
+    references.)
     """
     n_bins = 9
     nq = 4 * n_bins
-    nb = 7 * 15
+    nby = ncy - 1
+    nb = (ncx - 1) * nby
     lo = np.empty(n_bins, np.int64)              # frame bin k -> source bins lo, hi
     hi = np.empty(n_bins, np.int64)
     frac = np.empty(n_bins, np.float32)
@@ -274,13 +278,13 @@ def renorm_scores_binned(flat, offsets, dims, size_of, cells, H, weights, bias, 
         ny, nx = dims[s, 0], dims[s, 1]
         base = offsets[s]
         Hn = H[n]
-        _, _, j00, j01, j10, j11 = _map(Hn, 31.5, 63.5)
+        _, _, j00, j01, j10, j11 = _map(Hn, 4.0 * ncx - 0.5, 4.0 * ncy - 0.5)
         _angle_taps(j00, j01, j10, j11, rule, lo, hi, frac)
         inv = 1.0 / (c * c)
         # each block's centre (source pixel 8 bx + 7.5, 8 by + 7.5), Jacobian and the
         # frame cells that can hold its image
         for b in range(nb):
-            px, py, a00, a01, a10, a11 = _map(Hn, 8.0 * (b // 15) + 7.5, 8.0 * (b % 15) + 7.5)
+            px, py, a00, a01, a10, a11 = _map(Hn, 8.0 * (b // nby) + 7.5, 8.0 * (b % nby) + 7.5)
             ex = 8.0 * abs(a00) + 1.0
             ey = 8.0 * abs(a11) + 1.0
             u0 = max(int(math.floor((px - ex + 0.5) / c)), 0)

@@ -104,9 +104,10 @@ def register_footage(bsub, common) -> None:
     p = bsub.add_parser(
         "footage", parents=[common], help="every method on your calibrated, annotated clip",
         description="Run every full-frame method on a calibrated clip with ground truth: "
-                    "OpenCV's detectMultiScale at 1x, 2x and 4x without and with the "
-                    "ground-plane filter, our unadapted pyramids, the adapted HOG, ACF and "
-                    "OpenCV detectors, and image warping of each adapted model; write the "
+                    "OpenCV's detectMultiScale (its INRIA and its Daimler detector) at 1x, "
+                    "2x and 4x without and with the ground-plane filter, our unadapted "
+                    "pyramids, the adapted HOG, ACF, OpenCV and Daimler detectors, and image "
+                    "warping of each adapted model; write the "
                     "LAMR table with block-bootstrap intervals, paired differences against "
                     "the best unadapted baseline and against warping, frames per second, "
                     "the DET figure and every detection. Reads what viewadapt detect reads "

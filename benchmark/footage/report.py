@@ -16,6 +16,7 @@ import numpy as np
 from benchmark.frames.report import WARP_MARGIN
 from benchmark.frames.spec import FrameMethod
 from viewadapt.commands.detect import evaluation_summary
+from viewadapt.detect import PRETRAINED_KINDS
 from viewadapt.detect.evaluation import evaluation_rows, frame_matches, paired_matches_bootstrap
 
 __all__ = ["evaluate_run", "paired_differences", "best_unadapted", "footage_targets",
@@ -38,7 +39,8 @@ def best_unadapted(evaluations):
 def paired_differences(run, image_size, evaluations, *, regions=None, block: int = 10,
                        seed: int = 0) -> list:
     """``(method, reference, result)`` of :func:`paired_block_bootstrap`: every other
-    method against the best unadapted baseline, and each adapted detector against image
+    method against the best unadapted baseline, each adapted detector against the best
+    unadapted pyramid of the same detector (when that is another one) and against image
     warping of the same model."""
     gt = [(t.boxes, t.occlusion, image_size, t.ignore) for t in run.truth]
     matches = {}
@@ -53,7 +55,12 @@ def paired_differences(run, image_size, evaluations, *, regions=None, block: int
     if ref is not None:
         pairs += [(m, ref) for m in run.detections if m != ref]
     for m in run.detections:
-        warp = FrameMethod(m.kind, "warp") if m.how == "adapted" else None
+        if m.how != "adapted":
+            continue
+        own = best_unadapted({k: v for k, v in evaluations.items() if k.kind == m.kind})
+        if own is not None and own != ref:
+            pairs.append((m, own))
+        warp = FrameMethod(m.kind, "warp")
         if warp in run.detections:
             pairs.append((m, warp))
     return [(m, r, paired_matches_bootstrap(matched(m), matched(r), block=block, seed=seed))
@@ -65,20 +72,22 @@ def _fps(run, m) -> float:
 
 
 def footage_targets(run, evaluations, differences) -> list:
-    """Markdown lines judging the real-footage targets on this run: adapted OpenCV below
-    OpenCV's best ``detectMultiScale`` with the ground-plane filter at no fewer frames per
-    second than OpenCV at 2x; each adapted detector within :data:`WARP_MARGIN` of image
-    warping, its interval's upper end included."""
+    """Markdown lines judging the real-footage targets on this run: adapted OpenCV (and
+    adapted Daimler) below the same detector's best ``detectMultiScale`` with the
+    ground-plane filter at no fewer frames per second than it at 2x; each adapted detector
+    within :data:`WARP_MARGIN` of image warping, its interval's upper end included."""
     out = []
-    ad = FrameMethod("opencv", "adapted")
-    grounded = [m for m in evaluations if m.kind == "opencv" and m.how == "pyramid"
-                and m.ground]
-    if ad in evaluations and grounded:
+    for kind in PRETRAINED_KINDS:          # OpenCV's INRIA detector, then its Daimler one
+        ad = FrameMethod(kind, "adapted")
+        grounded = [m for m in evaluations if m.kind == kind and m.how == "pyramid"
+                    and m.ground]
+        if ad not in evaluations or not grounded:
+            continue
         best = min(grounded, key=lambda m: evaluations[m][0]["lamr"])
         a, b = evaluations[ad][0]["lamr"], evaluations[best][0]["lamr"]
         out.append(f"- {ad.name} LAMR {a:.3f} below {best.name}'s {b:.3f}: "
                    f"{'met' if a < b else 'NOT met'}")
-        two = FrameMethod("opencv", "pyramid", upsample=2)
+        two = FrameMethod(kind, "pyramid", upsample=2)
         if two in run.seconds:
             fa, fb = _fps(run, ad), _fps(run, two)
             out.append(f"- {ad.name} at {fa:.1f} frames/s, no fewer than {two.name}'s "
@@ -100,8 +109,9 @@ def _interval(ci) -> str:
 
 def summary_rows(run, evaluations, differences) -> list:
     """One dict per method: the table's numbers (for the csv)."""
-    ref = {m: d for m, r, d in differences if r.how.startswith("pyramid")}
-    refname = next((r.name for m, r, d in differences if r.how.startswith("pyramid")), "")
+    best = best_unadapted(evaluations)
+    ref = {m: d for m, r, d in differences if r == best}
+    refname = best.name if ref else ""
     out = []
     for m, (ev, _) in evaluations.items():
         d = ref.get(m)
@@ -134,6 +144,14 @@ def summary_lines(run, evaluations, differences) -> list:
         lines.append(f"| {r['method']} | {r['lamr']:.3f}{ci} | "
                      f"{r['miss_rate_at_0_1_fppi']:.3f} | {r['miss_rate_at_1_fppi']:.3f} | "
                      f"{diff} | {r['frames_per_second']:.2f} |")
+    best = best_unadapted(evaluations)
+    own = [(m, r, d) for m, r, d in differences
+           if m.how == "adapted" and r.how.startswith("pyramid") and r != best]
+    if own:
+        lines += ["", "Adapted against the best unadapted pyramid of the same detector "
+                      "(paired block bootstrap):", ""]
+        lines += [f"- {m.name} - {r.name}: {d['difference']:+.3f} "
+                  f"(95% {_interval(d['ci'])})" for m, r, d in own]
     warp = [(m, r, d) for m, r, d in differences if r.how == "warp"]
     if warp:
         lines += ["", "Adapted against image warping of the same model (paired block "

@@ -27,12 +27,15 @@ __all__ = ["FOOTAGE_METHODS", "Clip", "open_clip", "FootageRun", "run_footage"]
 
 #: The methods ``bench footage`` runs by default, in its order: OpenCV's own
 #: ``detectMultiScale`` at 1x, 2x and 4x without and with the ground-plane filter (the
-#: baseline that isolates what adaptation adds to the calibration), our unadapted pyramids,
-#: the adapted detectors, and image warping of each adapted model.
+#: baseline that isolates what adaptation adds to the calibration), for its INRIA and its
+#: Daimler detector, our unadapted pyramids, the adapted detectors, and image warping of
+#: each adapted model.
 FOOTAGE_METHODS = tuple(FrameMethod.parse(n) for n in (
     "opencv_native", "opencv_2x", "opencv", "opencv_native[ground]", "opencv_2x[ground]",
-    "opencv[ground]", "hog_pyramid", "acf_pyramid_fast", "hog_adapted", "acf_adapted",
-    "opencv_adapted", "hog_warp", "acf_warp", "opencv_warp"))
+    "opencv[ground]", "daimler_native", "daimler_2x", "daimler", "daimler_native[ground]",
+    "daimler_2x[ground]", "daimler[ground]", "hog_pyramid", "acf_pyramid_fast", "hog_adapted",
+    "acf_adapted", "opencv_adapted", "daimler_adapted", "hog_warp", "acf_warp", "opencv_warp",
+    "daimler_warp"))
 
 
 @dataclass
@@ -80,10 +83,6 @@ def open_clip(inputs, calibration, boxes, ignore=None, *, lens: str = "auto",
     cal = read_calibration_file(calibration)
     model = "plane" if all(m == "plane" for m in object_models) else "body"
     correction = lens_correction(cal.dist, lens, model)
-    if correction == "windows" and model != "plane":
-        raise ValueError("--lens windows needs the plane object model for every method "
-                         "(the body model's windows are not mapped through a lens); use "
-                         "--lens undistort")
     stream = open_frames(inputs, start=start, every=every, max_frames=max_frames)
     truth = read_boxes(boxes, stream.paths,
                        n_frames=stream.n_total if stream.paths is None else None)

@@ -24,6 +24,9 @@ Methods (Wang et al. 2017, Sec. 5.2 and Table 1), all on the same frames:
     ``cv2.HOGDescriptor.detectMultiScale`` with OpenCV's default people detector on the
     4x-upsampled frame (``opencv_2x``: 2x; ``opencv_native``: on the frame as it is);
     ``opencv_adapted`` / ``opencv_warp``: the same detector adapted, or over warped windows;
+``daimler``
+    the same with OpenCV's 48x96 Daimler detector (``daimler_2x``, ``daimler_native``,
+    ``daimler_adapted``, ``daimler_warp``);
 ``...[ground]``
     a pyramid whose boxes pass the ground-plane filter (:func:`ground_plane_filter`): the
     calibration used without adaptation.
@@ -46,7 +49,7 @@ from benchmark.frames.pyramids import (
 from benchmark.frames.spec import frame_method
 from benchmark.recipes import DEFAULT_RECIPE
 from viewadapt.detect import (
-    DEFAULT_FRAME_VIEW, FrameDetector, HOG_DETECTOR, PERSON_BOX_WINDOW,
+    DEFAULT_FRAME_VIEW, FrameDetector, HOG_DETECTOR, PERSON_BOX_WINDOW, PRETRAINED_KINDS,
     check_frame, check_frame_view, detector_kind, person_boxes, train_on_windows,
 )
 from viewadapt.geometry import WINDOW_HEIGHT, Camera
@@ -283,8 +286,8 @@ class FrameMethods:
         if m.how == "warp":
             s = warp_scores(image, self.windows.homographies, self.models, kind)
             return _nms(person_boxes(self.windows.homographies), s, self.thr[kind.name], kind)
-        if m.kind == "opencv":
-            dets = opencv_detect(image, upsample=m.upsample)
+        if m.kind in PRETRAINED_KINDS:
+            dets = opencv_detect(image, upsample=m.upsample, detector=m.kind)
         else:
             detect = {"pyramid": hog_pyramid_detect if kind is HOG_DETECTOR
                       else acf_pyramid_detect, "pyramid_fast": acf_pyramid_fast_detect}[m.how]
@@ -305,32 +308,42 @@ class FrameMethods:
 
 
 def warp_scores(image, homographies, models, kind, *, chunk: int = 512) -> np.ndarray:
-    """Image warping (Li et al. 2008): every window warped to 64x128, featurised and
-    scored by the source model of ``kind`` (a :class:`~viewadapt.detect.DetectorKind` or
-    its name)."""
+    """Image warping (Li et al. 2008): every window warped to the detector's window (64x128;
+    Daimler's 48x96), featurised and scored by the source model of ``kind`` (a
+    :class:`~viewadapt.detect.DetectorKind` or its name)."""
+    from viewadapt.detect import detector_window_homography
     from viewadapt.warp import warp_to_source_view
 
     kind = detector_kind(kind)
+    T = detector_window_homography(kind.window)
     out = np.empty(len(homographies))
     for a in range(0, len(homographies), chunk):
-        Hs = homographies[a:a + chunk]
-        X = np.stack([kind.features.window_features(warp_to_source_view(image, H)).ravel()
-                      for H in Hs])
+        Hs = homographies[a:a + chunk] @ T
+        X = np.stack([kind.features.window_features(
+            warp_to_source_view(image, H, size=kind.window)).ravel() for H in Hs])
         out[a:a + len(Hs)] = kind.window_scores(models, X)
     return out
 
 
-def opencv_detect(image, *, upsample: int = 4, hit_threshold: float = -0.5) -> np.ndarray:
-    """``cv2.HOGDescriptor.detectMultiScale`` with the default people detector.
+def opencv_detect(image, *, upsample: int = 4, hit_threshold: float = -0.5,
+                  detector: str = "opencv") -> np.ndarray:
+    """``cv2.HOGDescriptor.detectMultiScale`` with the default people detector (``detector
+    = "daimler"``: the 48x96 Daimler detector, set up as OpenCV's own example sets it up).
 
     Grouping off (``groupThreshold=0``) so that every window's score feeds our NMS and the
     DET curve; boxes mapped back to the frame and shrunk to the person (OpenCV's windows
-    have the INRIA 16-px margins).
+    have the INRIA 16-px margins; Daimler's window is the same window scaled by 3/4).
     """
     import cv2
 
-    hog = cv2.HOGDescriptor()
-    hog.setSVMDetector(cv2.HOGDescriptor_getDefaultPeopleDetector())
+    if detector == "daimler":
+        hog = cv2.HOGDescriptor((48, 96), (16, 16), (8, 8), (8, 8), 9)
+        hog.setSVMDetector(cv2.HOGDescriptor_getDaimlerPeopleDetector())
+    elif detector == "opencv":
+        hog = cv2.HOGDescriptor()
+        hog.setSVMDetector(cv2.HOGDescriptor_getDefaultPeopleDetector())
+    else:
+        raise ValueError(f"detector must be 'opencv' or 'daimler', got {detector!r}")
     img = image if upsample == 1 else cv2.resize(
         image, (image.shape[1] * upsample, image.shape[0] * upsample),
         interpolation=cv2.INTER_LINEAR)

@@ -24,17 +24,20 @@ __all__ = ["RULE_TAGS", "OBJECT_MODEL_TAGS", "OPENCV_NAMES", "GROUND_TAG", "vari
 RULE_TAGS = {"covariant": "", "none": "S only", "paper": "paper eq.3"}
 #: object model -> its tag in a variant's label (none for the default, the person plane)
 OBJECT_MODEL_TAGS = {"plane": "", "body": "body"}
-#: how a method detects -> the detector kinds that have it (``opencv``'s pyramid is OpenCV's
-#: own ``detectMultiScale``; its adapted and warp methods read the same weights)
+#: how a method detects -> the detector kinds that have it (a pretrained kind's pyramid --
+#: ``opencv``, ``daimler`` -- is OpenCV's own ``detectMultiScale``; its adapted and warp
+#: methods read the same weights)
 _WINDOW_KINDS = (*DETECTOR_KINDS, *PRETRAINED_KINDS)
-HOWS = {"adapted": _WINDOW_KINDS, "warp": _WINDOW_KINDS, "pyramid": (*DETECTOR_KINDS, "opencv"),
+HOWS = {"adapted": _WINDOW_KINDS, "warp": _WINDOW_KINDS, "pyramid": _WINDOW_KINDS,
         "pyramid_fast": ("acf",)}
 #: upsampling factors of the frame under a pyramid: the paper's 4x; OpenCV's also 2x
 #: (``opencv_2x``) and the frame as it is (``opencv_native``)
-UPSAMPLES = {"opencv": (4, 2, 1)}
+UPSAMPLES = {k: (4, 2, 1) for k in PRETRAINED_KINDS}
 PYRAMID_UPSAMPLE = 4
-#: OpenCV's method names by upsampling
+#: OpenCV's method names by upsampling (the Daimler detector's: ``daimler``, ``daimler_2x``,
+#: ``daimler_native``)
 OPENCV_NAMES = {4: "opencv", 2: "opencv_2x", 1: "opencv_native"}
+_PYRAMID_SUFFIX = {4: "", 2: "_2x", 1: "_native"}
 #: the tag of a pyramid whose boxes pass the ground-plane filter
 GROUND_TAG = "ground"
 
@@ -57,9 +60,9 @@ class FrameMethod:
     Attributes
     ----------
     kind : str
-        ``"hog"``, ``"acf"`` (the source detectors, :data:`viewadapt.detect.DETECTOR_KINDS`)
-        or ``"opencv"`` (OpenCV's default people detector,
-        :data:`viewadapt.detect.PRETRAINED_KINDS`).
+        ``"hog"``, ``"acf"`` (the source detectors, :data:`viewadapt.detect.DETECTOR_KINDS`),
+        ``"opencv"`` (OpenCV's default people detector) or ``"daimler"`` (OpenCV's 48x96
+        Daimler detector; :data:`viewadapt.detect.PRETRAINED_KINDS`).
     how : str
         ``"adapted"`` (the viewpoint-adapted detector on the candidate windows),
         ``"warp"`` (every candidate window warped into the canonical view), ``"pyramid"``
@@ -137,8 +140,8 @@ class FrameMethod:
         ``"opencv"`` (4x), ``"opencv_2x"``, ``"opencv_native"``; a pyramid with the
         ground-plane filter, e.g. ``"opencv_2x[ground]"``."""
         extra = GROUND_TAG if self.ground else ""
-        if self.kind == "opencv" and self.how == "pyramid":
-            return variant_label(OPENCV_NAMES[self.upsample], extra=extra)
+        if self.kind in PRETRAINED_KINDS and self.how == "pyramid":
+            return variant_label(self.kind + _PYRAMID_SUFFIX[self.upsample], extra=extra)
         return f"{self.kind}_{variant_label(self.how, self.rule, self.object_model, extra=extra)}"
 
     @property
@@ -156,7 +159,7 @@ class FrameMethod:
     @property
     def needs_training(self) -> bool:
         """Whether the method reads the trained source detectors (all but OpenCV's)."""
-        return self.kind != "opencv"
+        return self.kind not in PRETRAINED_KINDS
 
 
 def _all_methods():
@@ -165,9 +168,9 @@ def _all_methods():
         out += [FrameMethod(kind, "adapted", rule, model)
                 for model in OBJECT_MODEL_TAGS for rule in RULE_TAGS]
         out += [FrameMethod(kind, how) for how in ("warp", "pyramid", "pyramid_fast")
-                if kind in HOWS[how] and (kind, how) != ("opencv", "pyramid")]
+                if kind in HOWS[how] and not (kind in PRETRAINED_KINDS and how == "pyramid")]
     # OpenCV's own detectMultiScale at each of its upsamplings
-    out += [FrameMethod("opencv", "pyramid", upsample=u) for u in UPSAMPLES["opencv"]]
+    out += [FrameMethod(k, "pyramid", upsample=u) for k in PRETRAINED_KINDS for u in UPSAMPLES[k]]
     return tuple(out) + tuple(replace(m, ground=True) for m in out if m.how.startswith("pyramid"))
 
 

@@ -23,7 +23,7 @@ from viewadapt.geometry import PERSON_HEIGHT_M
 from viewadapt.io.boxes import FrameBoxes, read_boxes, read_ignore_regions
 from viewadapt.io.cache import DEFAULT_CACHE_LIMIT_GB, check_cache_limit
 from viewadapt.io.calibration import read_calibration_file
-from viewadapt.io.hogfile import read_opencv_hog_detector
+from viewadapt.io.hogfile import DAIMLER_FILE_LAYOUT, HOG_FILE_LAYOUT, read_opencv_hog_detector
 from viewadapt.io.files import atomic_output_dir, atomic_write_text, check_output_dir, run_metadata
 from viewadapt.io.models import SourceDetectors, shipped_model_path
 from viewadapt.io.outputs import (
@@ -40,7 +40,7 @@ __all__ = ["LENS_CHOICES", "DEFAULT_LENS", "register", "cmd_detect", "check_fram
 
 #: How ``detect`` handles a calibration's lens distortion (``--lens``); ``auto`` maps the
 #: windows through the lens with the plane object model and undistorts the frames with the
-#: body model (whose windows cannot be mapped through a lens).
+#: body model (the measured default; ``windows`` maps the body's windows through the lens).
 LENS_CHOICES = ("auto", "windows", "undistort")
 DEFAULT_LENS = "auto"
 
@@ -186,7 +186,11 @@ def _calibration_import(imported) -> dict | None:
 
 #: what each pretrained detector's model is (metadata.json's ``model``)
 _PRETRAINED_MODELS = {"opencv": "OpenCV's HOGDescriptor_getDefaultPeopleDetector (INRIA Person, "
-                                "Dalal & Triggs 2005)"}
+                                "Dalal & Triggs 2005)",
+                      "daimler": "OpenCV's HOGDescriptor_getDaimlerPeopleDetector (48x96, "
+                                 "Daimler pedestrian data, Enzweiler & Gavrila 2009)"}
+#: the HOGDescriptor file layout each pretrained detector's --model must have
+_PRETRAINED_LAYOUTS = {"opencv": HOG_FILE_LAYOUT, "daimler": DAIMLER_FILE_LAYOUT}
 
 
 def _metadata(args, det, stream, writer, dist, correction, annotate, *, imported,
@@ -261,7 +265,8 @@ def cmd_detect(args) -> int:
     if args.detector in PRETRAINED_KINDS:         # its weights come with it, or in --model
         models = None
         if args.model is not None:
-            kinds = {args.detector: opencv_kind(*read_opencv_hog_detector(args.model))}
+            w, b = read_opencv_hog_detector(args.model, _PRETRAINED_LAYOUTS[args.detector])
+            kinds = {args.detector: opencv_kind(w, b, detector=args.detector)}
     else:
         if args.model is None:
             args.model = shipped_model_path()
@@ -431,11 +436,13 @@ def register(sub, common) -> None:
                         "bench frames` (default: the models shipped with viewadapt, trained "
                         "on the paper preset's elevation-0 crops); with --detector opencv a "
                         "64x128 HOG/SVM saved by cv2.HOGDescriptor.save (YAML or XML; "
-                        "default OpenCV's INRIA-trained people detector)")
+                        "default OpenCV's INRIA-trained people detector), with --detector "
+                        "daimler a 48x96 one without gamma correction")
     p.add_argument("--detector", choices=list(DETECTOR_KINDS | PRETRAINED_KINDS), default="hog",
                    help="the adapted detector (default hog: HOG/SVM; acf: boosted trees on ACF; "
                         "both trained on renders, --model; opencv: OpenCV's INRIA-trained "
-                        "HOG/SVM people detector, adapted the same way)")
+                        "HOG/SVM people detector, adapted the same way; daimler: OpenCV's "
+                        "48x96 Daimler-trained one)")
     p.add_argument("--rule", choices=list(ANGLE_RULES), default="covariant",
                    help="angle rule of A: covariant (default, J^-T), paper (the literal eq. 3) "
                         "or none (S only)")

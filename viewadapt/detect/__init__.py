@@ -43,7 +43,7 @@ Example
 from .windows import (
     GROUND_STRIDE_M, PERSON_BOX_WINDOW, CandidateWindows, check_ground_visible,
     window_homographies, select_candidate_windows, person_boxes, window_scale, distort_pixels,
-    windows_through_lens,
+    windows_through_lens, detector_window_homography,
 )
 from .channels import (
     HOG_CELL, N_HOG_BINS, HOG_CHANNELS, HOG_WEIGHT_SHAPE, HOG_CLIP, ACF_SHRINK, N_ACF_CHANNELS,
@@ -54,9 +54,9 @@ from .channels import (
 )
 from .opencv_cells import (
     OPENCV_CHANNELS, OPENCV_WEIGHT_SHAPE, OPENCV_L2HYS_CLIP, opencv_cell_weights,
-    opencv_descriptor_weights, opencv_default_people_detector, opencv_gradients,
-    opencv_block_cells, raw_cell_maps, opencv_window_features, OpenCVFrameFeatures,
-    opencv_frame_features,
+    opencv_descriptor_weights, opencv_default_people_detector, DAIMLER_WINDOW,
+    opencv_daimler_people_detector, opencv_gradients, opencv_block_cells, raw_cell_maps,
+    opencv_window_features, daimler_window_features, OpenCVFrameFeatures, opencv_frame_features,
 )
 from .templates import (
     FRAME_CELL_SIZES, CELLS_PER_SOURCE_CELL, HOG_TOLERANCE, ACF_TOLERANCE, choose_cell_sizes,
@@ -64,11 +64,13 @@ from .templates import (
     check_windows, SnappedBoxes, TemplateOperator,
 )
 from .frame_remap import (
-    SOURCE_DISTANCE_M, patch_cell_grid, resolve_object_model, window_mapping, hog_frame_remap,
-    cell_hog_remap, opencv_frame_remap, acf_frame_remap, acf_gradient_rows,
+    SOURCE_DISTANCE_M, patch_cell_grid, resolve_object_model, window_mapping,
+    from_detector_window, hog_frame_remap, cell_hog_remap, opencv_frame_remap, acf_frame_remap,
+    acf_gradient_rows,
 )
 from .features import (
-    FeatureKind, HOG_FEATURES, OPENCV_FEATURES, ACF_FEATURES, FEATURE_MAKERS, FEATURE_CHANNELS,
+    FeatureKind, HOG_FEATURES, OPENCV_FEATURES, DAIMLER_FEATURES, ACF_FEATURES, FEATURE_MAKERS,
+    FEATURE_CHANNELS,
     feature_maker_to_dict, feature_maker_from_dict,
 )
 from .renorm import (
@@ -85,8 +87,8 @@ from .layers import (
 )
 from .frameview import FRAME_VIEW_SCALES, frame_view, frame_view_features, frame_view_copies
 from .kinds import (
-    DetectorKind, HOG_DETECTOR, ACF_DETECTOR, OPENCV_DETECTOR, DETECTOR_KINDS, PRETRAINED_KINDS,
-    opencv_kind, detector_kind,
+    DetectorKind, HOG_DETECTOR, ACF_DETECTOR, OPENCV_DETECTOR, DAIMLER_DETECTOR, DETECTOR_KINDS,
+    PRETRAINED_KINDS, opencv_kind, detector_kind,
 )
 from .detector import DEFAULT_THRESHOLD, FrameDetections, FrameDetector
 from .training import FRAME_VIEW_CHOICES, DEFAULT_FRAME_VIEW, check_frame_view, train_on_windows
@@ -96,7 +98,8 @@ from .evaluation import standardize_boxes, ground_truth_rows, evaluate_detection
 __all__ = [
     "GROUND_STRIDE_M", "PERSON_BOX_WINDOW", "CandidateWindows", "check_ground_visible",
     "window_homographies", "select_candidate_windows", "person_boxes", "window_scale",
-    "distort_pixels", "windows_through_lens", "HOG_CELL", "N_HOG_BINS", "HOG_CHANNELS",
+    "distort_pixels", "windows_through_lens", "detector_window_homography", "HOG_CELL",
+    "N_HOG_BINS", "HOG_CHANNELS",
     "HOG_WEIGHT_SHAPE", "HOG_CLIP", "ACF_SHRINK", "N_ACF_CHANNELS", "N_ACF_ORIENTS",
     "ACF_WEIGHT_SHAPE", "ACF_GRADIENT_LAMBDA", "fast_orientation_channels",
     "fast_acf_pixel_channels", "acf_channel_cell_maps", "FrameFeatures", "check_frame",
@@ -104,14 +107,16 @@ __all__ = [
     "block_normalize_cells", "hog_window_features", "acf_window_features", "hog_frame_features",
     "acf_frame_features", "OPENCV_CHANNELS", "OPENCV_WEIGHT_SHAPE", "OPENCV_L2HYS_CLIP",
     "opencv_cell_weights", "opencv_descriptor_weights", "opencv_default_people_detector",
+    "DAIMLER_WINDOW", "opencv_daimler_people_detector", "daimler_window_features",
     "opencv_gradients", "opencv_block_cells", "raw_cell_maps", "opencv_window_features",
     "OpenCVFrameFeatures", "opencv_frame_features", "FRAME_CELL_SIZES", "CELLS_PER_SOURCE_CELL",
     "HOG_TOLERANCE", "ACF_TOLERANCE", "choose_cell_sizes", "group_windows", "patch_grid",
     "TemplateGroup", "build_template_groups", "required_padding", "check_windows",
     "SnappedBoxes", "TemplateOperator", "SOURCE_DISTANCE_M", "patch_cell_grid",
-    "resolve_object_model", "window_mapping", "hog_frame_remap", "cell_hog_remap",
+    "resolve_object_model", "window_mapping", "from_detector_window", "hog_frame_remap",
+    "cell_hog_remap",
     "opencv_frame_remap", "acf_frame_remap", "acf_gradient_rows", "FeatureKind", "HOG_FEATURES",
-    "OPENCV_FEATURES", "ACF_FEATURES", "FEATURE_MAKERS", "FEATURE_CHANNELS",
+    "OPENCV_FEATURES", "DAIMLER_FEATURES", "ACF_FEATURES", "FEATURE_MAKERS", "FEATURE_CHANNELS",
     "feature_maker_to_dict", "feature_maker_from_dict", "RENORM_CELLS_PER_SOURCE_CELL",
     "VERIFY_THRESHOLD", "OPENCV_DESCRIPTOR_SIZE", "stage_cell_sizes", "RenormStage",
     "AdaptedLinearOperator", "build_adapted_linear_operator", "build_adapted_opencv_operator",
@@ -119,7 +124,8 @@ __all__ = [
     "frame_to_band", "upsampled_windows", "upsampled_band", "MultiResolutionOperator",
     "build_multiresolution_operator", "FRAME_VIEW_SCALES", "frame_view", "frame_view_features",
     "frame_view_copies", "DetectorKind", "HOG_DETECTOR", "ACF_DETECTOR", "OPENCV_DETECTOR",
-    "DETECTOR_KINDS", "PRETRAINED_KINDS", "opencv_kind", "detector_kind", "DEFAULT_THRESHOLD",
+    "DAIMLER_DETECTOR", "DETECTOR_KINDS", "PRETRAINED_KINDS", "opencv_kind", "detector_kind",
+    "DEFAULT_THRESHOLD",
     "FrameDetections", "FrameDetector", "FRAME_VIEW_CHOICES", "DEFAULT_FRAME_VIEW",
     "check_frame_view", "train_on_windows", "DetectorSpec", "detect_stream",
     "standardize_boxes", "ground_truth_rows", "evaluate_detections",

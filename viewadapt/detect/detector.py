@@ -137,8 +137,6 @@ class FrameDetector:
         if any(grid_phase):                # the default grid's cache keys stay those of before
             self.params["grid_phase"] = [float(v) for v in grid_phase]
         if lens is not None:
-            if object_model != "plane":
-                raise ValueError("windows mapped through a lens need the plane object model")
             lens = check_distortion(lens)
             self.params["lens"] = [float(v) for v in lens]
             self.windows, _ = windows_through_lens(self.windows, camera.K, lens)

@@ -15,10 +15,12 @@ from .channels import (
 )
 from .frame_remap import acf_frame_remap, acf_gradient_rows, hog_frame_remap, opencv_frame_remap
 from .opencv_cells import (
-    OPENCV_CHANNELS, OPENCV_WEIGHT_SHAPE, opencv_frame_features, opencv_window_features,
+    DAIMLER_WINDOW, OPENCV_CHANNELS, OPENCV_WEIGHT_SHAPE, daimler_window_features,
+    opencv_frame_features, opencv_window_features,
 )
 
-__all__ = ["FeatureKind", "HOG_FEATURES", "OPENCV_FEATURES", "ACF_FEATURES", "FEATURE_MAKERS",
+__all__ = ["FeatureKind", "HOG_FEATURES", "OPENCV_FEATURES", "DAIMLER_FEATURES", "ACF_FEATURES",
+           "FEATURE_MAKERS",
            "FEATURE_CHANNELS",
            "feature_maker_to_dict", "feature_maker_from_dict"]
 
@@ -66,6 +68,16 @@ HOG_FEATURES = FeatureKind("hog", HOG_CELL, HOG_WEIGHT_SHAPE, hog_window_feature
 #: (:func:`~viewadapt.detect.opencv_cells.opencv_window_features`)
 OPENCV_FEATURES = FeatureKind("opencv", HOG_CELL, OPENCV_WEIGHT_SHAPE, opencv_window_features,
                               opencv_frame_features, opencv_frame_remap)
+
+
+#: OpenCV's block-normalised HOG cells of the Daimler detector's 48x96 window, no gamma
+#: (:func:`~viewadapt.detect.opencv_cells.daimler_window_features`)
+DAIMLER_FEATURES = FeatureKind("daimler", HOG_CELL,
+                               (DAIMLER_WINDOW[1] // HOG_CELL, DAIMLER_WINDOW[0] // HOG_CELL,
+                                OPENCV_CHANNELS),
+                               daimler_window_features,
+                               partial(opencv_frame_features, gamma=False),
+                               partial(opencv_frame_remap, window=DAIMLER_WINDOW))
 
 
 #: ACF channels (:func:`~viewadapt.detect.channels.acf_window_features`)

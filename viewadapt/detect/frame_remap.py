@@ -22,11 +22,11 @@ from .channels import (
     ACF_SHRINK, ACF_WEIGHT_SHAPE, HOG_CELL, HOG_CHANNELS, N_ACF_CHANNELS, N_ACF_ORIENTS, N_HOG_BINS,
 )
 from .opencv_cells import OPENCV_CHANNELS
-from .windows import CandidateWindows
+from .windows import CandidateWindows, distort_pixels, homographies_through_lens
 
 __all__ = ["SOURCE_DISTANCE_M", "patch_cell_grid", "resolve_object_model", "window_mapping",
-           "hog_frame_remap", "cell_hog_remap", "opencv_frame_remap", "acf_frame_remap",
-           "acf_gradient_rows"]
+           "from_detector_window", "hog_frame_remap", "cell_hog_remap", "opencv_frame_remap",
+           "acf_frame_remap", "acf_gradient_rows"]
 
 
 def patch_cell_grid(g) -> CellGrid:
@@ -73,10 +73,43 @@ def window_mapping(windows: CandidateWindows, n: int, model="plane"):
     source = crop_camera(0.0, distance=SOURCE_DISTANCE_M, person_height=height)
     body = view_mapping(model, source, cam, source_ground=(0.0, 0.0), target_ground=ground,
                         person_height=height, window=(WINDOW_WIDTH, WINDOW_HEIGHT))
-    # frame -> this layer's pixels: the layer's window homography against the plane's
-    to_layer = homography_mapping(H @ np.linalg.inv(
-        window_to_image_homography(cam, ground, height)))
-    return lambda p: to_layer(body(p))
+    pinhole = window_to_image_homography(cam, ground, height)
+    if windows.dist is None:
+        # frame -> this layer's pixels: the layer's window homography against the plane's
+        to_layer = homography_mapping(H @ np.linalg.inv(pinhole))
+        return lambda p: to_layer(body(p))
+    # through the lens: the body's pinhole pixels distorted, then the layer's own window
+    # homography against the one the lens gives the plane on the frame
+    dist = windows.dist
+    fitted = homographies_through_lens(pinhole[None], cam.K, dist)[0]
+    to_layer = homography_mapping(H @ np.linalg.inv(fitted))
+    return lambda p: to_layer(_distorted(body(p), cam.K, dist))
+
+
+def _distorted(points, K, dist) -> np.ndarray:
+    """:func:`~viewadapt.detect.windows.distort_pixels` of the finite ``points`` (others,
+    and points behind the camera, NaN)."""
+    p = np.asarray(points, np.float64)
+    out = np.full(p.shape, np.nan)
+    ok = np.all(np.isfinite(p), axis=-1)
+    if ok.any():
+        rays = np.c_[p[ok], np.ones(int(ok.sum()))] @ np.linalg.inv(np.asarray(K)).T
+        front = rays[:, 2] > 0
+        sub = np.full((int(ok.sum()), 2), np.nan)
+        if front.any():
+            sub[front] = distort_pixels(p[ok][front], K, dist)
+        out[ok] = sub
+    return out
+
+
+def from_detector_window(mapping, T):
+    """A window's mapping (:func:`window_mapping`: a homography or a point mapping of the
+    canonical window) read from a detector window whose pixels ``T`` maps into the
+    canonical window (:func:`~viewadapt.detect.windows.detector_window_homography`)."""
+    if callable(mapping):
+        to_canonical = homography_mapping(T)
+        return lambda p: mapping(to_canonical(p))
+    return np.asarray(mapping) @ T
 
 
 def hog_frame_remap(H, g, rule: str = "covariant") -> sp.csr_matrix:
@@ -94,20 +127,24 @@ def hog_frame_remap(H, g, rule: str = "covariant") -> sp.csr_matrix:
                             n_plain=HOG_CHANNELS - N_HOG_BINS)
 
 
-def cell_hog_remap(H, g, rule: str = "covariant") -> sp.csr_matrix:
+def cell_hog_remap(H, g, rule: str = "covariant", *,
+                   window=(WINDOW_WIDTH, WINDOW_HEIGHT)) -> sp.csr_matrix:
     """``G`` from a frame patch of intensive 9-bin cells (n_y, n_x, 9) to the canonical
     window's (16, 8, 9): ``S (x) A``, area-weighted means
-    (:func:`viewadapt.adapt.hog_remap_matrix`)."""
+    (:func:`viewadapt.adapt.hog_remap_matrix`). With another detector ``window`` (e.g.
+    Daimler's 48x96), ``H`` maps that window's pixels and ``G`` gives its 8-px cells."""
     return hog_remap_matrix(H, source_cell_size=HOG_CELL, target_grid=patch_cell_grid(g),
-                            n_bins=N_HOG_BINS, rule=rule, preserve="mean")
+                            n_bins=N_HOG_BINS, rule=rule, preserve="mean",
+                            window=tuple(window))
 
 
-def opencv_frame_remap(H, g, rule: str = "covariant") -> sp.csr_matrix:
+def opencv_frame_remap(H, g, rule: str = "covariant", *,
+                       window=(WINDOW_WIDTH, WINDOW_HEIGHT)) -> sp.csr_matrix:
     """``G`` from a frame patch of OpenCV's block-normalised cells (n_y, n_x, 36) to the
     canonical window's (16, 8, 36) (:mod:`viewadapt.detect.opencv_cells`): the 9-bin
     :func:`cell_hog_remap` on each of a cell's four normalised copies alike (channel
-    ``9 q + b``)."""
-    G9 = cell_hog_remap(H, g, rule).tocoo()
+    ``9 q + b``); with another detector ``window``, ``H`` maps that window's pixels."""
+    G9 = cell_hog_remap(H, g, rule, window=window).tocoo()
     n_bins, n_ch = N_HOG_BINS, OPENCV_CHANNELS
     r_cell, r_bin = np.divmod(G9.row, n_bins)
     c_cell, c_bin = np.divmod(G9.col, n_bins)

@@ -15,16 +15,20 @@ from functools import cache
 
 import numpy as np
 
-from .features import ACF_FEATURES, HOG_FEATURES, OPENCV_FEATURES
+from ..geometry import WINDOW_HEIGHT, WINDOW_WIDTH
+from .features import ACF_FEATURES, DAIMLER_FEATURES, HOG_FEATURES, OPENCV_FEATURES
 from .linear import AdaptedLinearOperator, build_adapted_linear_operator, \
     build_adapted_opencv_operator
-from .opencv_cells import opencv_cell_weights, opencv_default_people_detector
+from .opencv_cells import (
+    DAIMLER_WINDOW, opencv_cell_weights, opencv_daimler_people_detector,
+    opencv_default_people_detector,
+)
 from .renorm import RENORM_CELLS_PER_SOURCE_CELL, VERIFY_THRESHOLD
 from .templates import ACF_TOLERANCE, HOG_TOLERANCE
 from .trees import AdaptedTreesOperator, build_adapted_trees_operator
 
-__all__ = ["DetectorKind", "HOG_DETECTOR", "ACF_DETECTOR", "OPENCV_DETECTOR", "DETECTOR_KINDS",
-           "PRETRAINED_KINDS", "opencv_kind", "detector_kind"]
+__all__ = ["DetectorKind", "HOG_DETECTOR", "ACF_DETECTOR", "OPENCV_DETECTOR", "DAIMLER_DETECTOR",
+           "DETECTOR_KINDS", "PRETRAINED_KINDS", "opencv_kind", "detector_kind"]
 
 
 class DetectorKind:
@@ -38,12 +42,16 @@ class DetectorKind:
         Default shape tolerance of shared templates, in this detector's frame cells.
     operator_class : type
         Its operator; gives the NMS setting (``nms_overlap``, ``nms_threshold``).
+    window : (width, height)
+        The detector's window, px: the canonical 64x128, or that window scaled
+        (:func:`~viewadapt.detect.windows.detector_window_homography`; Daimler's 48x96).
     """
 
     name: str
     features: object
     tolerance: float
     operator_class: type
+    window: tuple = (WINDOW_WIDTH, WINDOW_HEIGHT)
 
     @property
     def nms_overlap(self) -> str:
@@ -114,6 +122,13 @@ def _opencv_people():
     return W, b
 
 
+@cache
+def _daimler_people():
+    W, b = opencv_daimler_people_detector()
+    W.setflags(write=False)
+    return W, b
+
+
 class _OpenCVDetector(DetectorKind):
     """OpenCV's INRIA-trained HOG/SVM people detector (``getDefaultPeopleDetector``; Dalal &
     Triggs 2005) -- or another 64x128 HOG/SVM in OpenCV's layout (:func:`opencv_kind`) --
@@ -125,46 +140,69 @@ class _OpenCVDetector(DetectorKind):
     name, features, tolerance = "opencv", OPENCV_FEATURES, HOG_TOLERANCE
     operator_class = AdaptedLinearOperator
 
+    #: OpenCV's square-root gamma correction in the features
+    gamma = True
+    _default = staticmethod(_opencv_people)
+
     def __init__(self, weights=None, bias: float = 0.0):
         self._own = None
         if weights is not None:
-            W = opencv_cell_weights(weights)
+            W = opencv_cell_weights(weights, window=self.window)
             W.setflags(write=False)
             self._own = (W, float(bias))
 
     def model(self, models=None):
-        return self._own if self._own is not None else _opencv_people()
+        return self._own if self._own is not None else self._default()
 
     def model_fingerprint(self, models=None) -> str:
         W, b = self.model()
         h = hashlib.sha256(np.ascontiguousarray(W, np.float64).tobytes())
         h.update(np.float64(b).tobytes())
         h.update(f"renorm {RENORM_CELLS_PER_SOURCE_CELL} {VERIFY_THRESHOLD} binned".encode())
+        if self.window != (WINDOW_WIDTH, WINDOW_HEIGHT) or not self.gamma:
+            h.update(f"window {self.window} gamma {self.gamma}".encode())
         return h.hexdigest()
 
     def build_operator(self, windows, models, **kw):
         W, b = self.model()
-        return build_adapted_opencv_operator(windows, W, b, **kw)
+        return build_adapted_opencv_operator(windows, W, b, window=self.window,
+                                             gamma=self.gamma, **kw)
 
     def window_scores(self, models, X):
         W, b = self.model()
         return np.asarray(X, np.float64) @ np.ravel(W) + b
 
 
-def opencv_kind(weights, bias: float = 0.0) -> DetectorKind:
+class _DaimlerDetector(_OpenCVDetector):
+    """OpenCV's Daimler-trained 48x96 HOG/SVM people detector (``getDaimlerPeopleDetector``),
+    without gamma correction as OpenCV's own example runs it, adapted like ``opencv``: its
+    window is the canonical one scaled by 3/4, so the candidate windows are the same and
+    each window's homography is read through
+    :func:`~viewadapt.detect.windows.detector_window_homography`."""
+
+    name, features, window, gamma = "daimler", DAIMLER_FEATURES, DAIMLER_WINDOW, False
+    _default = staticmethod(_daimler_people)
+
+
+def opencv_kind(weights, bias: float = 0.0, *, detector: str = "opencv") -> DetectorKind:
     """The ``opencv`` detector kind with another 64x128 HOG/SVM in OpenCV's descriptor
     layout (``weights`` (3780,), ``bias``), e.g. one of
-    :func:`viewadapt.io.read_opencv_hog_detector`."""
-    return _OpenCVDetector(weights, bias)
+    :func:`viewadapt.io.read_opencv_hog_detector`; ``detector="daimler"``: the ``daimler``
+    kind with another 48x96 one (1980 weights, read without gamma correction)."""
+    kinds = {"opencv": _OpenCVDetector, "daimler": _DaimlerDetector}
+    if detector not in kinds:
+        raise ValueError(f"detector must be one of {tuple(kinds)}, got {detector!r}")
+    return kinds[detector](weights, bias)
 
 
 HOG_DETECTOR = _HogDetector()
 ACF_DETECTOR = _AcfDetector()
 OPENCV_DETECTOR = _OpenCVDetector()
+DAIMLER_DETECTOR = _DaimlerDetector()
 #: the adapted full-frame detectors trained on the source view (:class:`SourceDetectors`)
 DETECTOR_KINDS = {k.name: k for k in (HOG_DETECTOR, ACF_DETECTOR)}
 #: the adapted full-frame detectors that come trained (on real photographs)
-PRETRAINED_KINDS = {k.name: k for k in (OPENCV_DETECTOR,)}
+PRETRAINED_KINDS = {k.name: k for k in (OPENCV_DETECTOR, DAIMLER_DETECTOR)}
 
 
 def detector_kind(name) -> DetectorKind:

@@ -55,7 +55,7 @@ def _band_windows(windows, f, rows):
     return CandidateWindows(windows.ground_xy, windows.person_height,
                             frame_to_band(f, r0) @ windows.homographies,
                             (f * windows.image_size[0], f * (r1 - r0)), windows.grid_index,
-                            windows.camera)
+                            windows.camera, windows.dist)
 
 
 class _Layer(NamedTuple):

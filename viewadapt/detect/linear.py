@@ -24,21 +24,24 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..arrays import stored_array
+from ..geometry import WINDOW_HEIGHT, WINDOW_WIDTH
 from ..objectmodel import PlaneModel
 from .channels import (
     HOG_CELL, HOG_CHANNELS, HOG_WEIGHT_SHAPE, N_HOG_BINS, FrameFeatures, hog_frame_features,
 )
 from .features import FEATURE_CHANNELS
-from .frame_remap import cell_hog_remap, hog_frame_remap, resolve_object_model, window_mapping
+from .frame_remap import (
+    cell_hog_remap, from_detector_window, hog_frame_remap, resolve_object_model, window_mapping,
+)
 from .opencv_cells import (
-    OPENCV_CHANNELS, OPENCV_WEIGHT_SHAPE, opencv_descriptor_weights, opencv_frame_features,
+    OPENCV_CHANNELS, opencv_descriptor_weights, opencv_frame_features,
 )
 from .renorm import VERIFY_THRESHOLD, RenormStage, stage_cell_sizes
 from .templates import (
     CELLS_PER_SOURCE_CELL, FRAME_CELL_SIZES, HOG_TOLERANCE, TemplateOperator, build_template_groups,
     check_windows, choose_cell_sizes, required_padding,
 )
-from .windows import CandidateWindows
+from .windows import CandidateWindows, detector_window_homography
 
 __all__ = ["AdaptedLinearOperator", "build_adapted_linear_operator",
            "build_adapted_opencv_operator"]
@@ -396,11 +399,14 @@ def build_adapted_linear_operator(windows: CandidateWindows, weights, bias: floa
     return _operator(windows, cell, groups, bias, tolerance, hog_frame_features, HOG_CHANNELS)
 
 
-def _template_groups(windows, tolerance, cells_per_source_cell, allowed_cell_sizes):
-    """The frame cell size of every window and the template groups of both builders."""
+def _template_groups(windows, tolerance, cells_per_source_cell, allowed_cell_sizes,
+                     source_px: float = 1.0):
+    """The frame cell size of every window and the template groups of both builders;
+    ``source_px``: canonical-window px per detector-window px (4/3 for Daimler's)."""
     if not np.isfinite(tolerance) or tolerance < 0:
         raise ValueError(f"tolerance must be >= 0 cells, got {tolerance!r}")
-    cell = choose_cell_sizes(windows.scale, HOG_CELL, cells_per_source_cell=cells_per_source_cell,
+    cell = choose_cell_sizes(windows.scale * source_px, HOG_CELL,
+                             cells_per_source_cell=cells_per_source_cell,
                              allowed=allowed_cell_sizes)
     return cell, build_template_groups(windows, cell, tolerance)
 
@@ -424,7 +430,8 @@ def build_adapted_opencv_operator(windows: CandidateWindows, weights, bias: floa
                                   allowed_cell_sizes=FRAME_CELL_SIZES,
                                   rule: str = "covariant",
                                   object_model="plane", renorm: bool = True,
-                                  verify_threshold: float = VERIFY_THRESHOLD
+                                  verify_threshold: float = VERIFY_THRESHOLD,
+                                  window=(WINDOW_WIDTH, WINDOW_HEIGHT), gamma: bool = True
                                   ) -> AdaptedLinearOperator:
     """The adapted detector of every candidate window for an OpenCV HOG/SVM (eq. (7)).
 
@@ -439,30 +446,41 @@ def build_adapted_opencv_operator(windows: CandidateWindows, weights, bias: floa
     (raw cells remapped by each window's own ``G``, blocks normalised in the window); the
     operator's boxes are then the windows' exact ones. The other parameters are
     :func:`build_adapted_linear_operator`'s.
+
+    ``window`` is the detector's, (width, height) px: the canonical 64x128 or that window
+    scaled (Daimler's 48x96; :func:`~viewadapt.detect.windows.detector_window_homography`),
+    ``weights`` then of shape ``(height // 8, width // 8, 36)``; ``gamma``: OpenCV's
+    square-root gamma correction in the features (Daimler's detector runs without).
     """
     check_windows(windows)
+    T = detector_window_homography(window)
+    shape = (int(window[1]) // HOG_CELL, int(window[0]) // HOG_CELL, OPENCV_CHANNELS)
     w = np.asarray(weights, dtype=np.float64)
-    if w.size != int(np.prod(OPENCV_WEIGHT_SHAPE)) or not np.all(np.isfinite(w)):
-        raise ValueError(f"weights must be {int(np.prod(OPENCV_WEIGHT_SHAPE))} finite values "
-                         f"over {OPENCV_WEIGHT_SHAPE} cells (opencv_cell_weights), got {w.size}")
-    cell, groups = _template_groups(windows, tolerance, cells_per_source_cell, allowed_cell_sizes)
+    if w.size != int(np.prod(shape)) or not np.all(np.isfinite(w)):
+        raise ValueError(f"weights must be {int(np.prod(shape))} finite values "
+                         f"over {shape} cells (opencv_cell_weights), got {w.size}")
+    k = float(T[0, 0])                     # canonical px per detector px
+    cell, groups = _template_groups(windows, tolerance, cells_per_source_cell,
+                                    allowed_cell_sizes, k)
     # one 9-bin weight vector per normalised copy q (channels 9 q ... 9 q + 8)
-    wq = w.reshape(OPENCV_WEIGHT_SHAPE[:2] + (OPENCV_CHANNELS // N_HOG_BINS, N_HOG_BINS))
+    wq = w.reshape(shape[:2] + (OPENCV_CHANNELS // N_HOG_BINS, N_HOG_BINS))
     wq = [wq[:, :, q].ravel() for q in range(wq.shape[2])]
     model = resolve_object_model(object_model)
     for g in groups:
-        G9 = cell_hog_remap(window_mapping(windows, g.prototype, model), g, rule).T.tocsr()
+        mapping = from_detector_window(window_mapping(windows, g.prototype, model), T)
+        G9 = cell_hog_remap(mapping, g, rule, window=window).T.tocsr()
         g.template = np.concatenate(
             [np.asarray(G9 @ v, np.float32).reshape(g.shape[0], g.shape[1], N_HOG_BINS)
              for v in wq], axis=2)
     stage = None
     if renorm and isinstance(model, PlaneModel):
         stage = RenormStage(windows.homographies,
-                            stage_cell_sizes(windows.scale, allowed_cell_sizes),
-                            opencv_descriptor_weights(w.reshape(OPENCV_WEIGHT_SHAPE)), bias,
-                            threshold=verify_threshold, rule=rule)
+                            stage_cell_sizes(windows.scale * k, allowed_cell_sizes),
+                            opencv_descriptor_weights(w.reshape(shape)), bias,
+                            threshold=verify_threshold, rule=rule, window=window)
+    extra = {} if gamma else {"gamma": False}  # (the stored keys of before when on)
     op = _operator(windows, cell, groups, bias, tolerance, opencv_frame_features,
-                   OPENCV_CHANNELS, raw_cell_sizes=stage.cell_sizes if stage else [])
+                   OPENCV_CHANNELS, raw_cell_sizes=stage.cell_sizes if stage else [], **extra)
     if stage is not None:           # the final scores are the windows' own
         op.stage = stage
         op.snapped_homographies = stage.homographies

@@ -15,7 +15,9 @@ the grid at 8-px cells the model's score is OpenCV's own; the adapted operator
 normalised cells through ``G = S (x) A`` (Wang et al. 2017, eq. (7)) applied to each of
 the four copies alike (:func:`~viewadapt.detect.frame_remap.opencv_frame_remap`): the
 block normalisation is done in the target view, on the frame's grid, and ``G`` folds
-into the weights.
+into the weights. OpenCV's Daimler detector (48x96, no gamma correction;
+:func:`opencv_daimler_people_detector`) is the same model in a window the canonical one
+scaled by 3/4 (:func:`~viewadapt.detect.windows.detector_window_homography`).
 
 References
 ----------
@@ -34,8 +36,10 @@ from ..geometry import WINDOW_HEIGHT, WINDOW_WIDTH
 from .channels import HOG_CELL, N_HOG_BINS, FrameFeatures, check_frame, gradient_bins, padded_maps
 
 __all__ = ["OPENCV_CHANNELS", "OPENCV_WEIGHT_SHAPE", "OPENCV_L2HYS_CLIP", "opencv_cell_weights",
-           "opencv_descriptor_weights", "opencv_default_people_detector", "opencv_gradients",
+           "opencv_descriptor_weights", "opencv_default_people_detector",
+           "DAIMLER_WINDOW", "opencv_daimler_people_detector", "opencv_gradients",
            "block_axis_weights", "opencv_block_cells", "raw_cell_maps", "opencv_window_features",
+           "daimler_window_features",
            "OpenCVFrameFeatures",
            "opencv_frame_features"]
 
@@ -101,6 +105,22 @@ def opencv_default_people_detector() -> tuple[np.ndarray, float]:
     return opencv_cell_weights(v[:-1]), float(v[-1])
 
 
+#: Window of OpenCV's Daimler people detector, (width, height) px: the 64x128 window scaled
+#: by 3/4, the person 72 px tall in it as 96 px in the 64x128 one.
+DAIMLER_WINDOW = (48, 96)
+
+
+def opencv_daimler_people_detector() -> tuple[np.ndarray, float]:
+    """OpenCV's Daimler-trained 48x96 people detector (``getDaimlerPeopleDetector``; Enzweiler
+    & Gavrila 2009's data) over cells: ``(W, b)``, ``W`` (12, 6, 36)
+    (:func:`opencv_cell_weights`). OpenCV's own example runs it without gamma correction
+    (``HOGDescriptor((48, 96), (16, 16), (8, 8), (8, 8), 9)``)."""
+    import cv2
+
+    v = np.asarray(cv2.HOGDescriptor_getDaimlerPeopleDetector(), np.float64).ravel()
+    return opencv_cell_weights(v[:-1], window=DAIMLER_WINDOW), float(v[-1])
+
+
 def block_axis_weights(c: int) -> np.ndarray:
     """(2c, 2) per-pixel weight along one axis of a 2c-px block for its two cells: OpenCV's
     Gaussian block window (sigma = block / 4, centred at ``block / 2``) times the bilinear
@@ -114,13 +134,16 @@ def block_axis_weights(c: int) -> np.ndarray:
     return gauss[:, None] * tent
 
 
-#: Square roots of the 8-bit values (the gamma of :func:`opencv_gradients`).
+#: Square roots of the 8-bit values (the gamma of :func:`opencv_gradients`), and the
+#: values themselves (no gamma).
 _ROOTS = np.sqrt(np.arange(256, dtype=np.float32))
+_LEVELS = np.arange(256, dtype=np.float32)
 
 
-def opencv_gradients(image) -> tuple[np.ndarray, np.ndarray]:
-    """``cv2.HOGDescriptor``'s gradients of an image: square-root gamma, central
-    differences (reflect-101 borders), the colour channel of largest magnitude; the (M, N)
+def opencv_gradients(image, *, gamma: bool = True) -> tuple[np.ndarray, np.ndarray]:
+    """``cv2.HOGDescriptor``'s gradients of an image: square-root gamma (unless ``gamma``
+    is False), central differences (reflect-101 borders), the colour channel of largest
+    magnitude; the (M, N)
     float32 magnitude and 9-bin coordinate of
     :func:`~viewadapt.detect.channels.gradient_bins`. An 8-bit image of at least 2 x 2
     pixels takes one compiled pass from its values' square roots to the strongest
@@ -135,11 +158,11 @@ def opencv_gradients(image) -> tuple[np.ndarray, np.ndarray]:
         img = img[:, :, None]
     if img.dtype != np.uint8 or img.ndim != 3 or img.shape[2] not in (1, 3) \
             or min(img.shape[:2]) < 2:
-        return gradient_bins(image, n_bins=N_HOG_BINS, gamma=True)
+        return gradient_bins(image, n_bins=N_HOG_BINS, gamma=bool(gamma))
     M, N = img.shape[:2]
     gx = np.empty((M, N), np.float32)
     gy = np.empty((M, N), np.float32)
-    strongest_sqrt_gradient(img, _ROOTS, gx, gy)
+    strongest_sqrt_gradient(img, _ROOTS if gamma else _LEVELS, gx, gy)
     mag, ang = cv2.cartToPolar(gx, gy)
     t = np.empty_like(ang)
     angle_bins(ang, N_HOG_BINS / np.pi, N_HOG_BINS, t)
@@ -184,10 +207,21 @@ def opencv_block_cells(gradients, c: int, *, out=None, rows=None) -> np.ndarray:
     return out
 
 
-def opencv_window_features(window) -> np.ndarray:
-    """(16, 8, 36) normalised cells of a canonical 128x64 window: ``cv2.HOGDescriptor``'s
-    descriptor of the window rearranged by cell (:func:`opencv_cell_weights`' layout)."""
-    return opencv_block_cells(opencv_gradients(check_frame(window)), HOG_CELL)
+def opencv_window_features(window, *, gamma: bool = True) -> np.ndarray:
+    """(16, 8, 36) normalised cells of a canonical 128x64 window (of any window, (h // 8,
+    w // 8, 36)): ``cv2.HOGDescriptor``'s descriptor of the window rearranged by cell
+    (:func:`opencv_cell_weights`' layout); ``gamma``: OpenCV's ``gammaCorrection``."""
+    return opencv_block_cells(opencv_gradients(check_frame(window), gamma=gamma), HOG_CELL)
+
+
+def daimler_window_features(window) -> np.ndarray:
+    """(12, 6, 36) normalised cells of a 96x48 window as OpenCV's Daimler detector reads it
+    (no gamma correction; :func:`opencv_window_features`)."""
+    img = check_frame(window)
+    if img.shape[:2] != DAIMLER_WINDOW[::-1]:
+        raise ValueError(f"a Daimler window is {DAIMLER_WINDOW[1]}x{DAIMLER_WINDOW[0]} px, "
+                         f"got {img.shape[0]}x{img.shape[1]}")
+    return opencv_window_features(img, gamma=False)
 
 
 def raw_cell_maps(gradients, cell_sizes, rows=None) -> tuple[dict, np.ndarray, np.ndarray]:
@@ -250,12 +284,14 @@ class OpenCVFrameFeatures(FrameFeatures):
 
 
 def opencv_frame_features(image, cell_sizes, *, pad: int = 2, image_size=None,
-                          raw_cell_sizes=(), rows=None, raw_rows=None) -> OpenCVFrameFeatures:
+                          raw_cell_sizes=(), rows=None, raw_rows=None,
+                          gamma: bool = True) -> OpenCVFrameFeatures:
     """OpenCV's block-normalised cells of a frame at several cell sizes, native resolution:
     the gradients once (:func:`opencv_gradients`), the cells of each size from them
     (:func:`opencv_block_cells`), and the raw 9-bin cells of each of ``raw_cell_sizes``
     (:func:`raw_cell_maps`). ``rows`` and ``raw_rows`` (dicts ``c -> (y0, y1)``, optional)
-    limit a size's maps to the cell rows an operator reads (the others are 0).
+    limit a size's maps to the cell rows an operator reads (the others are 0); ``gamma``:
+    OpenCV's square-root gamma correction (:func:`opencv_gradients`).
 
     Returns
     -------
@@ -264,7 +300,7 @@ def opencv_frame_features(image, cell_sizes, *, pad: int = 2, image_size=None,
     img = check_frame(image, image_size)
     M, N = img.shape[:2]
     order, flat, maps = padded_maps(cell_sizes, (M, N), pad, OPENCV_CHANNELS)
-    grad = opencv_gradients(img)
+    grad = opencv_gradients(img, gamma=gamma)
     for c, F in maps.items():
         opencv_block_cells(grad, c, out=F[pad:pad + M // c, pad:pad + N // c],
                            rows=None if rows is None else rows.get(c))

@@ -26,8 +26,10 @@ import numpy as np
 from ..arrays import is_int, stored_array
 from ..remap import ANGLE_RULES
 from .channels import HOG_CELL
+from ..geometry import WINDOW_HEIGHT, WINDOW_WIDTH
 from .opencv_cells import OPENCV_CHANNELS, OPENCV_L2HYS_CLIP, block_axis_weights
 from .templates import choose_cell_sizes
+from .windows import detector_window_homography
 
 __all__ = ["RENORM_CELLS_PER_SOURCE_CELL", "VERIFY_THRESHOLD", "OPENCV_DESCRIPTOR_SIZE", "BINNINGS",
            "stage_cell_sizes", "RenormStage"]
@@ -56,7 +58,8 @@ class RenormStage:
     cell_size : (N,) int array_like
         The raw cell size each window reads.
     weights : (3780,) array_like
-        The SVM's weights in OpenCV's descriptor layout; ``bias`` its bias.
+        The SVM's weights in OpenCV's descriptor layout (of its ``window``); ``bias`` its
+        bias.
     threshold : float
         Windows whose folded score is below it are not rescored.
     rule : {"covariant", "paper", "none"}
@@ -66,21 +69,27 @@ class RenormStage:
         block's affine approximation (:func:`viewadapt._renorm_kernels.renorm_scores_binned`);
         ``"cells"``: each source cell reads the frame cells under its image, hard binned
         (:func:`viewadapt._renorm_kernels.renorm_scores`).
+    window : (width, height)
+        The detector's window, px: the canonical 64x128 or that window scaled
+        (:func:`~viewadapt.detect.windows.detector_window_homography`, e.g. Daimler's 48x96);
+        ``homographies`` stay those of the canonical window.
     """
 
     def __init__(self, homographies, cell_size, weights, bias, *,
                  threshold: float = VERIFY_THRESHOLD, rule: str = "covariant",
-                 binning: str = "opencv"):
+                 binning: str = "opencv", window=(WINDOW_WIDTH, WINDOW_HEIGHT)):
         H = np.ascontiguousarray(homographies, np.float64).reshape(-1, 3, 3)
         cell = np.ascontiguousarray(cell_size, np.int64).ravel()
         w = np.ascontiguousarray(weights, np.float32).ravel()
         if len(cell) != len(H) or (len(cell) and cell.min() < 1):
             raise ValueError(f"one positive cell size per window: {len(cell)} sizes for "
                              f"{len(H)} windows")
-        if w.size != OPENCV_DESCRIPTOR_SIZE or not np.all(np.isfinite(w)) \
-                or not np.all(np.isfinite(H)):
-            raise ValueError(f"weights must be {OPENCV_DESCRIPTOR_SIZE} finite values and the "
-                             "homographies finite")
+        T = detector_window_homography(window)
+        self.window = (int(window[0]), int(window[1]))
+        self._cells = (self.window[0] // HOG_CELL, self.window[1] // HOG_CELL)
+        n_w = (self._cells[0] - 1) * (self._cells[1] - 1) * OPENCV_CHANNELS
+        if w.size != n_w or not np.all(np.isfinite(w)) or not np.all(np.isfinite(H)):
+            raise ValueError(f"weights must be {n_w} finite values and the homographies finite")
         if rule not in ANGLE_RULES or not np.isfinite(threshold) or not np.isfinite(bias):
             raise ValueError(f"rule must be one of {ANGLE_RULES} and the threshold and bias "
                              f"finite, got {rule!r}, {threshold!r}, {bias!r}")
@@ -88,6 +97,8 @@ class RenormStage:
             raise ValueError(f"binning must be one of {BINNINGS}, got {binning!r}")
         self.binning = binning
         self.homographies, self.cell = H, cell
+        #: detector window -> frame px of each window
+        self._window_h = H @ T if self.window != (WINDOW_WIDTH, WINDOW_HEIGHT) else H
         self.weights, self.bias = w, float(bias)
         self.threshold, self.rule = float(threshold), str(rule)
         self.cell_sizes = sorted(set(int(c) for c in cell))
@@ -113,9 +124,9 @@ class RenormStage:
         dims = np.array([maps[c].shape[:2] for c in order], np.int64).reshape(-1, 2)
         out = np.empty(len(index))
         args = (flat, np.asarray(offsets, np.int64), dims, size_of, np.array(order, np.int64),
-                self.homographies[index], self.weights, np.float32(self.bias),
-                np.float32(0.1 * OPENCV_CHANNELS), np.float32(OPENCV_L2HYS_CLIP),
-                _RULE_CODES[self.rule])
+                np.ascontiguousarray(self._window_h[index]), self.weights,
+                np.float32(self.bias), np.float32(0.1 * OPENCV_CHANNELS),
+                np.float32(OPENCV_L2HYS_CLIP), _RULE_CODES[self.rule], *self._cells)
         if self.binning == "opencv":
             renorm_scores_binned(*args, block_axis_weights(HOG_CELL).astype(np.float32), out)
         else:
@@ -128,15 +139,17 @@ class RenormStage:
         the windows -- the frame cells under each block's (or cell's) affine image, as the
         compiled loops bound them, and a row more on each side."""
         h = int(image_size[1])
+        nx, ny = self._cells
         if self.binning == "opencv":    # each block's centre, its reach 8 |J_yy| + 1 px
-            points = [(8.0 * bx + 7.5, 8.0 * by + 7.5) for bx in range(7) for by in range(15)]
+            points = [(8.0 * bx + 7.5, 8.0 * by + 7.5)
+                      for bx in range(nx - 1) for by in range(ny - 1)]
             half, margin = 8.0, 1.0
         else:                           # each cell's centre, its reach 4 |J_yy|
-            points = [(8.0 * i + 3.5, 8.0 * j + 3.5) for i in range(8) for j in range(16)]
+            points = [(8.0 * i + 3.5, 8.0 * j + 3.5) for i in range(nx) for j in range(ny)]
             half, margin = 4.0, 0.0
         out = {}
         for c in self.cell_sizes:
-            H = self.homographies[self.cell == c]
+            H = self._window_h[self.cell == c]
             ny = h // c
             y0, y1 = ny, 0
             for x, y in points:
@@ -152,8 +165,11 @@ class RenormStage:
 
     def to_arrays(self) -> tuple[dict, dict]:
         """``(meta, arrays)`` of the stage (its homographies are the operator's)."""
-        return (dict(threshold=self.threshold, rule=self.rule, bias=self.bias,
-                     binning=self.binning),
+        meta = dict(threshold=self.threshold, rule=self.rule, bias=self.bias,
+                    binning=self.binning)
+        if self.window != (WINDOW_WIDTH, WINDOW_HEIGHT):
+            meta["window"] = list(self.window)
+        return (meta,
                 dict(renorm_cell=self.cell, renorm_weights=self.weights))
 
     @classmethod
@@ -168,7 +184,19 @@ class RenormStage:
             raise ValueError("its normalisation stage's cell sizes are not integers")
         return cls(homographies, cell, stored_array(arrays, "renorm_weights", "f", ndim=1),
                    meta["bias"], threshold=meta["threshold"], rule=meta.get("rule"),
-                   binning=meta.get("binning"))
+                   binning=meta.get("binning"), window=_stored_window(meta.get("window")))
+
+
+def _stored_window(v):
+    """A stored stage's detector window (absent: the canonical one); ``ValueError`` for
+    anything but two positive integers."""
+    if v is None:
+        return (WINDOW_WIDTH, WINDOW_HEIGHT)
+    if not (isinstance(v, list) and len(v) == 2
+            and all(isinstance(x, int) and not isinstance(x, bool) and 16 <= x <= 1024
+                    for x in v)):
+        raise ValueError(f"its normalisation stage's window is {v!r}")
+    return tuple(v)
 
 
 def stage_cell_sizes(scale, allowed) -> np.ndarray:

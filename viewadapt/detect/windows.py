@@ -53,8 +53,10 @@ __all__ = [
     "select_candidate_windows",
     "person_boxes",
     "window_scale",
+    "detector_window_homography",
     "distort_pixels",
     "windows_through_lens",
+    "homographies_through_lens",
 ]
 
 #: The paper's real-world stride, ``8 * 1.75 / 96`` metres (Sec. 5.1).
@@ -88,6 +90,9 @@ class CandidateWindows:
         The camera the windows were selected for (its frame pixels, not those of an
         upsampled band): what an object model other than the plane maps through
         (:func:`~viewadapt.detect.templates.window_mapping`).
+    dist : (D,) ndarray or None
+        The lens the frame is seen through (OpenCV coefficients of ``camera.K``) when the
+        homographies were fitted through it (:func:`windows_through_lens`); None: pinhole.
     """
 
     ground_xy: np.ndarray
@@ -96,6 +101,7 @@ class CandidateWindows:
     image_size: tuple
     grid_index: np.ndarray
     camera: object = None
+    dist: object = None
 
     def __len__(self) -> int:
         return int(self.ground_xy.shape[0])
@@ -122,7 +128,7 @@ class CandidateWindows:
         """The windows selected by ``index`` (boolean mask or integer array)."""
         return CandidateWindows(self.ground_xy[index], self.person_height[index],
                                 self.homographies[index], self.image_size,
-                                self.grid_index[index], self.camera)
+                                self.grid_index[index], self.camera, self.dist)
 
 
 def window_scale(homographies) -> np.ndarray:
@@ -131,6 +137,21 @@ def window_scale(homographies) -> np.ndarray:
     H = np.asarray(homographies, dtype=np.float64).reshape(-1, 3, 3)
     return np.linalg.norm(map_points(H, WINDOW_FEET) - map_points(H, WINDOW_HEAD), axis=1) \
         / WINDOW_PERSON_HEIGHT_PX
+
+
+def detector_window_homography(window) -> np.ndarray:
+    """(3, 3) homography from a detector's window of ``window = (width, height)`` px to the
+    canonical 64x128 window, for a detector whose window is the canonical one scaled
+    (the person in the same place, e.g. Daimler's 48x96): pixel centres
+    ``x' = k x + (k - 1) / 2``, ``k = 64 / width = 128 / height``; ``ValueError`` for a
+    window of another shape."""
+    w, h = (int(v) for v in window)
+    k = WINDOW_WIDTH / w
+    if w <= 0 or h <= 0 or abs(WINDOW_HEIGHT / h - k) > 1e-12:
+        raise ValueError(f"a detector window must have the canonical window's shape "
+                         f"({WINDOW_WIDTH}:{WINDOW_HEIGHT}), got {w}x{h}")
+    c = (k - 1.0) / 2.0
+    return np.array([[k, 0.0, c], [0.0, k, c], [0.0, 0.0, 1.0]])
 
 
 def person_boxes(homographies) -> np.ndarray:
@@ -474,26 +495,35 @@ def windows_through_lens(windows: CandidateWindows, K, dist) -> tuple:
     -------
     (CandidateWindows, keep)
         The windows whose distorted corners stay inside the frame, with the fitted
-        homographies (``camera`` None: the pinhole camera no longer describes them), and
-        the (N,) bool mask of ``windows`` they are.
+        homographies and the lens (``dist``; ``camera`` kept: an object model other than
+        the plane maps through the camera, then the lens), and the (N,) bool mask of
+        ``windows`` they are.
     """
+    w, h = windows.image_size
+    fitted = homographies_through_lens(windows.homographies, K, dist)
+    keep = _corners_inside(fitted, w, h)
+    if not keep.any():
+        raise ValueError("no candidate window stays inside the frame through the lens")
+    out = CandidateWindows(windows.ground_xy[keep], windows.person_height[keep], fitted[keep],
+                           windows.image_size, windows.grid_index[keep], windows.camera,
+                           np.asarray(dist, np.float64).copy())
+    return out, keep
+
+
+def homographies_through_lens(homographies, K, dist) -> np.ndarray:
+    """(N, 3, 3) homographies fitted (least squares, ``cv2.findHomography``) to where the
+    lens puts a 5 x 9 grid of each pinhole window's points (:func:`windows_through_lens`)."""
     import cv2
 
-    H = windows.homographies
-    w, h = windows.image_size
+    H = np.asarray(homographies, np.float64).reshape(-1, 3, 3)
     fitted = np.empty_like(H)
     seen = distort_pixels(map_points(H, _LENS_FIT_POINTS), K, dist)      # (N, P, 2)
-    for k in range(len(windows)):
+    for k in range(len(H)):
         G, _ = cv2.findHomography(_LENS_FIT_POINTS, seen[k], 0)
         if G is None:
             raise ValueError("the lens model folds a candidate window over itself: check "
                              "the distortion coefficients")
         fitted[k] = G / G[2, 2]
-    keep = _corners_inside(fitted, w, h)
-    if not keep.any():
-        raise ValueError("no candidate window stays inside the frame through the lens")
-    out = CandidateWindows(windows.ground_xy[keep], windows.person_height[keep], fitted[keep],
-                           windows.image_size, windows.grid_index[keep], None)
-    return out, keep
+    return fitted
 
 

@@ -38,7 +38,7 @@ from .imports import (
     check_filestorage_text, calibration_format, read_imported_calibration, read_tsai_calibration,
     read_opencv_calibration, tsai_rotation, tsai_distortion_to_opencv,
 )
-from .hogfile import HOG_FILE_LAYOUT, read_opencv_hog_detector
+from .hogfile import DAIMLER_FILE_LAYOUT, HOG_FILE_LAYOUT, read_opencv_hog_detector
 from .calibration import (
     CalibrationFile, read_calibration_file, read_calibration, read_distortion,
     read_correspondences, CORRESPONDENCE_COLUMNS, CALIBRATION_KEYS,
@@ -64,7 +64,7 @@ __all__ = [
     "MAX_TSAI_FIT_ERROR_PX", "ImportedCalibration", "read_calibration_text",
     "check_filestorage_text", "calibration_format", "read_imported_calibration",
     "read_tsai_calibration", "read_opencv_calibration", "tsai_rotation",
-    "tsai_distortion_to_opencv", "HOG_FILE_LAYOUT", "read_opencv_hog_detector", "CalibrationFile", "read_calibration_file", "read_calibration",
+    "tsai_distortion_to_opencv", "HOG_FILE_LAYOUT", "DAIMLER_FILE_LAYOUT", "read_opencv_hog_detector", "CalibrationFile", "read_calibration_file", "read_calibration",
     "read_distortion", "read_correspondences", "CORRESPONDENCE_COLUMNS", "CALIBRATION_KEYS",
     "BOX_FORMATS", "MOT_MIN_VISIBILITY", "MOT_COUNTED_CLASSES", "MOT_IGNORED_CLASSES",
     "FrameBoxes", "boxes_format", "read_boxes", "read_ignore_regions", "frame_number",

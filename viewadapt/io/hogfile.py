@@ -4,8 +4,10 @@
 document types: :func:`~viewadapt.io.imports.check_filestorage_text`, before OpenCV parses
 it) and accepts only the layout the adapted OpenCV detector reads
 (:mod:`viewadapt.detect.opencv_cells`): a 64x128 window of 8-px cells in 16-px blocks at an
-8-px stride, 9 unsigned bins, L2-Hys at 0.2, gamma correction on. Anything else is a
-one-line error naming the file and the field.
+8-px stride, 9 unsigned bins, L2-Hys at 0.2, gamma correction on -- or, for the Daimler
+detector's kind, the same in a 48x96 window without gamma correction
+(:data:`DAIMLER_FILE_LAYOUT`). Anything else is a one-line error naming the file and the
+field.
 """
 
 from __future__ import annotations
@@ -17,18 +19,22 @@ import numpy as np
 from viewadapt.io.bounded import MAX_CALIBRATION_BYTES, read_limited_text
 from viewadapt.io.imports import check_filestorage_text
 
-__all__ = ["HOG_FILE_LAYOUT", "read_opencv_hog_detector"]
+__all__ = ["HOG_FILE_LAYOUT", "DAIMLER_FILE_LAYOUT", "read_opencv_hog_detector"]
 
 #: The HOGDescriptor fields the adapted detector needs, and their values.
 HOG_FILE_LAYOUT = {"winSize": (64, 128), "blockSize": (16, 16), "blockStride": (8, 8),
                    "cellSize": (8, 8), "nbins": 9, "histogramNormType": 0,
                    "L2HysThreshold": 0.2, "gammaCorrection": True, "signedGradient": False}
+#: The same for a 48x96 detector read as OpenCV's Daimler detector is
+#: (``HOGDescriptor((48, 96), (16, 16), (8, 8), (8, 8), 9)``: no gamma correction).
+DAIMLER_FILE_LAYOUT = HOG_FILE_LAYOUT | {"winSize": (48, 96), "gammaCorrection": False}
 
 
-def read_opencv_hog_detector(path) -> tuple[np.ndarray, float]:
+def read_opencv_hog_detector(path, layout=HOG_FILE_LAYOUT) -> tuple[np.ndarray, float]:
     """``(w, b)`` of the HOG/SVM detector in an OpenCV ``HOGDescriptor`` file: ``w`` the
-    3780 weights in OpenCV's descriptor layout, ``b`` the bias (0 when the file stores
-    3780 values). ``ValueError`` naming the file and field for any other file."""
+    3780 weights in OpenCV's descriptor layout (1980 in :data:`DAIMLER_FILE_LAYOUT`), ``b``
+    the bias (0 when the file stores no bias). ``ValueError`` naming the file and field for
+    a file of another ``layout``."""
     import cv2
 
     path = Path(path)
@@ -48,16 +54,18 @@ def read_opencv_hog_detector(path) -> tuple[np.ndarray, float]:
     if not ok:
         raise ValueError(f"{path}: not an OpenCV HOGDescriptor file (cv2.HOGDescriptor.load "
                          "failed; write one with HOGDescriptor.save)")
-    for field, want in HOG_FILE_LAYOUT.items():
+    w, h = layout["winSize"]
+    for field, want in layout.items():
         got = getattr(hog, field)
         got = tuple(int(v) for v in got) if isinstance(want, tuple) else got
         same = abs(float(got) - want) < 1e-6 if isinstance(want, float) else got == want
         if not same:
-            raise ValueError(f"{path}: {field} is {got!r}; the adapted OpenCV detector reads "
-                             f"{want!r} (Dalal-Triggs' 64x128 layout)")
+            raise ValueError(f"{path}: {field} is {got!r}; the adapted detector reads "
+                             f"{want!r} (Dalal-Triggs' layout in a {w}x{h} window)")
+    n = (w // 8 - 1) * (h // 8 - 1) * 36
     v = np.asarray(hog.svmDetector, np.float64).ravel()
-    if v.size not in (3780, 3781) or not np.all(np.isfinite(v)):
+    if v.size not in (n, n + 1) or not np.all(np.isfinite(v)):
         raise ValueError(f"{path}: SVMDetector holds {v.size} values"
-                         f"{'' if np.all(np.isfinite(v)) else ', not all finite'}; a 64x128 "
-                         "detector has 3780 weights and a bias")
-    return v[:3780].copy(), float(v[3780]) if v.size == 3781 else 0.0
+                         f"{'' if np.all(np.isfinite(v)) else ', not all finite'}; a {w}x{h} "
+                         f"detector has {n} weights and a bias")
+    return v[:n].copy(), float(v[n]) if v.size == n + 1 else 0.0

@@ -38,7 +38,7 @@ __all__ = ["ANNOTATE_CHOICES", "CSV_COLUMNS", "DETECTION_COLOURS", "TRUTH_COLOUR
 ANNOTATE_CHOICES = ("video", "frames", "none")
 
 #: figure colour of each detector family (the method name's first part)
-FAMILY_COLORS = {"hog": "tab:blue", "acf": "tab:red", "opencv": "tab:gray"}
+FAMILY_COLORS = {"hog": "tab:blue", "acf": "tab:red", "opencv": "tab:gray", "daimler": "tab:olive"}
 #: columns of ``detections.csv``
 CSV_COLUMNS = ("frame", "source", "x", "y", "w", "h", "score", "ground_x", "ground_y")
 _BOX_COLOUR = (0, 255, 0)          # BGR

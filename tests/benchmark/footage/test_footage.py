@@ -150,9 +150,30 @@ def test_undistorted_frames_for_the_body_model(toy, tmp_path):
     assert _footage(toy, out, "--methods", "opencv_native", "hog_adapted[body]",
                     "--max-frames", "2") == 0
     assert json.loads((out / "run.json").read_text())["lens_correction"] == "undistort"
-    rc = _footage(toy, tmp_path / "refused", "--methods", "hog_adapted[body]", "--lens",
-                  "windows")
-    assert rc == 2
+    # the body model's windows through the lens, when asked for
+    assert _footage(toy, tmp_path / "lens", "--methods", "hog_adapted[body]", "--lens",
+                    "windows", "--max-frames", "2") == 0
+    assert json.loads((tmp_path / "lens" / "run.json").read_text())["lens_correction"] \
+        == "windows"
+
+
+def test_the_daimler_detector_against_its_own_pyramids(toy, tmp_path, capsys):
+    """OpenCV's Daimler detector runs as OpenCV's INRIA one does; each adapted detector is
+    paired with the best unadapted baseline and with its own detector's best pyramid."""
+    out = tmp_path / "daimler"
+    methods = ["opencv_native", "daimler_native", "daimler_native[ground]", "daimler_adapted"]
+    assert _footage(toy, out, "--methods", *methods, "--max-frames", "4",
+                    "--bootstrap-block", "2") == 0
+    printed = capsys.readouterr().out
+    table = pd.read_csv(out / "footage_summary.csv").set_index("method")
+    assert list(table.index) == methods
+    best = table[~table.index.str.contains("adapted")]["lamr"].idxmin()
+    own = table.loc[["daimler_native", "daimler_native[ground]"], "lamr"].idxmin()
+    pairs = {(p["method"], p["reference"])
+             for p in json.loads((out / "paired_differences.json").read_text())}
+    assert {(m, best) for m in methods if m != best} <= pairs
+    assert own != best                  # on this clip: the adapted detector gets both pairs
+    assert ("daimler_adapted", own) in pairs and f"daimler_adapted - {own}" in printed
 
 
 @pytest.mark.parametrize("argv, message", [

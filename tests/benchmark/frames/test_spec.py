@@ -42,20 +42,33 @@ EXPECTED = {
     "opencv_adapted[body, S only]": ("opencv", "adapted", "none", "body", None, False),
     "opencv_adapted[body, paper eq.3]": ("opencv", "adapted", "paper", "body", None, False),
     "opencv_warp": ("opencv", "warp", None, None, None, False),
+    "daimler_adapted": ("daimler", "adapted", "covariant", "plane", None, False),
+    "daimler_adapted[S only]": ("daimler", "adapted", "none", "plane", None, False),
+    "daimler_adapted[paper eq.3]": ("daimler", "adapted", "paper", "plane", None, False),
+    "daimler_adapted[body]": ("daimler", "adapted", "covariant", "body", None, False),
+    "daimler_adapted[body, S only]": ("daimler", "adapted", "none", "body", None, False),
+    "daimler_adapted[body, paper eq.3]": ("daimler", "adapted", "paper", "body", None, False),
+    "daimler_warp": ("daimler", "warp", None, None, None, False),
     "opencv": ("opencv", "pyramid", None, None, 4, False),
     "opencv_2x": ("opencv", "pyramid", None, None, 2, False),
     "opencv_native": ("opencv", "pyramid", None, None, 1, False),
+    "daimler": ("daimler", "pyramid", None, None, 4, False),
+    "daimler_2x": ("daimler", "pyramid", None, None, 2, False),
+    "daimler_native": ("daimler", "pyramid", None, None, 1, False),
     "hog_pyramid[ground]": ("hog", "pyramid", None, None, 4, True),
     "acf_pyramid[ground]": ("acf", "pyramid", None, None, 4, True),
     "acf_pyramid_fast[ground]": ("acf", "pyramid_fast", None, None, 4, True),
     "opencv[ground]": ("opencv", "pyramid", None, None, 4, True),
     "opencv_2x[ground]": ("opencv", "pyramid", None, None, 2, True),
     "opencv_native[ground]": ("opencv", "pyramid", None, None, 1, True),
+    "daimler[ground]": ("daimler", "pyramid", None, None, 4, True),
+    "daimler_2x[ground]": ("daimler", "pyramid", None, None, 2, True),
+    "daimler_native[ground]": ("daimler", "pyramid", None, None, 1, True),
 }
 #: the methods that score the candidate windows (and so move with their ground grid)
 ON_GRID = {n for n in EXPECTED if "_adapted" in n or n.endswith("_warp")}
 #: the methods that read no trained source detector
-UNTRAINED = {n for n in EXPECTED if n.startswith("opencv")}
+UNTRAINED = {n for n in EXPECTED if n.startswith(("opencv", "daimler"))}
 FIELDS = ("kind", "how", "rule", "object_model", "upsample", "ground")
 
 

@@ -220,11 +220,49 @@ def test_frame_detector_through_a_lens(tmp_path):
     det = FrameDetector(cam, models, lens=DIST, cache_dir=tmp_path)
     plain = FrameDetector(cam, models, cache_dir=tmp_path)
     assert det.params["lens"] == DIST.tolist() and "lens" not in plain.params
-    assert det.windows.camera is None and len(det.windows) > 0
+    assert det.windows.camera is cam and len(det.windows) > 0
+    np.testing.assert_array_equal(det.windows.dist, DIST)
     img = np.zeros((SIZE[1], SIZE[0], 3), np.uint8)
     assert det.detect(img).shape[1] == 5
     assert not det.cache_hit["hog"]            # its own operator, not the pinhole one's
-    with pytest.raises(ValueError, match="plane object model"):
-        FrameDetector(cam, models, lens=DIST, object_model="body")
     with pytest.raises(ValueError, match="got 3"):
         FrameDetector(cam, models, lens=[0.1, 0.2, 0.3])
+
+
+def test_the_body_model_maps_through_the_lens(tmp_path):
+    """Windows through the lens with the mean body: each window's mapping is the pinhole
+    body mapping, distorted by the lens (the native frame: no layer transform); where the
+    lens is the identity it is the pinhole mapping; a detector takes the two together and
+    its operator scores a distorted frame."""
+    from viewadapt.detect import (
+        FrameDetector, build_adapted_linear_operator, select_candidate_windows, window_mapping,
+        windows_through_lens,
+    )
+    from viewadapt.detect.windows import distort_pixels
+    from viewadapt.io import SourceDetectors, shipped_model_path
+    from viewadapt.objectmodel import object_model
+
+    cam = _lens_camera()
+    body = object_model("body")
+    pinhole = select_candidate_windows(cam)
+    lensed, keep = windows_through_lens(pinhole, cam.K, DIST)
+    flat, _ = windows_through_lens(pinhole, cam.K, np.zeros(5))
+    grid = np.stack(np.meshgrid(np.linspace(4, 60, 5), np.linspace(8, 120, 7)), -1).reshape(-1, 2)
+    idx = np.flatnonzero(keep)
+    for n in (0, len(idx) // 2, len(idx) - 1):
+        want = window_mapping(pinhole, idx[n], body)(grid)
+        got = window_mapping(lensed, n, body)(grid)
+        ok = np.all(np.isfinite(want), axis=1)
+        assert ok.sum() > len(grid) // 2
+        np.testing.assert_allclose(got[ok], distort_pixels(want[ok], cam.K, DIST), atol=1e-6)
+        assert np.abs(got[ok] - want[ok]).max() > 0.5          # the lens moves them
+        np.testing.assert_allclose(window_mapping(flat, idx[n], body)(grid)[ok], want[ok],
+                                   atol=1e-6)
+    models = SourceDetectors.load(shipped_model_path())
+    det = FrameDetector(cam, models, lens=DIST, object_model="body", cache_dir=tmp_path)
+    assert det.params["object_model"] == "body" and det.params["lens"] == DIST.tolist()
+    sub = det.windows.subset(np.arange(0, len(det.windows), max(1, len(det.windows) // 30)))
+    op = build_adapted_linear_operator(sub, models.hog_weights, models.hog_bias,
+                                       object_model="body")
+    img = distort_image(_smooth_image(np.random.default_rng(5)), cam.K, DIST)
+    assert np.isfinite(op.scores(op.frame_features(img))).all()

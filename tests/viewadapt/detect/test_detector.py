@@ -434,5 +434,5 @@ def test_detector_kinds_are_the_specs_every_part_reads(windows, frame):
         x = kind.features.window_features(frame[:128, :64])
         assert x.shape == kind.features.shape
     with pytest.raises(ValueError, match=r"unknown detector 'sift'; choose from "
-                                         r"\('hog', 'acf', 'opencv'\)"):
+                                         r"\('hog', 'acf', 'opencv', 'daimler'\)"):
         detector_kind("sift")

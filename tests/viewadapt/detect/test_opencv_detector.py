@@ -6,6 +6,7 @@ import cv2
 import numpy as np
 import pytest
 
+from tests.images import bars_scene
 from tests.tolerances import FLOAT32
 from viewadapt.detect import (
     HOG_CELL, OPENCV_CHANNELS, OPENCV_WEIGHT_SHAPE, FrameDetector, build_adapted_opencv_operator,
@@ -20,15 +21,7 @@ SIZE = (192, 144)
 
 
 def _scene(shape, seed):
-    """Blurred noise with bright bars: gradients of every orientation and strength."""
-    rng = np.random.default_rng(seed)
-    img = cv2.GaussianBlur(rng.integers(0, 256, shape + (3,), dtype=np.uint8), (5, 5), 1.2)
-    for _ in range(6):
-        p = rng.integers(0, [shape[1], shape[0]], 2)
-        q = rng.integers(0, [shape[1], shape[0]], 2)
-        cv2.line(img, tuple(int(v) for v in p), tuple(int(v) for v in q),
-                 tuple(int(v) for v in rng.integers(0, 256, 3)), 3)
-    return img
+    return bars_scene(shape, seed)
 
 
 def _descriptor_from_cells(F):
