@@ -8,8 +8,9 @@ rectangle, its centre mapped by the window's homography and its sides by the hom
 Jacobian there: ``S``), its orientations mapped by the covariant rule at the window's
 centre (``A``); then the window's own 2x2-cell blocks are L2-Hys normalised as
 ``cv2.HOGDescriptor`` does and dotted with the SVM's weights
-(:mod:`viewadapt.detect.renorm`). Frame cells outside a map read as zero, so no stored
-table can make the loops read outside the maps.
+(:mod:`viewadapt.detect.renorm`); :func:`hog_renorm_scores` normalises the same source
+cells as the project's HOG (:func:`viewadapt.detect.block_normalize_cells`). Frame cells
+outside a map read as zero, so no stored table can make the loops read outside the maps.
 """
 
 from __future__ import annotations
@@ -18,6 +19,8 @@ import math
 
 import numpy as np
 from numba import njit
+
+from ._kernels import block_normalize
 
 
 @njit(cache=True, nogil=True, boundscheck=False, error_model="numpy")
@@ -147,6 +150,48 @@ def _block_score(block, weights, at, eps, clip):  # pragma: no cover - compiled
 
 
 @njit(cache=True, nogil=True, boundscheck=False, error_model="numpy")
+def _window_cells(flat, base, ny, nx, c, Hn, rule, ncx, ncy, lo, hi, frac, h,
+                  src):  # pragma: no cover - compiled
+    """The (ncy, ncx, 9) source cells ``src`` of one window (homography ``Hn``) from the
+    raw cells of size ``c`` at ``flat[base:]`` ((ny, nx, 9)): each source cell the frame
+    cells under its image (an axis-aligned rectangle: its centre mapped, its sides by the
+    Jacobian there; ``S``), per source pixel of an 8-px cell, its orientations mapped by
+    the rule at the window's centre (``A``); ``lo, hi, frac, h`` scratch."""
+    n_bins = 9
+    _, _, j00, j01, j10, j11 = _map(Hn, 4.0 * ncx - 0.5, 4.0 * ncy - 0.5)
+    _angle_taps(j00, j01, j10, j11, rule, lo, hi, frac)
+    for j in range(ncy):
+        for i in range(ncx):
+            px, py, a00, a01, a10, a11 = _map(Hn, 8.0 * i + 3.5, 8.0 * j + 3.5)
+            ex = 4.0 * abs(a00)
+            ey = 4.0 * abs(a11)
+            x0, x1, y0, y1 = px - ex, px + ex, py - ey, py + ey
+            h[:] = 0
+            u0 = int(math.floor((x0 + 0.5) / c))
+            u1 = int(math.floor((x1 + 0.5) / c))
+            v0 = int(math.floor((y0 + 0.5) / c))
+            v1 = int(math.floor((y1 + 0.5) / c))
+            for v in range(max(v0, 0), min(v1, ny - 1) + 1):
+                wy = min(y1, c * (v + 1) - 0.5) - max(y0, c * v - 0.5)
+                if wy <= 0:
+                    continue
+                for u in range(max(u0, 0), min(u1, nx - 1) + 1):
+                    wx = min(x1, c * (u + 1) - 0.5) - max(x0, c * u - 0.5)
+                    if wx <= 0:
+                        continue
+                    wgt = wx * wy
+                    at = base + (v * nx + u) * n_bins
+                    for k in range(n_bins):
+                        h[k] += wgt * flat[at + k]
+            # per source pixel of the cell: the rectangle's area against the cell's 64
+            scale = 64.0 / (c * c * max(4.0 * ex * ey, 1e-12))
+            src[j, i, :] = 0
+            for k in range(n_bins):
+                src[j, i, lo[k]] += (1.0 - frac[k]) * h[k] * scale
+                src[j, i, hi[k]] += frac[k] * h[k] * scale
+
+
+@njit(cache=True, nogil=True, boundscheck=False, error_model="numpy")
 def renorm_scores(flat, offsets, dims, size_of, cells, H, weights, bias, eps, clip,
                   rule, ncx, ncy, out):  # pragma: no cover - compiled
     """Scores of windows ``n`` (their homographies ``H[n]``, the detector's window of
@@ -164,42 +209,8 @@ def renorm_scores(flat, offsets, dims, size_of, cells, H, weights, bias, eps, cl
     block = np.empty(4 * n_bins, np.float32)
     for n in range(len(out)):
         s = size_of[n]
-        c = cells[s]
-        ny, nx = dims[s, 0], dims[s, 1]
-        base = offsets[s]
-        Hn = H[n]
-        # A from the Jacobian at the window's centre
-        _, _, j00, j01, j10, j11 = _map(Hn, 4.0 * ncx - 0.5, 4.0 * ncy - 0.5)
-        _angle_taps(j00, j01, j10, j11, rule, lo, hi, frac)
-        for j in range(ncy):
-            for i in range(ncx):
-                px, py, a00, a01, a10, a11 = _map(Hn, 8.0 * i + 3.5, 8.0 * j + 3.5)
-                ex = 4.0 * abs(a00)
-                ey = 4.0 * abs(a11)
-                x0, x1, y0, y1 = px - ex, px + ex, py - ey, py + ey
-                h[:] = 0
-                u0 = int(math.floor((x0 + 0.5) / c))
-                u1 = int(math.floor((x1 + 0.5) / c))
-                v0 = int(math.floor((y0 + 0.5) / c))
-                v1 = int(math.floor((y1 + 0.5) / c))
-                for v in range(max(v0, 0), min(v1, ny - 1) + 1):
-                    wy = min(y1, c * (v + 1) - 0.5) - max(y0, c * v - 0.5)
-                    if wy <= 0:
-                        continue
-                    for u in range(max(u0, 0), min(u1, nx - 1) + 1):
-                        wx = min(x1, c * (u + 1) - 0.5) - max(x0, c * u - 0.5)
-                        if wx <= 0:
-                            continue
-                        wgt = wx * wy
-                        at = base + (v * nx + u) * n_bins
-                        for k in range(n_bins):
-                            h[k] += wgt * flat[at + k]
-                # per source pixel of the cell: the rectangle's area against the cell's 64
-                scale = 64.0 / (c * c * max(4.0 * ex * ey, 1e-12))
-                src[j, i, :] = 0
-                for k in range(n_bins):
-                    src[j, i, lo[k]] += (1.0 - frac[k]) * h[k] * scale
-                    src[j, i, hi[k]] += frac[k] * h[k] * scale
+        _window_cells(flat, offsets[s], dims[s, 0], dims[s, 1], cells[s], H[n], rule, ncx,
+                      ncy, lo, hi, frac, h, src)
         total = bias
         for bx in range(ncx - 1):
             for by in range(ncy - 1):
@@ -211,6 +222,33 @@ def renorm_scores(flat, offsets, dims, size_of, cells, H, weights, bias, eps, cl
                 total += _block_score(block, weights, (bx * (ncy - 1) + by) * 4 * n_bins,
                                       eps, clip)
         out[n] = total
+
+
+@njit(cache=True, nogil=True, boundscheck=False, error_model="numpy")
+def hog_renorm_scores(flat, offsets, dims, size_of, cells, H, weights, bias, eps, clip,
+                      rule, ncx, ncy, out):  # pragma: no cover - compiled
+    """:func:`renorm_scores` for the project's HOG/SVM: each window's source cells
+    (:func:`_window_cells`) block-normalised in the window as
+    :func:`viewadapt.detect.block_normalize_cells` normalises a canonical window's cells
+    (13 channels per cell, reflected borders, floor ``eps``, clip ``clip``), dotted with
+    ``weights`` ((ncy, ncx, 13) flat) plus ``bias``."""
+    n_bins = 9
+    src = np.empty((ncy, ncx, n_bins), np.float32)
+    feat = np.empty((ncy, ncx, n_bins + 4), np.float32)
+    lo = np.empty(n_bins, np.int64)
+    hi = np.empty(n_bins, np.int64)
+    frac = np.empty(n_bins, np.float32)
+    h = np.empty(n_bins, np.float32)
+    ff = feat.ravel()
+    for n in range(len(out)):
+        s = size_of[n]
+        _window_cells(flat, offsets[s], dims[s, 0], dims[s, 1], cells[s], H[n], rule, ncx,
+                      ncy, lo, hi, frac, h, src)
+        block_normalize(src, eps, clip, feat)
+        total = 0.0
+        for k in range(ff.size):
+            total += weights[k] * ff[k]
+        out[n] = total + bias
 
 
 @njit(cache=True, nogil=True, boundscheck=False, error_model="numpy")

@@ -88,7 +88,7 @@ from .layers import (
 from .frameview import FRAME_VIEW_SCALES, frame_view, frame_view_features, frame_view_copies
 from .kinds import (
     DetectorKind, HOG_DETECTOR, ACF_DETECTOR, OPENCV_DETECTOR, DAIMLER_DETECTOR, DETECTOR_KINDS,
-    PRETRAINED_KINDS, opencv_kind, detector_kind,
+    PRETRAINED_KINDS, hog_kind, opencv_kind, detector_kind,
 )
 from .detector import DEFAULT_THRESHOLD, FrameDetections, FrameDetector
 from .training import FRAME_VIEW_CHOICES, DEFAULT_FRAME_VIEW, check_frame_view, train_on_windows
@@ -124,7 +124,8 @@ __all__ = [
     "frame_to_band", "upsampled_windows", "upsampled_band", "MultiResolutionOperator",
     "build_multiresolution_operator", "FRAME_VIEW_SCALES", "frame_view", "frame_view_features",
     "frame_view_copies", "DetectorKind", "HOG_DETECTOR", "ACF_DETECTOR", "OPENCV_DETECTOR",
-    "DAIMLER_DETECTOR", "DETECTOR_KINDS", "PRETRAINED_KINDS", "opencv_kind", "detector_kind",
+    "DAIMLER_DETECTOR", "DETECTOR_KINDS", "PRETRAINED_KINDS", "hog_kind", "opencv_kind",
+    "detector_kind",
     "DEFAULT_THRESHOLD",
     "FrameDetections", "FrameDetector", "FRAME_VIEW_CHOICES", "DEFAULT_FRAME_VIEW",
     "check_frame_view", "train_on_windows", "DetectorSpec", "detect_stream",

@@ -35,10 +35,8 @@ __all__ = [
     "fast_orientation_channels", "fast_acf_pixel_channels", "acf_channel_cell_maps",
     "FrameFeatures", "check_frame", "gradient_polar", "gradient_bins", "padded_maps",
     "cell_sums", "orientation_cell_maps", "channel_slices3", "correlate_slices",
-    "block_normalize_cells",
-    "hog_window_features", "acf_window_features",
-    "hog_frame_features", "acf_frame_features",
-]
+    "block_normalize_cells", "hog_cell_eps", "hog_window_features", "acf_window_features",
+    "hog_frame_features", "acf_frame_features"]
 
 #: Source-view cell size of the HOG detectors (8 px in the 64x128 window, 16 x 8 cells).
 HOG_CELL = 8
@@ -209,6 +207,8 @@ class FrameFeatures:
         vertically; ``ny = M // c``, ``nx = N // c``.
     pad : int
     image_size : (width, height)
+    raw : tuple or None
+        Raw 9-bin cell sums for a normalisation stage (``raw_cell_maps``' layout), or None.
     """
 
     maps: dict
@@ -217,6 +217,7 @@ class FrameFeatures:
     _split: dict = field(default_factory=dict, repr=False)
     #: (cell sizes, buffer) when the maps are consecutive views of one flat buffer
     _flat: tuple = field(default=None, repr=False)
+    raw: tuple = None
 
     def split3(self, c: int):
         """The map of cell size ``c`` as contiguous 3-channel slices (for matchTemplate)."""
@@ -231,12 +232,6 @@ class FrameFeatures:
         if self._flat is not None and tuple(cell_sizes) == self._flat[0]:
             return self._flat[1]
         return np.concatenate([self.maps[c].ravel() for c in cell_sizes])
-
-
-def _pad(F, pad):
-    out = np.zeros((F.shape[0] + 2 * pad, F.shape[1] + 2 * pad, F.shape[2]), np.float32)
-    out[pad:pad + F.shape[0], pad:pad + F.shape[1]] = F
-    return out
 
 
 def channel_slices3(A) -> list:
@@ -472,7 +467,7 @@ def hog_window_features(window, *, cell_size: int = HOG_CELL) -> np.ndarray:
     (16, 8, 13) float32 ndarray (flatten for a classifier).
     """
     X = orientation_cell_maps(window, [cell_size])[cell_size]
-    return block_normalize_cells(X, eps=_hog_eps(cell_size))
+    return block_normalize_cells(X, eps=hog_cell_eps(cell_size))
 
 
 def acf_window_features(window) -> np.ndarray:
@@ -499,7 +494,7 @@ def acf_window_features(window) -> np.ndarray:
 _EPS_PER_PX = 1.0
 
 
-def _hog_eps(c: int) -> float:
+def hog_cell_eps(c: int) -> float:
     """Floor of the block norm for ``c x c`` cells: ``_EPS_PER_PX`` per pixel of cell area
     (the norms grow with the area, so the floor does too)."""
     return float(c * c) * _EPS_PER_PX
@@ -521,13 +516,15 @@ def padded_maps(cell_sizes, frame_shape, pad: int, channels: int):
     return order, flat, maps
 
 
-def hog_frame_features(image, cell_sizes, *, pad: int = 2, image_size=None) -> FrameFeatures:
+def hog_frame_features(image, cell_sizes, *, pad: int = 2, image_size=None,
+                       raw_cell_sizes=()) -> FrameFeatures:
     """Normalised HOG cell maps of a frame at several cell sizes, native resolution.
 
     The per-pixel gradients are computed once and summed into ``c x c`` cells of oriented
     magnitude for each ``c`` (:func:`orientation_cell_maps`), then
     normalised by :func:`block_normalize_cells` -- the features :func:`hog_window_features`
-    computes on a canonical window with ``c = 8``.
+    computes on a canonical window with ``c = 8``. The raw cell sums of ``raw_cell_sizes``
+    (the same pass) are kept as ``raw`` for a per-window normalisation stage.
 
     Parameters
     ----------
@@ -545,12 +542,18 @@ def hog_frame_features(image, cell_sizes, *, pad: int = 2, image_size=None) -> F
     img = check_frame(image, image_size)
     M, N = img.shape[:2]
     order, flat, maps = padded_maps(cell_sizes, (M, N), pad, HOG_CHANNELS)
-    cells = orientation_cell_maps(img, order)
+    raw_sizes = [int(c) for c in raw_cell_sizes]
+    cells = orientation_cell_maps(img, list(order) + raw_sizes)
     for c, F in maps.items():
         X = cells[c]
         ny, nx = X.shape[:2]
-        block_normalize_cells(X, eps=_hog_eps(c), out=F[pad:pad + ny, pad:pad + nx])
-    return FrameFeatures(maps, pad, (N, M), _flat=(order, flat))
+        block_normalize_cells(X, eps=hog_cell_eps(c), out=F[pad:pad + ny, pad:pad + nx])
+    sizes = list(dict.fromkeys(raw_sizes))
+    at = np.r_[0, np.cumsum([cells[c].size for c in sizes])].astype(np.int64)
+    rflat = np.concatenate([cells[c].ravel() for c in sizes] or [[]]).astype(np.float32)
+    raw = ({c: rflat[o:o + cells[c].size].reshape(cells[c].shape) for c, o in zip(sizes, at)},
+           rflat, at[:-1]) if sizes else None
+    return FrameFeatures(maps, pad, (N, M), _flat=(order, flat), raw=raw)
 
 
 def acf_frame_features(image, cell_sizes, *, pad: int = 2, smooth_channels: float = 1,

@@ -23,12 +23,12 @@ from .opencv_cells import (
     DAIMLER_WINDOW, opencv_cell_weights, opencv_daimler_people_detector,
     opencv_default_people_detector,
 )
-from .renorm import RENORM_CELLS_PER_SOURCE_CELL, VERIFY_THRESHOLD
+from .renorm import HOG_VERIFY_THRESHOLD, RENORM_CELLS_PER_SOURCE_CELL, VERIFY_THRESHOLD
 from .templates import ACF_TOLERANCE, HOG_TOLERANCE
 from .trees import AdaptedTreesOperator, build_adapted_trees_operator
 
 __all__ = ["DetectorKind", "HOG_DETECTOR", "ACF_DETECTOR", "OPENCV_DETECTOR", "DAIMLER_DETECTOR",
-           "DETECTOR_KINDS", "PRETRAINED_KINDS", "opencv_kind", "detector_kind"]
+           "DETECTOR_KINDS", "PRETRAINED_KINDS", "hog_kind", "opencv_kind", "detector_kind"]
 
 
 class DetectorKind:
@@ -82,16 +82,33 @@ class DetectorKind:
 
 
 class _HogDetector(DetectorKind):
-    """Linear SVM on block-normalised HOG cells: one adapted template per group, ``G^T w``."""
+    """Linear SVM on block-normalised HOG cells: one adapted template per group, ``G^T w``;
+    with ``renorm`` (:func:`hog_kind`) the windows it scores a person are rescored with
+    their cells remapped by their own ``G`` and block-normalised in the window
+    (:class:`~viewadapt.detect.renorm.RenormStage`)."""
 
     name, features, tolerance = "hog", HOG_FEATURES, HOG_TOLERANCE
     operator_class = AdaptedLinearOperator
 
+    def __init__(self, renorm: bool = False, verify_threshold: float = HOG_VERIFY_THRESHOLD):
+        #: whether the windows the fold keeps are rescored with their own block
+        #: normalisation (:class:`~viewadapt.detect.renorm.RenormStage`, ``model="hog"``),
+        #: from folded score ``verify_threshold``
+        self.renorm = bool(renorm)
+        self.verify_threshold = float(verify_threshold)
+
     def model(self, models):
         return models.hog_weights, models.hog_bias
 
+    def model_fingerprint(self, models) -> str:
+        key = models.fingerprint()         # (the fold alone: the cache keys of before)
+        return key if not self.renorm else hashlib.sha256(
+            f"{key} renorm {self.verify_threshold}".encode()).hexdigest()
+
     def build_operator(self, windows, models, **kw):
         w, b = self.model(models)
+        if self.renorm:
+            kw.update(renorm=True, verify_threshold=self.verify_threshold)
         return build_adapted_linear_operator(windows, w, b, **kw)
 
     def window_scores(self, models, X):
@@ -182,6 +199,15 @@ class _DaimlerDetector(_OpenCVDetector):
 
     name, features, window, gamma = "daimler", DAIMLER_FEATURES, DAIMLER_WINDOW, False
     _default = staticmethod(_daimler_people)
+
+
+def hog_kind(*, renorm: bool = False,
+             verify_threshold: float = HOG_VERIFY_THRESHOLD) -> DetectorKind:
+    """The ``hog`` detector kind, with (``renorm``) or without (the default, the
+    registry's) the per-window normalisation stage, from folded score ``verify_threshold``:
+    windows the fold scores below it are not reported at all, whatever the detection
+    threshold."""
+    return _HogDetector(renorm, verify_threshold)
 
 
 def opencv_kind(weights, bias: float = 0.0, *, detector: str = "opencv") -> DetectorKind:

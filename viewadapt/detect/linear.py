@@ -36,7 +36,7 @@ from .frame_remap import (
 from .opencv_cells import (
     OPENCV_CHANNELS, opencv_descriptor_weights, opencv_frame_features,
 )
-from .renorm import VERIFY_THRESHOLD, RenormStage, stage_cell_sizes
+from .renorm import HOG_VERIFY_THRESHOLD, VERIFY_THRESHOLD, RenormStage, stage_cell_sizes
 from .templates import (
     CELLS_PER_SOURCE_CELL, FRAME_CELL_SIZES, HOG_TOLERANCE, TemplateOperator, build_template_groups,
     check_windows, choose_cell_sizes, required_padding,
@@ -356,7 +356,9 @@ def build_adapted_linear_operator(windows: CandidateWindows, weights, bias: floa
                                   cells_per_source_cell: float = CELLS_PER_SOURCE_CELL,
                                   allowed_cell_sizes=FRAME_CELL_SIZES,
                                   rule: str = "covariant",
-                                  object_model="plane") -> AdaptedLinearOperator:
+                                  object_model="plane", renorm: bool = False,
+                                  verify_threshold: float = HOG_VERIFY_THRESHOLD
+                                  ) -> AdaptedLinearOperator:
     """Precompute the adapted linear detector of every candidate window (eq. (7)).
 
     Parameters
@@ -379,6 +381,12 @@ def build_adapted_linear_operator(windows: CandidateWindows, weights, bias: floa
         How a person's pixels move between the views (:func:`window_mapping`): the paper's
         plane (each window's homography) or e.g. the mean body of
         :mod:`viewadapt.objectmodel` (needs ``windows.camera``).
+    renorm, verify_threshold : bool, float
+        With ``renorm`` (the paper's plane only) the windows whose folded score reaches
+        ``verify_threshold`` are rescored by a :class:`~viewadapt.detect.renorm.RenormStage`
+        of the HOG model: raw cells remapped by each window's own ``G`` and
+        block-normalised in the window (as :func:`build_adapted_opencv_operator` does for
+        OpenCV's blocks); the boxes are then the windows' own.
 
     Returns
     -------
@@ -396,7 +404,18 @@ def build_adapted_linear_operator(windows: CandidateWindows, weights, bias: floa
         G = hog_frame_remap(window_mapping(windows, g.prototype, model), g, rule)
         g.template = np.asarray(G.T @ w, dtype=np.float32).reshape(g.shape[0], g.shape[1],
                                                                      HOG_CHANNELS)
-    return _operator(windows, cell, groups, bias, tolerance, hog_frame_features, HOG_CHANNELS)
+    stage = None
+    if renorm and isinstance(model, PlaneModel):
+        stage = RenormStage(windows.homographies,
+                            stage_cell_sizes(windows.scale, allowed_cell_sizes), w, bias,
+                            threshold=verify_threshold, rule=rule, binning="cells",
+                            model="hog")
+    op = _operator(windows, cell, groups, bias, tolerance, hog_frame_features, HOG_CHANNELS,
+                   **({"raw_cell_sizes": stage.cell_sizes} if stage else {}))
+    if stage is not None:           # the final scores are the windows' own
+        op.stage = stage
+        op.snapped_homographies = stage.homographies
+    return op
 
 
 def _template_groups(windows, tolerance, cells_per_source_cell, allowed_cell_sizes,

@@ -271,16 +271,9 @@ def raw_cell_maps(gradients, cell_sizes, rows=None) -> tuple[dict, np.ndarray, n
 
 @dataclass
 class OpenCVFrameFeatures(FrameFeatures):
-    """:class:`FrameFeatures` of OpenCV's normalised cells, with the frame's raw cells.
-
-    Attributes
-    ----------
-    raw : tuple or None
-        :func:`raw_cell_maps` of the same gradients, for the
-        per-window normalisation stage (None when no raw cell size was asked for).
-    """
-
-    raw: tuple = None
+    """:class:`FrameFeatures` of OpenCV's normalised cells; ``raw``: :func:`raw_cell_maps`
+    of the same gradients, for the per-window normalisation stage (None when no raw cell
+    size was asked for)."""
 
 
 def opencv_frame_features(image, cell_sizes, *, pad: int = 2, image_size=None,

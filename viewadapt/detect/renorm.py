@@ -25,14 +25,14 @@ import numpy as np
 
 from ..arrays import is_int, stored_array
 from ..remap import ANGLE_RULES
-from .channels import HOG_CELL
+from .channels import HOG_CELL, HOG_CHANNELS, HOG_CLIP, hog_cell_eps
 from ..geometry import WINDOW_HEIGHT, WINDOW_WIDTH
 from .opencv_cells import OPENCV_CHANNELS, OPENCV_L2HYS_CLIP, block_axis_weights
 from .templates import choose_cell_sizes
 from .windows import detector_window_homography
 
-__all__ = ["RENORM_CELLS_PER_SOURCE_CELL", "VERIFY_THRESHOLD", "OPENCV_DESCRIPTOR_SIZE", "BINNINGS",
-           "stage_cell_sizes", "RenormStage"]
+__all__ = ["RENORM_CELLS_PER_SOURCE_CELL", "VERIFY_THRESHOLD", "HOG_VERIFY_THRESHOLD",
+           "OPENCV_DESCRIPTOR_SIZE", "BINNINGS", "stage_cell_sizes", "RenormStage"]
 
 #: Frame cells per source cell of the raw cells the stage reads
 #: (:func:`~viewadapt.detect.templates.choose_cell_sizes`' ``cells_per_source_cell``).
@@ -41,11 +41,21 @@ RENORM_CELLS_PER_SOURCE_CELL = 1.0
 #: threshold the DET curves use (``DEFAULT_THRESHOLD``, -1), so that a window the stage would
 #: score above -1 is rarely dropped before it.
 VERIFY_THRESHOLD = -2.0
+#: The project's HOG/SVM's stage threshold: a window is rescored when the fold scores it a
+#: person (the SVM's own boundary). Chosen on rendered frames (the paper preset's 104,
+#: docs/real_footage.md): folded thresholds -1.5 to 1 gave the same LAMR within 0.005, and
+#: the HOG scores spread too narrowly for OpenCV's -2 to be affordable (20,000 windows per
+#: 768x576 frame).
+HOG_VERIFY_THRESHOLD = 0.0
 #: Length of OpenCV's 64x128 descriptor (7 x 15 blocks of 36).
 OPENCV_DESCRIPTOR_SIZE = 7 * 15 * OPENCV_CHANNELS
 _RULE_CODES = {"covariant": 0, "none": 1, "paper": 2}
 #: How :class:`RenormStage` bins the frame's cells into a window's blocks.
 BINNINGS = ("opencv", "cells")
+#: The models :class:`RenormStage` scores: each one's block-norm floor and clipping
+#: (OpenCV's ``0.1 * 36`` and L2-Hys 0.2; the project's HOG's floor for 8-px cells, its clip)
+_MODELS = {"opencv": (0.1 * OPENCV_CHANNELS, OPENCV_L2HYS_CLIP),
+           "hog": (hog_cell_eps(HOG_CELL), HOG_CLIP)}
 
 
 class RenormStage:
@@ -73,11 +83,17 @@ class RenormStage:
         The detector's window, px: the canonical 64x128 or that window scaled
         (:func:`~viewadapt.detect.windows.detector_window_homography`, e.g. Daimler's 48x96);
         ``homographies`` stay those of the canonical window.
+    model : {"opencv", "hog"}
+        ``"hog"``: the project's HOG/SVM instead (``weights`` over the window's (16, 8, 13)
+        :func:`~viewadapt.detect.block_normalize_cells` features), its source cells hard
+        binned (``binning`` must be ``"cells"``) and normalised as that function does
+        (:func:`viewadapt._renorm_kernels.hog_renorm_scores`).
     """
 
     def __init__(self, homographies, cell_size, weights, bias, *,
                  threshold: float = VERIFY_THRESHOLD, rule: str = "covariant",
-                 binning: str = "opencv", window=(WINDOW_WIDTH, WINDOW_HEIGHT)):
+                 binning: str = "opencv", window=(WINDOW_WIDTH, WINDOW_HEIGHT),
+                 model: str = "opencv"):
         H = np.ascontiguousarray(homographies, np.float64).reshape(-1, 3, 3)
         cell = np.ascontiguousarray(cell_size, np.int64).ravel()
         w = np.ascontiguousarray(weights, np.float32).ravel()
@@ -87,7 +103,13 @@ class RenormStage:
         T = detector_window_homography(window)
         self.window = (int(window[0]), int(window[1]))
         self._cells = (self.window[0] // HOG_CELL, self.window[1] // HOG_CELL)
-        n_w = (self._cells[0] - 1) * (self._cells[1] - 1) * OPENCV_CHANNELS
+        if model not in _MODELS or (model == "hog" and binning != "cells"):
+            raise ValueError(f"model must be one of {tuple(_MODELS)} (hog with binning "
+                             f"'cells'), got {model!r} with binning {binning!r}")
+        self.model = model
+        nx, ny = self._cells
+        n_w = (nx - 1) * (ny - 1) * OPENCV_CHANNELS if model == "opencv" \
+            else nx * ny * HOG_CHANNELS
         if w.size != n_w or not np.all(np.isfinite(w)) or not np.all(np.isfinite(H)):
             raise ValueError(f"weights must be {n_w} finite values and the homographies finite")
         if rule not in ANGLE_RULES or not np.isfinite(threshold) or not np.isfinite(bias):
@@ -107,7 +129,7 @@ class RenormStage:
         """Scores of the windows ``index`` from
         :func:`~viewadapt.detect.opencv_cells.raw_cell_maps`' output ``raw`` (its maps must
         hold this stage's cell sizes)."""
-        from .._renorm_kernels import renorm_scores, renorm_scores_binned
+        from .._renorm_kernels import hog_renorm_scores, renorm_scores, renorm_scores_binned
 
         maps, flat, offsets = raw
         index = np.asarray(index, np.int64)
@@ -123,11 +145,14 @@ class RenormStage:
         size_of = lut[self.cell[index]]
         dims = np.array([maps[c].shape[:2] for c in order], np.int64).reshape(-1, 2)
         out = np.empty(len(index))
+        eps, clip = _MODELS[self.model]
         args = (flat, np.asarray(offsets, np.int64), dims, size_of, np.array(order, np.int64),
                 np.ascontiguousarray(self._window_h[index]), self.weights,
-                np.float32(self.bias), np.float32(0.1 * OPENCV_CHANNELS),
-                np.float32(OPENCV_L2HYS_CLIP), _RULE_CODES[self.rule], *self._cells)
-        if self.binning == "opencv":
+                np.float32(self.bias), np.float32(eps), np.float32(clip),
+                _RULE_CODES[self.rule], *self._cells)
+        if self.model == "hog":
+            hog_renorm_scores(*args, out)
+        elif self.binning == "opencv":
             renorm_scores_binned(*args, block_axis_weights(HOG_CELL).astype(np.float32), out)
         else:
             renorm_scores(*args, out)
@@ -167,6 +192,8 @@ class RenormStage:
         """``(meta, arrays)`` of the stage (its homographies are the operator's)."""
         meta = dict(threshold=self.threshold, rule=self.rule, bias=self.bias,
                     binning=self.binning)
+        if self.model != "opencv":
+            meta["model"] = self.model
         if self.window != (WINDOW_WIDTH, WINDOW_HEIGHT):
             meta["window"] = list(self.window)
         return (meta,
@@ -184,7 +211,8 @@ class RenormStage:
             raise ValueError("its normalisation stage's cell sizes are not integers")
         return cls(homographies, cell, stored_array(arrays, "renorm_weights", "f", ndim=1),
                    meta["bias"], threshold=meta["threshold"], rule=meta.get("rule"),
-                   binning=meta.get("binning"), window=_stored_window(meta.get("window")))
+                   binning=meta.get("binning"), window=_stored_window(meta.get("window")),
+                   model=meta.get("model", "opencv"))
 
 
 def _stored_window(v):

@@ -1,0 +1,93 @@
+"""The per-window normalisation stage for the project's HOG/SVM (block_normalize_cells)."""
+
+import numpy as np
+import pytest
+
+from tests.images import bars_scene
+from viewadapt.detect import (
+    HOG_WEIGHT_SHAPE, RenormStage, block_normalize_cells, build_adapted_linear_operator,
+    hog_frame_features, select_candidate_windows,
+)
+from viewadapt.detect.channels import hog_cell_eps
+from viewadapt.geometry import camera_from_pose
+
+SIZE = (192, 144)
+
+
+def _weights(seed):
+    rng = np.random.default_rng(seed)
+    return rng.normal(0, 0.05, HOG_WEIGHT_SHAPE), -0.3
+
+
+def test_on_a_grid_window_the_stage_normalises_the_frame_cells_in_the_window():
+    """A window at scale 1 on the 8-px grid reads the frame's own raw cells: its score is
+    the SVM on those cells block-normalised as a canonical window's (reflected at the
+    window's border, not the frame's neighbours), unlike the fold's frame-grid blocks."""
+    img = bars_scene((200, 160), 3, bars=10)
+    W, b = _weights(0)
+    x0, y0 = 48, 32
+    H = np.array([[1.0, 0, x0], [0, 1.0, y0], [0, 0, 1.0]])
+    stage = RenormStage(H[None], [8], W, b, binning="cells", model="hog")
+    f = hog_frame_features(img, [8], pad=0, raw_cell_sizes=[8])
+    X = f.raw[0][8][y0 // 8:y0 // 8 + 16, x0 // 8:x0 // 8 + 8]
+    want = float((block_normalize_cells(X, eps=hog_cell_eps(8)) * W).sum() + b)
+    assert stage.scores([0], f.raw)[0] == pytest.approx(want, abs=1e-4)
+    frame_grid = float((f.maps[8][y0 // 8:y0 // 8 + 16, x0 // 8:x0 // 8 + 8] * W).sum() + b)
+    assert abs(frame_grid - want) > 1e-3
+    with pytest.raises(ValueError, match="binning 'cells'"):
+        RenormStage(H[None], [8], W, b, model="hog")
+    with pytest.raises(ValueError, match="1664 finite values"):
+        RenormStage(H[None], [8], np.zeros(3780), b, binning="cells", model="hog")
+
+
+def test_the_hog_cascade_rescores_what_the_fold_keeps_and_is_stored(tmp_path):
+    from viewadapt.io import OperatorCache
+
+    cam = camera_from_pose(focal=200.0, principal_point=(95.5, 71.5), height=4.0,
+                           tilt=np.radians(35), image_size=SIZE)
+    frame = bars_scene((SIZE[1], SIZE[0]), 12)
+    windows = select_candidate_windows(cam)
+    W, b = _weights(1)
+    fold = build_adapted_linear_operator(windows, W, b)
+    s1 = fold.scores(fold.frame_features(frame))
+    thr = float(np.median(s1))
+    op = build_adapted_linear_operator(windows, W, b, renorm=True, verify_threshold=thr)
+    assert fold.stage is None and op.stage.model == "hog"
+    feats = op.frame_features(frame)
+    s = op.scores(feats)
+    kept = s1 >= thr
+    assert kept.any() and (~kept).any()
+    assert np.all(np.isneginf(s[~kept])) and np.all(np.isfinite(s[kept]))
+    np.testing.assert_allclose(s[kept], op.stage.scores(np.flatnonzero(kept), feats.raw))
+    np.testing.assert_allclose(op.snapped_homographies, windows.homographies)
+    cache = OperatorCache(tmp_path)
+    cache.save({"k": 1}, op)
+    back = cache.load({"k": 1})
+    assert back.stage.model == "hog" and back.stage.binning == "cells"
+    np.testing.assert_allclose(back.scores(back.frame_features(frame)), s)
+    assert build_adapted_linear_operator(windows, W, b, renorm=True,
+                                         object_model="body").stage is None
+
+
+def test_a_frame_detector_with_the_hog_stage(tmp_path):
+    """``hog_kind(renorm=True)`` carries the stage (threshold 0 unless given); each setting
+    is its own cache entry, and the registry's HOG (the fold alone) keeps the keys of
+    before."""
+    from viewadapt.detect import HOG_DETECTOR, FrameDetector, hog_kind
+    from viewadapt.io import SourceDetectors, shipped_model_path
+
+    cam = camera_from_pose(focal=200.0, principal_point=(95.5, 71.5), height=4.0,
+                           tilt=np.radians(35), image_size=SIZE)
+    models = SourceDetectors.load(shipped_model_path())
+    kind = hog_kind(renorm=True, verify_threshold=-1.0)
+    staged = hog_kind(renorm=True)
+    assert hog_kind().model_fingerprint(models) == HOG_DETECTOR.model_fingerprint(models)
+    assert len({k.model_fingerprint(models) for k in (kind, staged, HOG_DETECTOR)}) == 3
+    assert HOG_DETECTOR.model_fingerprint(models) == models.fingerprint()  # keys of before
+    det = FrameDetector(cam, models, kinds={"hog": kind}, cache_dir=tmp_path)
+    assert all(L.operator.stage.threshold == -1.0 for L in det.operator("hog").layers)
+    assert det.detect(bars_scene((SIZE[1], SIZE[0]), 4)).shape[1] == 5
+    default = FrameDetector(cam, models, kinds={"hog": staged}, cache_dir=tmp_path)
+    assert all(L.operator.stage.threshold == 0.0 for L in default.operator("hog").layers)
+    plain = FrameDetector(cam, models, cache_dir=tmp_path)
+    assert all(L.operator.stage is None for L in plain.operator("hog").layers)
