@@ -23,7 +23,7 @@ from viewadapt.geometry import PERSON_HEIGHT_M
 from viewadapt.io.boxes import FrameBoxes, read_boxes, read_ignore_regions
 from viewadapt.io.cache import DEFAULT_CACHE_LIMIT_GB, check_cache_limit
 from viewadapt.io.calibration import read_calibration_file
-from viewadapt.io.hogfile import DAIMLER_FILE_LAYOUT, HOG_FILE_LAYOUT, read_opencv_hog_detector
+from viewadapt.io.hogfile import PRETRAINED_FILE_LAYOUTS, read_opencv_hog_detector
 from viewadapt.io.files import atomic_output_dir, atomic_write_text, check_output_dir, run_metadata
 from viewadapt.io.models import SourceDetectors, shipped_model_path
 from viewadapt.io.outputs import (
@@ -189,8 +189,6 @@ _PRETRAINED_MODELS = {"opencv": "OpenCV's HOGDescriptor_getDefaultPeopleDetector
                                 "Dalal & Triggs 2005)",
                       "daimler": "OpenCV's HOGDescriptor_getDaimlerPeopleDetector (48x96, "
                                  "Daimler pedestrian data, Enzweiler & Gavrila 2009)"}
-#: the HOGDescriptor file layout each pretrained detector's --model must have
-_PRETRAINED_LAYOUTS = {"opencv": HOG_FILE_LAYOUT, "daimler": DAIMLER_FILE_LAYOUT}
 
 
 def _metadata(args, det, stream, writer, dist, correction, annotate, *, imported,
@@ -265,7 +263,7 @@ def cmd_detect(args) -> int:
     if args.detector in PRETRAINED_KINDS:         # its weights come with it, or in --model
         models = None
         if args.model is not None:
-            w, b = read_opencv_hog_detector(args.model, _PRETRAINED_LAYOUTS[args.detector])
+            w, b = read_opencv_hog_detector(args.model, PRETRAINED_FILE_LAYOUTS[args.detector])
             kinds = {args.detector: opencv_kind(w, b, detector=args.detector)}
     else:
         if args.model is None:

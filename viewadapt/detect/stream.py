@@ -61,13 +61,15 @@ class DetectorSpec:
         """A new :class:`FrameDetector` of this spec (its operators built on first use, or
         read from the operator cache)."""
         from viewadapt.geometry import Camera
-        from viewadapt.io.hogfile import read_opencv_hog_detector
+        from viewadapt.io.hogfile import PRETRAINED_FILE_LAYOUTS, read_opencv_hog_detector
         from viewadapt.io.models import SourceDetectors
 
         cam = Camera.from_dict(json.loads(self.camera))
         if self.kind in PRETRAINED_KINDS:
-            kinds = {self.kind: opencv_kind(*read_opencv_hog_detector(self.model))} \
-                if self.model else {}
+            kinds = {}
+            if self.model:                  # read in the kind's own layout (Daimler: 48x96)
+                w, b = read_opencv_hog_detector(self.model, PRETRAINED_FILE_LAYOUTS[self.kind])
+                kinds = {self.kind: opencv_kind(w, b, detector=self.kind)}
             return FrameDetector(cam, None, kinds=kinds, **json.loads(self.options))
         return FrameDetector(cam, SourceDetectors.load(self.model), **json.loads(self.options))
 

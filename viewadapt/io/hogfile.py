@@ -19,7 +19,8 @@ import numpy as np
 from viewadapt.io.bounded import MAX_CALIBRATION_BYTES, read_limited_text
 from viewadapt.io.imports import check_filestorage_text
 
-__all__ = ["HOG_FILE_LAYOUT", "DAIMLER_FILE_LAYOUT", "read_opencv_hog_detector"]
+__all__ = ["HOG_FILE_LAYOUT", "DAIMLER_FILE_LAYOUT", "PRETRAINED_FILE_LAYOUTS",
+           "read_opencv_hog_detector"]
 
 #: The HOGDescriptor fields the adapted detector needs, and their values.
 HOG_FILE_LAYOUT = {"winSize": (64, 128), "blockSize": (16, 16), "blockStride": (8, 8),
@@ -28,6 +29,8 @@ HOG_FILE_LAYOUT = {"winSize": (64, 128), "blockSize": (16, 16), "blockStride": (
 #: The same for a 48x96 detector read as OpenCV's Daimler detector is
 #: (``HOGDescriptor((48, 96), (16, 16), (8, 8), (8, 8), 9)``: no gamma correction).
 DAIMLER_FILE_LAYOUT = HOG_FILE_LAYOUT | {"winSize": (48, 96), "gammaCorrection": False}
+#: The file layout of each pretrained detector kind's ``--model``.
+PRETRAINED_FILE_LAYOUTS = {"opencv": HOG_FILE_LAYOUT, "daimler": DAIMLER_FILE_LAYOUT}
 
 
 def read_opencv_hog_detector(path, layout=HOG_FILE_LAYOUT) -> tuple[np.ndarray, float]:

@@ -387,3 +387,27 @@ def test_detect_adapts_a_hog_file_saved_by_opencv(toy, tmp_path, capfd):
     assert run(tmp_path / "bad", "--model", str(tmp_path / "daimler.yml")) == 2
     err = capfd.readouterr().err.strip()
     assert "winSize" in err and len(err.splitlines()) == 1 and not (tmp_path / "bad").exists()
+
+
+def test_detect_adapts_a_daimler_file_in_its_own_layout(toy, tmp_path):
+    """--detector daimler --model takes a 48x96 HOGDescriptor file (no gamma), in this
+    process and in the workers of --jobs alike (the same detections)."""
+    hog = cv2.HOGDescriptor((48, 96), (16, 16), (8, 8), (8, 8), 9)
+    v = np.asarray(cv2.HOGDescriptor_getDaimlerPeopleDetector(), np.float32).ravel()
+    hog.setSVMDetector(np.r_[v[:-1] * 1.1, v[-1] + 0.5].astype(np.float32))
+    path = tmp_path / "mine.yml"
+    hog.save(str(path))
+
+    def run(out, *argv):
+        return main(["detect", "--calibration", str(toy.calibration), "--detector", "daimler",
+                     "--cache", str(toy.cache), "--threshold=-2", "--quiet", "--annotate",
+                     "none", "--out", str(out), *argv, str(toy.img1)])
+
+    assert run(tmp_path / "one", "--model", str(path)) == 0
+    assert run(tmp_path / "two", "--model", str(path), "--jobs", "2") == 0
+    assert run(tmp_path / "stock") == 0
+    one = (tmp_path / "one" / "detections.csv").read_text()
+    assert one == (tmp_path / "two" / "detections.csv").read_text()
+    assert one != (tmp_path / "stock" / "detections.csv").read_text()
+    meta = json.loads((tmp_path / "stock" / "metadata.json").read_text())
+    assert "Daimler" in meta["model"] and meta["detector"] == "daimler_adapted"
