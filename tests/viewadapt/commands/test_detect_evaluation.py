@@ -358,17 +358,26 @@ def test_annotated_frames_at_an_operating_point(toy, tmp_path, capfd):
     assert rc == 2 and "--annotate-fppi" in capfd.readouterr().err
 
 
-def test_detect_adapts_a_hog_file_saved_by_opencv(toy, tmp_path, capfd):
-    """--detector opencv --model takes a cv2.HOGDescriptor file; the worker processes of
-    --jobs read it too (the same detections); a file of another layout is one line."""
-    hog = cv2.HOGDescriptor()
-    v = np.asarray(cv2.HOGDescriptor_getDefaultPeopleDetector(), np.float32).ravel()
+_DAIMLER_LAYOUT = ((48, 96), (16, 16), (8, 8), (8, 8), 9)
+
+
+@pytest.mark.parametrize("detector, layout, other", [("opencv", (), _DAIMLER_LAYOUT),
+                                                     ("daimler", _DAIMLER_LAYOUT, ())])
+def test_detect_adapts_a_hog_file_saved_by_opencv(toy, tmp_path, capfd, detector, layout,
+                                                   other):
+    """--detector opencv (daimler) --model takes a 64x128 (48x96, no gamma) HOGDescriptor
+    file; the worker processes of --jobs read it too (the same detections); a file of the
+    other layout is one line."""
+    stock = {"opencv": cv2.HOGDescriptor_getDefaultPeopleDetector,
+             "daimler": cv2.HOGDescriptor_getDaimlerPeopleDetector}
+    hog = cv2.HOGDescriptor(*layout)
+    v = np.asarray(stock[detector](), np.float32).ravel()
     hog.setSVMDetector(np.r_[v[:-1] * 1.1, v[-1] + 0.5].astype(np.float32))
     path = tmp_path / "mine.yml"
     hog.save(str(path))
 
     def run(out, *argv):
-        return main(["detect", "--calibration", str(toy.calibration), "--detector", "opencv",
+        return main(["detect", "--calibration", str(toy.calibration), "--detector", detector,
                      "--cache", str(toy.cache), "--threshold=-2", "--quiet", "--annotate",
                      "none", "--out", str(out), *argv, str(toy.img1)])
 
@@ -380,34 +389,11 @@ def test_detect_adapts_a_hog_file_saved_by_opencv(toy, tmp_path, capfd):
     assert one != (tmp_path / "stock" / "detections.csv").read_text()
     meta = json.loads((tmp_path / "one" / "metadata.json").read_text())
     assert meta["model"] == str(path) and meta["model_training"] is None
-    other = cv2.HOGDescriptor((48, 96), (16, 16), (8, 8), (8, 8), 9)
-    other.setSVMDetector(cv2.HOGDescriptor_getDaimlerPeopleDetector())
-    other.save(str(tmp_path / "daimler.yml"))
+    assert meta["detector"] == f"{detector}_adapted"
+    wrong = cv2.HOGDescriptor(*other)
+    wrong.setSVMDetector(stock["daimler" if other else "opencv"]())
+    wrong.save(str(tmp_path / "wrong.yml"))
     capfd.readouterr()
-    assert run(tmp_path / "bad", "--model", str(tmp_path / "daimler.yml")) == 2
+    assert run(tmp_path / "bad", "--model", str(tmp_path / "wrong.yml")) == 2
     err = capfd.readouterr().err.strip()
     assert "winSize" in err and len(err.splitlines()) == 1 and not (tmp_path / "bad").exists()
-
-
-def test_detect_adapts_a_daimler_file_in_its_own_layout(toy, tmp_path):
-    """--detector daimler --model takes a 48x96 HOGDescriptor file (no gamma), in this
-    process and in the workers of --jobs alike (the same detections)."""
-    hog = cv2.HOGDescriptor((48, 96), (16, 16), (8, 8), (8, 8), 9)
-    v = np.asarray(cv2.HOGDescriptor_getDaimlerPeopleDetector(), np.float32).ravel()
-    hog.setSVMDetector(np.r_[v[:-1] * 1.1, v[-1] + 0.5].astype(np.float32))
-    path = tmp_path / "mine.yml"
-    hog.save(str(path))
-
-    def run(out, *argv):
-        return main(["detect", "--calibration", str(toy.calibration), "--detector", "daimler",
-                     "--cache", str(toy.cache), "--threshold=-2", "--quiet", "--annotate",
-                     "none", "--out", str(out), *argv, str(toy.img1)])
-
-    assert run(tmp_path / "one", "--model", str(path)) == 0
-    assert run(tmp_path / "two", "--model", str(path), "--jobs", "2") == 0
-    assert run(tmp_path / "stock") == 0
-    one = (tmp_path / "one" / "detections.csv").read_text()
-    assert one == (tmp_path / "two" / "detections.csv").read_text()
-    assert one != (tmp_path / "stock" / "detections.csv").read_text()
-    meta = json.loads((tmp_path / "stock" / "metadata.json").read_text())
-    assert "Daimler" in meta["model"] and meta["detector"] == "daimler_adapted"
