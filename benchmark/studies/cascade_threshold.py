@@ -77,8 +77,6 @@ def cascade_table(pairs, thresholds=THRESHOLDS, levels=FINAL_LEVELS) -> list[dic
 def _frame_sources(args):
     """``(name, camera, dist, images)`` groups: a rendered set's frames by camera (all
     named ``renders``), a clip."""
-    import cv2
-
     out = []
     if args.data is not None:
         from benchmark.frames.methods import load_frames
@@ -86,9 +84,9 @@ def _frame_sources(args):
         by_cam = {}
         for f in load_frames(args.data)[::args.every]:
             key = json.dumps(f.camera.to_dict(), sort_keys=True)
-            by_cam.setdefault(key, (f.camera, f.dist, []))[2].append(f.path)
-        for cam, dist, paths in by_cam.values():     # one table over all its cameras
-            out.append(("renders", cam, dist, paths))
+            by_cam.setdefault(key, (f.camera, f.dist, []))[2].append(f)
+        for cam, dist, records in by_cam.values():   # one table over all its cameras
+            out.append(("renders", cam, dist, records))
     if args.clip is not None:
         from viewadapt.io import open_frames
         from viewadapt.io.calibration import read_calibration_file
@@ -99,12 +97,8 @@ def _frame_sources(args):
         out.append(("clip", cal.camera, cal.dist, open_frames([args.clip], every=args.every)))
     if not out:
         raise ValueError("give --data and/or --clip")
-    for name, cam, dist, src in out:
-        if isinstance(src, list):
-            yield name, cam, dist, (cv2.cvtColor(cv2.imread(str(p)), cv2.COLOR_BGR2RGB)
-                                    for p in src)
-        else:
-            yield name, cam, dist, (f.image for f in src)
+    for name, cam, dist, src in out:        # FrameRecord.image() / a FrameStream's frames
+        yield name, cam, dist, (f.image() if isinstance(src, list) else f.image for f in src)
 
 
 def main(argv=None) -> int:

@@ -87,18 +87,13 @@ def window_mapping(windows: CandidateWindows, n: int, model="plane"):
 
 
 def _distorted(points, K, dist) -> np.ndarray:
-    """:func:`~viewadapt.detect.windows.distort_pixels` of the finite ``points`` (others,
-    and points behind the camera, NaN)."""
+    """:func:`~viewadapt.detect.windows.distort_pixels` of the finite ``points`` (the others
+    stay NaN: where the object model hides a point)."""
     p = np.asarray(points, np.float64)
     out = np.full(p.shape, np.nan)
     ok = np.all(np.isfinite(p), axis=-1)
     if ok.any():
-        rays = np.c_[p[ok], np.ones(int(ok.sum()))] @ np.linalg.inv(np.asarray(K)).T
-        front = rays[:, 2] > 0
-        sub = np.full((int(ok.sum()), 2), np.nan)
-        if front.any():
-            sub[front] = distort_pixels(p[ok][front], K, dist)
-        out[ok] = sub
+        out[ok] = distort_pixels(p[ok], K, dist)
     return out
 
 
