@@ -124,7 +124,9 @@ def register_footage(bsub, common) -> None:
                         "inside are ignored, detections and ground truth alike")
     p.add_argument("--methods", nargs="+", type=method_arg, default=None, metavar="METHOD",
                    help="methods to run (default: " + " ".join(m.name for m in FOOTAGE_METHODS)
-                        + "); any method of bench frames, e.g. 'opencv_adapted[body]' (quoted)")
+                        + "); any method of bench frames, e.g. 'opencv_adapted[body]', or "
+                          "'hog_adapted[fold]' without the per-window normalisation stage "
+                          "(quoted)")
     p.add_argument("--rules", nargs="+", choices=list(ANGLE_RULES), default=None,
                    help="run every adapted method once per angle rule of A")
     p.add_argument("--object-models", nargs="+", choices=list(OBJECT_MODELS), default=None,

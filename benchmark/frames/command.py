@@ -435,7 +435,8 @@ def register(sub, common) -> None:
                    help="methods to run (default: " + " ".join(m.name for m in DEFAULT_METHODS)
                         + "); also "
                         "opencv_native and adapted variants such as 'hog_adapted[body]' "
-                        "(quoted)")
+                        "(quoted); 'hog_adapted[fold]': without the per-window normalisation "
+                        "stage")
     p.add_argument("--rules", nargs="+", choices=list(ANGLE_RULES), default=None,
                    help="run every adapted method once per angle rule of A: covariant "
                         "(default), paper (the literal eq. 3), none (S only); one row each")

@@ -237,15 +237,15 @@ class FrameMethods:
     :class:`viewadapt.detect.FrameDetector` (one per angle rule and object model asked
     for) and the baselines, on the same windows.
 
-    Parameters are those of :class:`~viewadapt.detect.FrameDetector` (without ``rule`` and
-    ``object_model``: each adapted method names its own).
+    Parameters are those of :class:`~viewadapt.detect.FrameDetector` (without ``rule``,
+    ``object_model`` and ``stage``: each adapted method names its own).
     """
 
     def __init__(self, camera, models, **kw):
         self.adapted = FrameDetector(camera, models, **kw)
         self.models = models
         self._camera, self._kw = camera, kw
-        self._variants = {("covariant", "plane"): self.adapted}
+        self._variants = {("covariant", "plane", not self.adapted.stage): self.adapted}
         self._undistortion = None
 
     @property
@@ -258,13 +258,15 @@ class FrameMethods:
         """Score threshold per detector kind (the adapted detector's)."""
         return self.adapted.thresholds
 
-    def detector(self, rule: str = "covariant", object_model: str = "plane") -> FrameDetector:
+    def detector(self, rule: str = "covariant", object_model: str = "plane",
+                 fold: bool = False) -> FrameDetector:
         """The :class:`FrameDetector` of one angle rule and object model (made on first use,
-        on the same windows)."""
-        key = (rule, object_model)
+        on the same windows); ``fold``: without the normalisation stages (``stage=False``)."""
+        key = (rule, object_model, bool(fold))
         if key not in self._variants:
             self._variants[key] = FrameDetector(self._camera, self.models, rule=rule,
-                                                object_model=object_model, **self._kw)
+                                                object_model=object_model,
+                                                **dict(self._kw, stage=not fold))
         return self._variants[key]
 
     def prepare(self, method) -> None:
@@ -273,7 +275,7 @@ class FrameMethods:
         timed per frame; nothing for the other methods."""
         m = frame_method(method)
         if m.how == "adapted":
-            self.detector(m.rule, m.object_model).operator(m.kind)
+            self.detector(m.rule, m.object_model, m.fold).operator(m.kind)
 
     def detect(self, method, image) -> np.ndarray:
         """(D, 5) detections ``(x, y, w, h, score)`` of ``method`` (a
@@ -282,7 +284,7 @@ class FrameMethods:
         m = frame_method(method)
         kind = m.detector
         if m.how == "adapted":
-            return self.detector(m.rule, m.object_model).detect(image, kind.name)
+            return self.detector(m.rule, m.object_model, m.fold).detect(image, kind.name)
         if m.how == "warp":
             s = warp_scores(image, self.windows.homographies, self.models, kind)
             return _nms(person_boxes(self.windows.homographies), s, self.thr[kind.name], kind)

@@ -16,9 +16,9 @@ from dataclasses import dataclass, replace
 
 from viewadapt.detect import DETECTOR_KINDS, PRETRAINED_KINDS, detector_kind
 
-__all__ = ["RULE_TAGS", "OBJECT_MODEL_TAGS", "OPENCV_NAMES", "GROUND_TAG", "variant_label",
-           "FrameMethod", "FRAME_METHODS", "DEFAULT_METHODS", "expand_adapted", "method_arg",
-           "frame_method"]
+__all__ = ["RULE_TAGS", "OBJECT_MODEL_TAGS", "OPENCV_NAMES", "GROUND_TAG", "FOLD_TAG",
+           "variant_label", "FrameMethod", "FRAME_METHODS", "DEFAULT_METHODS", "expand_adapted",
+           "method_arg", "frame_method"]
 
 #: angle rule -> its tag in a variant's label (none for the default, covariant rule)
 RULE_TAGS = {"covariant": "", "none": "S only", "paper": "paper eq.3"}
@@ -40,6 +40,9 @@ OPENCV_NAMES = {4: "opencv", 2: "opencv_2x", 1: "opencv_native"}
 _PYRAMID_SUFFIX = {4: "", 2: "_2x", 1: "_native"}
 #: the tag of a pyramid whose boxes pass the ground-plane filter
 GROUND_TAG = "ground"
+#: the tag of an adapted detector without its per-window normalisation stage (the folded
+#: operator alone; :meth:`viewadapt.detect.DetectorKind.fold`)
+FOLD_TAG = "fold"
 
 
 def variant_label(base: str, rule: str | None = None, object_model: str | None = None, *,
@@ -80,6 +83,10 @@ class FrameMethod:
         (:func:`benchmark.frames.methods.ground_plane_filter`): only those whose height
         agrees with an assumed person height standing at their foot point are kept -- the
         calibration used without adaptation. Only for the pyramids.
+    fold : bool
+        An adapted detector without its per-window normalisation stage: the folded
+        operator alone (eq. (7)). Only for the adapted HOG, OpenCV and Daimler detectors on
+        the paper's plane.
 
     Raises
     ------
@@ -93,6 +100,7 @@ class FrameMethod:
     object_model: str | None = None
     upsample: int | None = None
     ground: bool = False
+    fold: bool = False
 
     def __post_init__(self):
         if self.kind not in HOWS.get(self.how, ()):
@@ -117,6 +125,11 @@ class FrameMethod:
         if self.ground not in (False, True) or (self.ground and not pyramid):
             raise ValueError(f"only the pyramids take the ground-plane filter, got "
                              f"{self.how!r} with ground={self.ground!r}")
+        if self.fold not in (False, True) or (self.fold and not (
+                adapted and self.object_model == "plane" and detector_kind(self.kind).has_stage)):
+            raise ValueError(f"only the adapted detectors with a normalisation stage, on "
+                             f"the paper's plane, have a fold alone; got {self.kind}_{self.how} "
+                             f"with object model {self.object_model!r}")
 
     def _fill(self, **defaults):
         for field, value in defaults.items():
@@ -139,15 +152,17 @@ class FrameMethod:
         ``"acf_pyramid_fast"``, ``"opencv_adapted"``; OpenCV's ``detectMultiScale``:
         ``"opencv"`` (4x), ``"opencv_2x"``, ``"opencv_native"``; a pyramid with the
         ground-plane filter, e.g. ``"opencv_2x[ground]"``."""
-        extra = GROUND_TAG if self.ground else ""
+        extra = GROUND_TAG if self.ground else FOLD_TAG if self.fold else ""
         if self.kind in PRETRAINED_KINDS and self.how == "pyramid":
             return variant_label(self.kind + _PYRAMID_SUFFIX[self.upsample], extra=extra)
         return f"{self.kind}_{variant_label(self.how, self.rule, self.object_model, extra=extra)}"
 
     @property
     def detector(self):
-        """The :class:`~viewadapt.detect.DetectorKind` of the method's detector."""
-        return detector_kind(self.kind)
+        """The :class:`~viewadapt.detect.DetectorKind` of the method's detector (without its
+        normalisation stage for a ``fold`` method)."""
+        kind = detector_kind(self.kind)
+        return kind.fold() if self.fold else kind
 
     @property
     def on_window_grid(self) -> bool:
@@ -171,7 +186,9 @@ def _all_methods():
                 if kind in HOWS[how] and not (kind in PRETRAINED_KINDS and how == "pyramid")]
     # OpenCV's own detectMultiScale at each of its upsamplings
     out += [FrameMethod(k, "pyramid", upsample=u) for k in PRETRAINED_KINDS for u in UPSAMPLES[k]]
-    return tuple(out) + tuple(replace(m, ground=True) for m in out if m.how.startswith("pyramid"))
+    return tuple(out) + tuple(replace(m, ground=True) for m in out if m.how.startswith("pyramid")) \
+        + tuple(replace(m, fold=True) for m in out if m.how == "adapted"
+                and m.object_model == "plane" and m.detector.has_stage)
 
 
 #: every method of the frames benchmark
@@ -195,7 +212,8 @@ def expand_adapted(methods, rules=None, object_models=None) -> list:
         if m.how != "adapted":
             out.append(m)
             continue
-        out += [dataclasses.replace(m, rule=rule, object_model=model)
+        out += [dataclasses.replace(m, rule=rule, object_model=model,
+                                    fold=m.fold and model == "plane")
                 for model in object_models or (m.object_model,) for rule in rules or (m.rule,)]
     return list(dict.fromkeys(out))
 

@@ -198,6 +198,8 @@ def _metadata(args, det, stream, writer, dist, correction, annotate, *, imported
     return run_metadata(
         args.seed, detector=f"{args.detector}_adapted", rule=args.rule,
         object_model=args.object_model, threshold=args.threshold,
+        stage=any(getattr(L.operator, "stage", None) is not None
+                  for L in det.operator(args.detector).layers),
         person_heights=list(det.params["person_heights"]), windows=len(det.windows),
         input=stream.describe(), frames=writer.n_frames, detections=writer.n_detections,
         annotate=annotate, annotate_threshold=args.annotate_threshold,
@@ -325,7 +327,7 @@ def cmd_detect(args) -> int:
                    upsample_below=UPSAMPLE_BELOW if args.upsample_below is None
                    else args.upsample_below,
                    thresholds={args.detector: args.threshold}, rule=args.rule,
-                   object_model=args.object_model)
+                   object_model=args.object_model, stage=args.stage == "on")
     if correction == "windows":
         options["lens"] = dist.tolist()
     spec = DetectorSpec.create(cam, args.model or "", args.detector, **options)
@@ -448,6 +450,12 @@ def register(sub, common) -> None:
                    help="how a person's pixels move between the views: plane (default, the "
                         "paper's person plane) or body (a mean body shape shipped with the "
                         "package; slower to build, cached)")
+    p.add_argument("--stage", choices=("on", "off"), default="on",
+                   help="hog, opencv and daimler: on (default) rescores the windows the "
+                        "adapted operator calls a person with their own block normalisation "
+                        "(the others keep their score); off: the adapted operator alone "
+                        "(faster where many windows look like persons; docs/real_footage.md "
+                        "has the measurement)")
     p.add_argument("--lens", choices=LENS_CHOICES, default=DEFAULT_LENS,
                    help="with dist in the calibration: windows (map the candidate windows "
                         "through the lens once and read the frames as they are), undistort "

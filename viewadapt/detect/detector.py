@@ -95,6 +95,10 @@ class FrameDetector:
     kinds : dict name -> DetectorKind, optional
         Detector kinds of this detector instead of the registry's of the same name, e.g.
         ``{"opencv": opencv_kind(w, b)}`` for another OpenCV HOG/SVM.
+    stage : bool
+        Whether the kinds that have a per-window normalisation stage (``hog``, ``opencv``,
+        ``daimler``; :class:`~viewadapt.detect.renorm.RenormStage`) run it (default); False:
+        their folded operators alone (:meth:`DetectorKind.fold`).
     """
 
     def __init__(self, camera: Camera, models: SourceDetectors, *,
@@ -104,7 +108,7 @@ class FrameDetector:
                  cells_per_source_cell: float = CELLS_PER_SOURCE_CELL,
                  upsample_below: float = UPSAMPLE_BELOW, thresholds=None,
                  rule: str = "covariant", object_model: str = "plane", lens=None,
-                 grid_phase=(0.0, 0.0), kinds=None):
+                 grid_phase=(0.0, 0.0), kinds=None, stage: bool = True):
         if not isinstance(camera, Camera) or camera.image_size is None:
             raise ValueError("camera must be a Camera with its image_size (width, height)")
         self.camera = camera
@@ -125,6 +129,7 @@ class FrameDetector:
             if detector_kind(name).name != getattr(k, "name", None):
                 raise ValueError(f"kinds[{name!r}] must be a detector kind called {name!r}")
             self.kinds[name] = k
+        self.stage = bool(stage)
         self.thresholds = {k: DEFAULT_THRESHOLD for k in DETECTOR_KINDS | PRETRAINED_KINDS} \
             | dict(thresholds or {})
         for k in self.thresholds:
@@ -147,9 +152,10 @@ class FrameDetector:
 
     def kind(self, name):
         """This detector's :class:`DetectorKind` called ``name`` (its own ``kinds``, else
-        the registry's)."""
+        the registry's; without its normalisation stage unless :attr:`stage`)."""
         name = detector_kind(name).name
-        return self.kinds.get(name) or detector_kind(name)
+        kind = self.kinds.get(name) or detector_kind(name)
+        return kind if self.stage or not kind.has_stage else kind.fold()
 
     def operator(self, kind: str):
         """The adapted operator of ``kind`` (built, or read from the cache, on first use)."""

@@ -77,31 +77,50 @@ class DetectorKind:
         """(n,) source-model scores of (n, d) canonical-window features (image warping)."""
         raise NotImplementedError
 
+    #: whether the kind's operator has a per-window normalisation stage that :meth:`fold`
+    #: can leave out
+    has_stage = False
+
+    def fold(self) -> DetectorKind:
+        """The same detector without its per-window normalisation stage (the folded
+        operator alone, eq. (7)); ValueError for a kind without one."""
+        raise ValueError(f"the {self.name} detector has no normalisation stage to leave out")
+
     def __repr__(self):
         return f"DetectorKind({self.name!r})"
 
 
 class _HogDetector(DetectorKind):
-    """Linear SVM on block-normalised HOG cells: one adapted template per group, ``G^T w``;
-    with ``renorm`` (:func:`hog_kind`) the windows it scores a person are rescored with
-    their cells remapped by their own ``G`` and block-normalised in the window
-    (:class:`~viewadapt.detect.renorm.RenormStage`)."""
+    """Linear SVM on block-normalised HOG cells: one adapted template per group, ``G^T w``
+    (the fold); with ``renorm`` (the default, :func:`hog_kind`) the windows it scores a
+    person are rescored with their cells remapped by their own ``G`` and block-normalised in
+    the window (:class:`~viewadapt.detect.renorm.RenormStage`), the others keep their
+    folded score."""
 
     name, features, tolerance = "hog", HOG_FEATURES, HOG_TOLERANCE
     operator_class = AdaptedLinearOperator
 
-    def __init__(self, renorm: bool = False, verify_threshold: float = HOG_VERIFY_THRESHOLD):
+    def __init__(self, renorm: bool = True, verify_threshold: float = HOG_VERIFY_THRESHOLD):
         #: whether the windows the fold keeps are rescored with their own block
         #: normalisation (:class:`~viewadapt.detect.renorm.RenormStage`, ``model="hog"``),
         #: from folded score ``verify_threshold``
         self.renorm = bool(renorm)
         self.verify_threshold = float(verify_threshold)
 
+    @property
+    def has_stage(self):
+        return self.renorm
+
+    def fold(self):
+        if not self.renorm:
+            return super().fold()
+        return _HogDetector(renorm=False)
+
     def model(self, models):
         return models.hog_weights, models.hog_bias
 
     def model_fingerprint(self, models) -> str:
-        key = models.fingerprint()         # (the fold alone: the cache keys of before)
+        key = models.fingerprint()         # (the fold alone)
         return key if not self.renorm else hashlib.sha256(
             f"{key} renorm {self.verify_threshold}".encode()).hexdigest()
 
@@ -161,12 +180,24 @@ class _OpenCVDetector(DetectorKind):
     gamma = True
     _default = staticmethod(_opencv_people)
 
-    def __init__(self, weights=None, bias: float = 0.0):
+    def __init__(self, weights=None, bias: float = 0.0, *, renorm: bool = True):
         self._own = None
+        self._weights = (weights, bias)
+        #: whether the windows the fold keeps are rescored (the stage)
+        self.renorm = bool(renorm)
         if weights is not None:
             W = opencv_cell_weights(weights, window=self.window)
             W.setflags(write=False)
             self._own = (W, float(bias))
+
+    @property
+    def has_stage(self):
+        return self.renorm
+
+    def fold(self):
+        if not self.renorm:
+            return super().fold()
+        return type(self)(*self._weights, renorm=False)
 
     def model(self, models=None):
         return self._own if self._own is not None else self._default()
@@ -178,12 +209,14 @@ class _OpenCVDetector(DetectorKind):
         h.update(f"renorm {RENORM_CELLS_PER_SOURCE_CELL} {VERIFY_THRESHOLD} binned".encode())
         if self.window != (WINDOW_WIDTH, WINDOW_HEIGHT) or not self.gamma:
             h.update(f"window {self.window} gamma {self.gamma}".encode())
+        if not self.renorm:
+            h.update(b"fold alone")
         return h.hexdigest()
 
     def build_operator(self, windows, models, **kw):
         W, b = self.model()
         return build_adapted_opencv_operator(windows, W, b, window=self.window,
-                                             gamma=self.gamma, **kw)
+                                             gamma=self.gamma, renorm=self.renorm, **kw)
 
     def window_scores(self, models, X):
         W, b = self.model()
@@ -201,12 +234,12 @@ class _DaimlerDetector(_OpenCVDetector):
     _default = staticmethod(_daimler_people)
 
 
-def hog_kind(*, renorm: bool = False,
+def hog_kind(*, renorm: bool = True,
              verify_threshold: float = HOG_VERIFY_THRESHOLD) -> DetectorKind:
-    """The ``hog`` detector kind, with (``renorm``) or without (the default, the
-    registry's) the per-window normalisation stage, from folded score ``verify_threshold``:
-    windows the fold scores below it are not reported at all, whatever the detection
-    threshold."""
+    """The ``hog`` detector kind, with (``renorm``, the default, the registry's
+    :data:`HOG_DETECTOR`) or without (the fold alone) the per-window normalisation stage,
+    from folded score ``verify_threshold``: windows the fold scores below it keep their
+    folded score."""
     return _HogDetector(renorm, verify_threshold)
 
 

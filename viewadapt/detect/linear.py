@@ -119,11 +119,11 @@ class AdaptedLinearOperator(TemplateOperator):
         stage = self.stage
         if stage is None:
             return s
-        # the cascade: the windows the fold keeps, rescored with their own normalisation
+        # the cascade: the windows the fold keeps, rescored with their own normalisation;
+        # the others keep their folded score (below the stage's threshold)
         cand = np.flatnonzero(s >= stage.threshold)
-        final = np.full(len(s), -np.inf)
-        final[cand] = stage.scores(cand, features.raw)
-        return final
+        s[cand] = stage.scores(cand, features.raw)
+        return s
 
     def frame_features(self, image) -> FrameFeatures:
         """The frame's feature maps this operator reads (OpenCV's cells: only the cell rows

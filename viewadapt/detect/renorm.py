@@ -9,8 +9,10 @@ scores at least ``threshold`` (a cascade): the frame's raw cell histograms are r
 the window's cells by ``G = S (x) A`` -- ``S`` from each source cell's image under the
 window's own homography, ``A`` by the covariant rule -- and the window's blocks are L2-Hys
 normalised and scored as OpenCV scores them
-(:func:`viewadapt._renorm_kernels.renorm_scores`). The frame cells it reads are about one
-source cell in size (:data:`RENORM_CELLS_PER_SOURCE_CELL`). Nothing is warped.
+(:func:`viewadapt._renorm_kernels.renorm_scores`); the windows below ``threshold`` keep their
+folded score. The frame cells it reads are about one source cell in size
+(:data:`RENORM_CELLS_PER_SOURCE_CELL`). Nothing is warped. With ``model="hog"`` it does the
+same for the project's HOG/SVM.
 
 References
 ----------
@@ -71,7 +73,7 @@ class RenormStage:
         The SVM's weights in OpenCV's descriptor layout (of its ``window``); ``bias`` its
         bias.
     threshold : float
-        Windows whose folded score is below it are not rescored.
+        Windows whose folded score is below it are not rescored (they keep it).
     rule : {"covariant", "paper", "none"}
     binning : {"opencv", "cells"}
         How a block's cell histograms gather the frame's cells: ``"opencv"`` weights them

@@ -158,3 +158,22 @@ def test_compiled_cascade_equals_the_numpy_reference(frame, models):
     got = dense_cascade_scores(models.acf, C, pos)
     np.testing.assert_array_equal(got, dense_cascade_scores_reference(models.acf, C, pos))
     assert dense_cascade_scores(models.acf, C, pos[:0]).shape == (0,)
+
+
+def test_a_fold_method_is_the_adapted_detector_without_its_stage(frame, models):
+    """``hog_adapted[fold]`` runs the registry's HOG without its per-window normalisation
+    stage, on the same windows; ``hog_adapted`` keeps the stage."""
+    from viewadapt.detect import FrameDetector, hog_kind
+
+    fm = FrameMethods(frame.camera, models, thresholds={"hog": -1.0})
+    staged, fold = FrameMethod.parse("hog_adapted"), FrameMethod.parse("hog_adapted[fold]")
+    fm.prepare(fold)
+    assert all(L.operator.stage is None
+               for L in fm.detector("covariant", "plane", fold=True).operator("hog").layers)
+    assert all(L.operator.stage is not None for L in fm.adapted.operator("hog").layers)
+    img = frame.image()
+    want = FrameDetector(frame.camera, models, thresholds={"hog": -1.0},
+                         kinds={"hog": hog_kind(renorm=False)}).detect(img, "hog")
+    np.testing.assert_array_equal(fm.detect(fold, img), want)
+    np.testing.assert_array_equal(fm.detect(staged, img), fm.adapted.detect(img, "hog"))
+    assert not np.array_equal(fm.detect(staged, img), want)

@@ -14,62 +14,74 @@ from benchmark.frames.spec import (
 )
 
 #: every method name of ``bench frames`` -> (kind, how, rule, object model, upsample,
-#: ground-plane filter), as the benchmark documents them (adapted: each rule and object
-#: model; the pyramids and OpenCV's detector on the 4x-upsampled frame, ``opencv_2x`` on the
-#: 2x one, ``opencv_native`` on the frame as it is; each pyramid also with the filter)
+#: ground-plane filter, fold alone), as the benchmark documents them (adapted: each rule and
+#: object model; the pyramids and OpenCV's detector on the 4x-upsampled frame, ``opencv_2x``
+#: on the 2x one, ``opencv_native`` on the frame as it is; each pyramid also with the
+#: filter; the adapted detectors with a normalisation stage also without it, on the plane)
 EXPECTED = {
-    "hog_adapted": ("hog", "adapted", "covariant", "plane", None, False),
-    "hog_adapted[S only]": ("hog", "adapted", "none", "plane", None, False),
-    "hog_adapted[paper eq.3]": ("hog", "adapted", "paper", "plane", None, False),
-    "hog_adapted[body]": ("hog", "adapted", "covariant", "body", None, False),
-    "hog_adapted[body, S only]": ("hog", "adapted", "none", "body", None, False),
-    "hog_adapted[body, paper eq.3]": ("hog", "adapted", "paper", "body", None, False),
-    "hog_warp": ("hog", "warp", None, None, None, False),
-    "hog_pyramid": ("hog", "pyramid", None, None, 4, False),
-    "acf_adapted": ("acf", "adapted", "covariant", "plane", None, False),
-    "acf_adapted[S only]": ("acf", "adapted", "none", "plane", None, False),
-    "acf_adapted[paper eq.3]": ("acf", "adapted", "paper", "plane", None, False),
-    "acf_adapted[body]": ("acf", "adapted", "covariant", "body", None, False),
-    "acf_adapted[body, S only]": ("acf", "adapted", "none", "body", None, False),
-    "acf_adapted[body, paper eq.3]": ("acf", "adapted", "paper", "body", None, False),
-    "acf_warp": ("acf", "warp", None, None, None, False),
-    "acf_pyramid": ("acf", "pyramid", None, None, 4, False),
-    "acf_pyramid_fast": ("acf", "pyramid_fast", None, None, 4, False),
-    "opencv_adapted": ("opencv", "adapted", "covariant", "plane", None, False),
-    "opencv_adapted[S only]": ("opencv", "adapted", "none", "plane", None, False),
-    "opencv_adapted[paper eq.3]": ("opencv", "adapted", "paper", "plane", None, False),
-    "opencv_adapted[body]": ("opencv", "adapted", "covariant", "body", None, False),
-    "opencv_adapted[body, S only]": ("opencv", "adapted", "none", "body", None, False),
-    "opencv_adapted[body, paper eq.3]": ("opencv", "adapted", "paper", "body", None, False),
-    "opencv_warp": ("opencv", "warp", None, None, None, False),
-    "daimler_adapted": ("daimler", "adapted", "covariant", "plane", None, False),
-    "daimler_adapted[S only]": ("daimler", "adapted", "none", "plane", None, False),
-    "daimler_adapted[paper eq.3]": ("daimler", "adapted", "paper", "plane", None, False),
-    "daimler_adapted[body]": ("daimler", "adapted", "covariant", "body", None, False),
-    "daimler_adapted[body, S only]": ("daimler", "adapted", "none", "body", None, False),
-    "daimler_adapted[body, paper eq.3]": ("daimler", "adapted", "paper", "body", None, False),
-    "daimler_warp": ("daimler", "warp", None, None, None, False),
-    "opencv": ("opencv", "pyramid", None, None, 4, False),
-    "opencv_2x": ("opencv", "pyramid", None, None, 2, False),
-    "opencv_native": ("opencv", "pyramid", None, None, 1, False),
-    "daimler": ("daimler", "pyramid", None, None, 4, False),
-    "daimler_2x": ("daimler", "pyramid", None, None, 2, False),
-    "daimler_native": ("daimler", "pyramid", None, None, 1, False),
-    "hog_pyramid[ground]": ("hog", "pyramid", None, None, 4, True),
-    "acf_pyramid[ground]": ("acf", "pyramid", None, None, 4, True),
-    "acf_pyramid_fast[ground]": ("acf", "pyramid_fast", None, None, 4, True),
-    "opencv[ground]": ("opencv", "pyramid", None, None, 4, True),
-    "opencv_2x[ground]": ("opencv", "pyramid", None, None, 2, True),
-    "opencv_native[ground]": ("opencv", "pyramid", None, None, 1, True),
-    "daimler[ground]": ("daimler", "pyramid", None, None, 4, True),
-    "daimler_2x[ground]": ("daimler", "pyramid", None, None, 2, True),
-    "daimler_native[ground]": ("daimler", "pyramid", None, None, 1, True),
+    "hog_adapted": ("hog", "adapted", "covariant", "plane", None, False, False),
+    "hog_adapted[S only]": ("hog", "adapted", "none", "plane", None, False, False),
+    "hog_adapted[paper eq.3]": ("hog", "adapted", "paper", "plane", None, False, False),
+    "hog_adapted[body]": ("hog", "adapted", "covariant", "body", None, False, False),
+    "hog_adapted[body, S only]": ("hog", "adapted", "none", "body", None, False, False),
+    "hog_adapted[body, paper eq.3]": ("hog", "adapted", "paper", "body", None, False, False),
+    "hog_warp": ("hog", "warp", None, None, None, False, False),
+    "hog_pyramid": ("hog", "pyramid", None, None, 4, False, False),
+    "acf_adapted": ("acf", "adapted", "covariant", "plane", None, False, False),
+    "acf_adapted[S only]": ("acf", "adapted", "none", "plane", None, False, False),
+    "acf_adapted[paper eq.3]": ("acf", "adapted", "paper", "plane", None, False, False),
+    "acf_adapted[body]": ("acf", "adapted", "covariant", "body", None, False, False),
+    "acf_adapted[body, S only]": ("acf", "adapted", "none", "body", None, False, False),
+    "acf_adapted[body, paper eq.3]": ("acf", "adapted", "paper", "body", None, False, False),
+    "acf_warp": ("acf", "warp", None, None, None, False, False),
+    "acf_pyramid": ("acf", "pyramid", None, None, 4, False, False),
+    "acf_pyramid_fast": ("acf", "pyramid_fast", None, None, 4, False, False),
+    "opencv_adapted": ("opencv", "adapted", "covariant", "plane", None, False, False),
+    "opencv_adapted[S only]": ("opencv", "adapted", "none", "plane", None, False, False),
+    "opencv_adapted[paper eq.3]": ("opencv", "adapted", "paper", "plane", None, False, False),
+    "opencv_adapted[body]": ("opencv", "adapted", "covariant", "body", None, False, False),
+    "opencv_adapted[body, S only]": ("opencv", "adapted", "none", "body", None, False, False),
+    "opencv_adapted[body, paper eq.3]": ("opencv", "adapted", "paper", "body", None, False, False),
+    "opencv_warp": ("opencv", "warp", None, None, None, False, False),
+    "daimler_adapted": ("daimler", "adapted", "covariant", "plane", None, False, False),
+    "daimler_adapted[S only]": ("daimler", "adapted", "none", "plane", None, False, False),
+    "daimler_adapted[paper eq.3]": ("daimler", "adapted", "paper", "plane", None, False, False),
+    "daimler_adapted[body]": ("daimler", "adapted", "covariant", "body", None, False, False),
+    "daimler_adapted[body, S only]": ("daimler", "adapted", "none", "body", None, False, False),
+    "daimler_adapted[body, paper eq.3]":
+        ("daimler", "adapted", "paper", "body", None, False, False),
+    "daimler_warp": ("daimler", "warp", None, None, None, False, False),
+    "opencv": ("opencv", "pyramid", None, None, 4, False, False),
+    "opencv_2x": ("opencv", "pyramid", None, None, 2, False, False),
+    "opencv_native": ("opencv", "pyramid", None, None, 1, False, False),
+    "daimler": ("daimler", "pyramid", None, None, 4, False, False),
+    "daimler_2x": ("daimler", "pyramid", None, None, 2, False, False),
+    "daimler_native": ("daimler", "pyramid", None, None, 1, False, False),
+    "hog_pyramid[ground]": ("hog", "pyramid", None, None, 4, True, False),
+    "acf_pyramid[ground]": ("acf", "pyramid", None, None, 4, True, False),
+    "acf_pyramid_fast[ground]": ("acf", "pyramid_fast", None, None, 4, True, False),
+    "opencv[ground]": ("opencv", "pyramid", None, None, 4, True, False),
+    "opencv_2x[ground]": ("opencv", "pyramid", None, None, 2, True, False),
+    "opencv_native[ground]": ("opencv", "pyramid", None, None, 1, True, False),
+    "daimler[ground]": ("daimler", "pyramid", None, None, 4, True, False),
+    "daimler_2x[ground]": ("daimler", "pyramid", None, None, 2, True, False),
+    "daimler_native[ground]": ("daimler", "pyramid", None, None, 1, True, False),
+    "hog_adapted[fold]": ("hog", "adapted", "covariant", "plane", None, False, True),
+    "hog_adapted[S only, fold]": ("hog", "adapted", "none", "plane", None, False, True),
+    "hog_adapted[paper eq.3, fold]": ("hog", "adapted", "paper", "plane", None, False, True),
+    "opencv_adapted[fold]": ("opencv", "adapted", "covariant", "plane", None, False, True),
+    "opencv_adapted[S only, fold]": ("opencv", "adapted", "none", "plane", None, False, True),
+    "opencv_adapted[paper eq.3, fold]": ("opencv", "adapted", "paper", "plane", None, False, True),
+    "daimler_adapted[fold]": ("daimler", "adapted", "covariant", "plane", None, False, True),
+    "daimler_adapted[S only, fold]": ("daimler", "adapted", "none", "plane", None, False, True),
+    "daimler_adapted[paper eq.3, fold]":
+        ("daimler", "adapted", "paper", "plane", None, False, True),
 }
 #: the methods that score the candidate windows (and so move with their ground grid)
 ON_GRID = {n for n in EXPECTED if "_adapted" in n or n.endswith("_warp")}
 #: the methods that read no trained source detector
 UNTRAINED = {n for n in EXPECTED if n.startswith(("opencv", "daimler"))}
-FIELDS = ("kind", "how", "rule", "object_model", "upsample", "ground")
+FIELDS = ("kind", "how", "rule", "object_model", "upsample", "ground", "fold")
 
 
 @pytest.mark.parametrize("name", list(EXPECTED))
@@ -104,11 +116,17 @@ def test_defaults_fill_in_and_specs_are_frozen():
     # OpenCV's detectMultiScale and its adapted detector read the same weights
     assert FrameMethod.parse("opencv").detector is FrameMethod.parse("opencv_warp").detector
     assert FrameMethod.parse("opencv").detector.name == "opencv"
+    # a fold method's detector is its kind without the normalisation stage
+    for k in ("hog", "opencv", "daimler"):
+        staged, fold = FrameMethod.parse(f"{k}_adapted"), FrameMethod.parse(f"{k}_adapted[fold]")
+        assert staged.detector.has_stage and not fold.detector.has_stage
+        assert fold.detector.name == k and dataclasses.replace(staged, fold=True) == fold
 
 
 @pytest.mark.parametrize("name", ["nonsense", "hog_pyramid_fast", "hog_adapted[cube]",
                                   "hog_adapted[single A]", "hog_warp[body]", "opencv_pyramid",
                                   "opencv_warp[body]", "acf_adapted[paper eq.3, body]", "hog", "",
+                                  "acf_adapted[fold]", "hog_adapted[body, fold]", "opencv_2x[fold]",
                                   "HOG_ADAPTED", None])
 def test_a_bad_name_is_one_line_naming_the_choices(name):
     with pytest.raises(ValueError, match="unknown method") as err:
@@ -125,7 +143,11 @@ def test_a_bad_name_is_one_line_naming_the_choices(name):
     ("hog", "warp", None, None, 4), ("hog", "pyramid", "paper"),
     ("hog", "pyramid", None, None, 1), ("opencv", "pyramid", None, None, 3),
     ("hog", "adapted", None, None, None, True), ("opencv", "warp", None, None, None, True),
-    ("opencv", "pyramid", None, None, 2, "yes")])
+    ("opencv", "pyramid", None, None, 2, "yes"),
+    ("acf", "adapted", None, None, None, False, True),
+    ("hog", "adapted", None, "body", None, False, True),
+    ("hog", "warp", None, None, None, False, True),
+    ("opencv", "pyramid", None, None, 2, False, True)])
 def test_combinations_no_method_has_are_refused(fields):
     with pytest.raises(ValueError) as err:
         FrameMethod(*fields)
@@ -199,3 +221,6 @@ def test_expand_adapted():
     assert [m.name for m in expand_adapted([body], rules=["none"])] == ["acf_adapted[body, S only]"]
     assert [m.name for m in expand_adapted([body, body], object_models=["plane"])] == [
         "acf_adapted"]
+    fold = FrameMethod.parse("hog_adapted[fold]")
+    assert [m.name for m in expand_adapted([fold], ["paper"], ["plane", "body"])] == [
+        "hog_adapted[paper eq.3, fold]", "hog_adapted[body, paper eq.3]"]

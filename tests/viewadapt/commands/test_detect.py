@@ -46,11 +46,11 @@ def _write_video(path, images, size=SIZE):
     return path
 
 
-def _best_iou(ref, other):
-    """For each detection of ``ref`` with a positive score, its best IoU in ``other`` (the
+def _best_iou(ref, other, floor=0.0):
+    """For each detection of ``ref`` scoring above ``floor``, its best IoU in ``other`` (the
     same frame)."""
     out = []
-    for f, a in ref[ref.score > 0].groupby("frame"):
+    for f, a in ref[ref.score > floor].groupby("frame"):
         b = other[other.frame == f]
         m = box_iou(a[["x", "y", "w", "h"]], b[["x", "y", "w", "h"]]) if len(b) else \
             np.zeros((len(a), 1))
@@ -301,7 +301,9 @@ def test_jobs_2_writes_the_same_bytes_as_one_process(toy, detect):
 def test_distorted_frames_are_undistorted(toy, detect):
     """Frames through a strong barrel lens, with its coefficients in the calibration, give
     the detections of the undistorted frames, written in the input's (distorted) pixels;
-    without them the boxes are off."""
+    without them the boxes are off. (The adapted operator alone, ``--stage off``: the toy
+    model's few boxes above 0 are too few to compare; the stage reads the frames' cells as
+    the operator does.)"""
     from viewadapt.commands.detect import boxes_in_input_pixels
 
     folder = toy.root / "distorted"
@@ -310,10 +312,10 @@ def test_distorted_frames_are_undistorted(toy, detect):
         cv2.imwrite(str(folder / f.path.name),
                     distort_image(cv2.imread(str(f.path)), toy.cam.K, DIST))
     calib = _write_calibration(toy.root / "cam_dist.json", toy.cam, dist=DIST)
-    ref = _rows(detect("folder", toy.folder))
-    fixed = detect("distorted", "--annotate", "none", "--lens", "undistort", folder,
-                   calibration=calib)
-    raw = detect("distorted_raw", "--annotate", "none", folder)
+    ref = _rows(detect("folder_fold", "--stage", "off", toy.folder))
+    fixed = detect("distorted", "--stage", "off", "--annotate", "none", "--lens", "undistort",
+                   folder, calibration=calib)
+    raw = detect("distorted_raw", "--stage", "off", "--annotate", "none", folder)
     ref = ref.copy()            # the pinhole frames' boxes, through the lens
     ref[["x", "y", "w", "h"]] = boxes_in_input_pixels(
         ref[["x", "y", "w", "h", "score"]].to_numpy(), toy.cam.K, DIST)[:, :4]
@@ -341,7 +343,7 @@ def test_windows_through_the_lens_find_the_same_persons(toy, detect):
     und = Undistortion(toy.cam.K, DIST, toy.cam.image_size)
     back = undistorted_boxes(rows[["x", "y", "w", "h", "score"]].to_numpy(), und)
     rows[["x", "y", "w", "h"]] = back[:, :4]
-    iou = _best_iou(ref, rows)
+    iou = _best_iou(ref, rows, floor=-0.25)     # (the toy model has few boxes above 0)
     assert len(iou) >= 10 and (iou > 0.5).all() and np.median(iou) > 0.7, iou
     meta = json.loads((out / "metadata.json").read_text())
     assert meta["lens_windows"]["dist"] == DIST and meta["undistortion"] is None
@@ -465,3 +467,14 @@ def test_the_shipped_model_runs_with_no_model_option(toy, tmp_path):
     cap = cv2.VideoCapture(str(out / "annotated.mp4"))
     assert int(cap.get(cv2.CAP_PROP_FRAME_COUNT)) == N_FRAMES
     cap.release()
+
+
+def test_the_stage_can_be_left_out(toy, detect):
+    """``--stage off`` runs the adapted operator alone (its own cache entry); with ``--jobs``
+    the workers leave it out too."""
+    on, off = detect("folder", toy.folder), detect("folder_fold", "--stage", "off", toy.folder)
+    assert json.loads((on / "metadata.json").read_text())["stage"] is True
+    assert json.loads((off / "metadata.json").read_text())["stage"] is False
+    assert (on / "detections.csv").read_bytes() != (off / "detections.csv").read_bytes()
+    two = detect("fold_jobs2", "--stage", "off", "--jobs", 2, toy.folder)
+    assert (two / "detections.csv").read_bytes() == (off / "detections.csv").read_bytes()

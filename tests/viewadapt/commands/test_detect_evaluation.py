@@ -121,9 +121,13 @@ def toy(tmp_path_factory):
 
 
 def _detect(toy, out, *argv, calibration=None, capsys=None):
+    """``detect`` with the adapted operator alone (``--stage off``): these tests are about
+    the evaluation and its pixels, and the quickly trained toy model scores only a few
+    windows above 0 once the stage rescores them."""
     rc = main(["detect", "--calibration", str(calibration or toy.calibration), "--model",
                str(toy.model), "--cache", str(toy.cache), "--threshold", "-0.5", "--quiet",
-               "--annotate", "none", "--out", str(out), *[str(a) for a in argv]])
+               "--stage", "off", "--annotate", "none", "--out", str(out),
+               *[str(a) for a in argv]])
     assert rc == 0
     return out
 

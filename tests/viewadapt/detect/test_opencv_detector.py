@@ -196,7 +196,7 @@ def test_the_cascade_rescores_what_the_fold_keeps(camera):
     s = op.scores(feats)
     kept = s1 >= -3.0
     assert kept.any() and (~kept).any()
-    assert np.all(np.isneginf(s[~kept])) and np.all(np.isfinite(s[kept]))
+    np.testing.assert_allclose(s[~kept], s1[~kept], atol=1e-5)   # the fold's scores stay
     np.testing.assert_allclose(s[kept], op.stage.scores(np.flatnonzero(kept), feats.raw))
     # the boxes are the windows' own (not snapped to a template)
     np.testing.assert_allclose(op.snapped_homographies, windows.homographies)
