@@ -168,29 +168,58 @@ def opencv_block_cells(mag, t, c, ax, eps, clip, out, cy0, cy1):  # pragma: no c
 
 @njit(cache=True, nogil=True, boundscheck=False, error_model="numpy")
 def strongest_sqrt_gradient(img, root, gx, gy):  # pragma: no cover - compiled
-    """Central differences of ``root[img]`` (``img`` (M, N, K) uint8, ``root`` (256,)
-    float32 its square roots; reflect-101 borders, M, N >= 2) of the channel of largest
-    ``dx**2 + dy**2`` per pixel (ties keep the earlier channel), into (M, N) ``gx, gy``."""
+    """Central differences of ``root[img]`` (``img`` (M, N, K) uint8 with K 1 or 3,
+    ``root`` (256,) float32 its square roots; reflect-101 borders, M, N >= 2) of the
+    channel of largest ``dx**2 + dy**2`` per pixel (ties keep the earlier channel), into
+    (M, N) ``gx, gy``.
+
+    Each image row is looked up once, into a ring of three channel-planar rows; the
+    differences and the choice of channel then run along contiguous rows."""
     M, N, K = img.shape
-    for i in range(M):
-        up = i - 1 if i > 0 else 1
-        down = i + 1 if i < M - 1 else M - 2
+    ring = np.empty((3, K, N), np.float32)        # image row r at ring[r % 3]
+    dx = np.empty((K, N), np.float32)
+    dy = np.empty((K, N), np.float32)
+    for r in range(2):
         for j in range(N):
-            left = j - 1 if j > 0 else 1
-            right = j + 1 if j < N - 1 else N - 2
-            bx = root[img[i, right, 0]] - root[img[i, left, 0]]
-            by = root[img[down, j, 0]] - root[img[up, j, 0]]
-            best = bx * bx + by * by
-            for k in range(1, K):
-                x = root[img[i, right, k]] - root[img[i, left, k]]
-                y = root[img[down, j, k]] - root[img[up, j, k]]
-                m = x * x + y * y
-                if m > best:
-                    best = m
-                    bx = x
-                    by = y
-            gx[i, j] = bx
-            gy[i, j] = by
+            for k in range(K):
+                ring[r, k, j] = root[img[r, j, k]]
+    for i in range(M):
+        if 2 <= i + 1 < M:                        # row i + 1 replaces row i - 2
+            nxt = ring[(i + 1) % 3]
+            for j in range(N):
+                for k in range(K):
+                    nxt[k, j] = root[img[i + 1, j, k]]
+        up = ring[(i - 1 if i > 0 else 1) % 3]
+        mid = ring[i % 3]
+        down = ring[(i + 1 if i < M - 1 else M - 2) % 3]
+        for k in range(K):
+            c, u, d, ox, oy = mid[k], up[k], down[k], dx[k], dy[k]
+            ox[0] = 0.0                           # reflect-101: both neighbours are pixel 1
+            for j in range(1, N - 1):
+                ox[j] = c[j + 1] - c[j - 1]
+            ox[N - 1] = 0.0
+            for j in range(N):
+                oy[j] = d[j] - u[j]
+        gxi, gyi = gx[i], gy[i]
+        if K == 1:
+            gxi[:] = dx[0]
+            gyi[:] = dy[0]
+            continue
+        for j in range(N):                        # K == 3, without branches
+            x0 = dx[0, j]
+            y0 = dy[0, j]
+            x1 = dx[1, j]
+            y1 = dy[1, j]
+            x2 = dx[2, j]
+            y2 = dy[2, j]
+            m0 = x0 * x0 + y0 * y0
+            m1 = x1 * x1 + y1 * y1
+            one = m1 > m0
+            bx = x1 if one else x0
+            by = y1 if one else y0
+            two = x2 * x2 + y2 * y2 > (m1 if one else m0)
+            gxi[j] = x2 if two else bx
+            gyi[j] = y2 if two else by
 
 
 @njit(cache=True, nogil=True, boundscheck=False, error_model="numpy")
