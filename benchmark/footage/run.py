@@ -17,6 +17,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from benchmark.frames.methods import FrameMethods
+from benchmark.frames.runtime import single_thread
 from benchmark.frames.spec import FrameMethod
 from viewadapt.camera.distortion import Undistortion
 from viewadapt.commands.detect import boxes_in_input_pixels, lens_correction
@@ -126,7 +127,8 @@ class FootageRun:
 
 def run_footage(clip: Clip, methods, models, *, heights, cache_dir=None, cache_limit_gb=None,
                 tolerance=None, progress=None) -> FootageRun:
-    """Every method on every frame of the clip, in one process, each timed.
+    """Every method on every frame of the clip, in one process, each timed on one core
+    (OpenCV and BLAS limited to one thread, :func:`benchmark.frames.runtime.single_thread`).
 
     A ground-filtered pyramid reuses its unfiltered pyramid's boxes of the same frame when
     that runs too (its seconds are the pyramid's plus the filter's).
@@ -159,34 +161,41 @@ def run_footage(clip: Clip, methods, models, *, heights, cache_dir=None, cache_l
         t = time.perf_counter()
         fm.prepare(m)
         out.prepare_seconds[m] = time.perf_counter() - t
-    for frame in clip.stream:
-        if (frame.image.shape[1], frame.image.shape[0]) != tuple(cam.image_size):
-            raise ValueError(f"frame {frame.source} is {frame.image.shape[1]}x"
-                             f"{frame.image.shape[0]} px, the calibration is for "
-                             f"{cam.image_size[0]}x{cam.image_size[1]}")
-        image = frame.image
-        if undistort is not None:
-            t = time.perf_counter()
-            image = undistort(image)
-            out.undistort_seconds += time.perf_counter() - t
-        raw = {}
-        for m in methods:
-            t = time.perf_counter()
-            base = replace(m, ground=False) if m.ground else None
-            if base in raw:
-                dets = fm.on_ground(raw[base][0])
-                extra = raw[base][1]
-            else:
-                dets = fm.detect(m, image)
-                extra = 0.0
-            seconds = time.perf_counter() - t
-            raw[m] = (dets, seconds)
-            out.seconds[m] += seconds + extra
-            if undistort is not None:
-                dets = boxes_in_input_pixels(dets, cam.K, clip.dist)
-            out.detections[m].append(np.asarray(dets, np.float64).reshape(-1, 5))
-        out.truth.append(clip.truth_of(frame))
-        out.keys.append(frame.source if clip.stream.paths is not None else frame.index)
-        if progress is not None:
-            progress()
+    with single_thread():
+        for frame in clip.stream:
+            _run_frame(frame, clip, fm, methods, undistort, out)
+            if progress is not None:
+                progress()
     return out
+
+
+def _run_frame(frame, clip, fm, methods, undistort, out) -> None:
+    """Every method on one frame of the clip, each timed, into ``out``."""
+    cam = clip.camera
+    if (frame.image.shape[1], frame.image.shape[0]) != tuple(cam.image_size):
+        raise ValueError(f"frame {frame.source} is {frame.image.shape[1]}x"
+                         f"{frame.image.shape[0]} px, the calibration is for "
+                         f"{cam.image_size[0]}x{cam.image_size[1]}")
+    image = frame.image
+    if undistort is not None:
+        t = time.perf_counter()
+        image = undistort(image)
+        out.undistort_seconds += time.perf_counter() - t
+    raw = {}
+    for m in methods:
+        t = time.perf_counter()
+        base = replace(m, ground=False) if m.ground else None
+        if base in raw:
+            dets = fm.on_ground(raw[base][0])
+            extra = raw[base][1]
+        else:
+            dets = fm.detect(m, image)
+            extra = 0.0
+        seconds = time.perf_counter() - t
+        raw[m] = (dets, seconds)
+        out.seconds[m] += seconds + extra
+        if undistort is not None:
+            dets = boxes_in_input_pixels(dets, cam.K, clip.dist)
+        out.detections[m].append(np.asarray(dets, np.float64).reshape(-1, 5))
+    out.truth.append(clip.truth_of(frame))
+    out.keys.append(frame.source if clip.stream.paths is not None else frame.index)

@@ -183,7 +183,8 @@ def format_table(rows, info) -> str:
             out.append(f"| {row['method']} | {st['stage']} | {st['ms']:.2f} | "
                        f"{st['bytes'] / 1e6:.3g} | {st['floor_ms']:.3f} | "
                        f"{st['floor_ms'] / st['ms']:.3f} |")
-    out += ["", "## Scoring, forms of the same operator (one core, same scores)", "",
+    out += ["", "## Scoring, forms of the same operator (one core, same scores; HOG: the "
+            "folded operator, without its normalisation stage)", "",
             "| detector | form | ms per frame |", "|---|---|---|"]
     for kind in DETECTOR_KINDS:
         for k, v in info.get(f"{kind}_scoring_forms_ms", {}).items():

@@ -72,7 +72,8 @@ def scoring_forms_ms(hog, acf, frame, repeat=3):
     """
     f0, a0 = hog.frame_features(frame), acf.frame_features(frame)
     hog_forms = {"runs: compiled loop over distinct positions (default)":
-                 _median_ms(lambda: hog.scores(f0), repeat),
+                 _median_ms(lambda: _per_layer(hog, f0, lambda o, f: o.fold_scores(f)),
+                            repeat),
                  "sparse, one row per distinct position":
                  _median_ms(lambda: linear_scores(hog, f0, "sparse"), repeat),
                  "template: matchTemplate per shared template":

@@ -46,12 +46,8 @@ def window_score_pairs(detector, image, kind: str = "opencv") -> tuple[np.ndarra
         if o.stage is None:
             raise ValueError(f"the {kind} operator has no normalisation stage")
         feats = o.frame_features(upsampled_band(img, layer.factor, layer.rows))
-        stage, o.stage = o.stage, None
-        try:
-            folded.append(o.scores(feats))
-        finally:
-            o.stage = stage
-        final.append(stage.scores(np.arange(o.n_windows), feats.raw))
+        folded.append(o.fold_scores(feats))
+        final.append(o.stage.scores(np.arange(o.n_windows), feats.raw))
     return np.concatenate(folded), np.concatenate(final)
 
 

@@ -91,7 +91,31 @@ class AdaptedLinearOperator(TemplateOperator):
         return (r.t_rows * r.t_run)[r.group]
 
     def scores(self, features: FrameFeatures) -> np.ndarray:
-        """Scores of all windows on one frame's features.
+        """Scores of all windows on one frame's features: :meth:`fold_scores`, the windows
+        that reach the normalisation stage's threshold rescored by it (:attr:`stage`).
+
+        Parameters
+        ----------
+        features : FrameFeatures
+            From :meth:`frame_features`.
+
+        Returns
+        -------
+        (N,) float64 ndarray
+        """
+        s = self.fold_scores(features)
+        stage = self.stage
+        if stage is None:
+            return s
+        # the cascade: the windows the fold keeps, rescored with their own normalisation;
+        # the others keep their folded score (below the stage's threshold)
+        cand = np.flatnonzero(s >= stage.threshold)
+        s[cand] = stage.scores(cand, features.raw)
+        return s
+
+    def fold_scores(self, features: FrameFeatures) -> np.ndarray:
+        """Scores of all windows on one frame's features by the folded operator alone
+        (eq. (7); without the normalisation stage).
 
         Parameters
         ----------
@@ -115,15 +139,7 @@ class AdaptedLinearOperator(TemplateOperator):
         out = np.empty(len(r.starts))
         template_run_scores(x, r.templates, r.t_offset, r.t_rows, r.t_run, r.x_stride,
                             r.starts, r.group, out)
-        s = out[r.row_of] + self.bias
-        stage = self.stage
-        if stage is None:
-            return s
-        # the cascade: the windows the fold keeps, rescored with their own normalisation;
-        # the others keep their folded score (below the stage's threshold)
-        cand = np.flatnonzero(s >= stage.threshold)
-        s[cand] = stage.scores(cand, features.raw)
-        return s
+        return out[r.row_of] + self.bias
 
     def frame_features(self, image) -> FrameFeatures:
         """The frame's feature maps this operator reads (OpenCV's cells: only the cell rows

@@ -58,6 +58,7 @@ def test_the_hog_cascade_rescores_what_the_fold_keeps_and_is_stored(tmp_path):
     kept = s1 >= thr
     assert kept.any() and (~kept).any()
     np.testing.assert_allclose(s[~kept], s1[~kept], atol=1e-5)   # the fold's scores stay
+    np.testing.assert_allclose(op.fold_scores(feats), s1, atol=1e-5)  # the fold alone
     assert np.abs(s[kept] - s1[kept]).max() > 1e-3
     np.testing.assert_allclose(s[kept], op.stage.scores(np.flatnonzero(kept), feats.raw))
     np.testing.assert_allclose(op.snapped_homographies, windows.homographies)
