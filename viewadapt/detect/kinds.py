@@ -77,14 +77,26 @@ class DetectorKind:
         """(n,) source-model scores of (n, d) canonical-window features (image warping)."""
         raise NotImplementedError
 
-    #: whether the kind's operator has a per-window normalisation stage that :meth:`fold`
-    #: can leave out
-    has_stage = False
+    #: whether the windows the folded operator keeps are rescored by a per-window
+    #: normalisation stage (:class:`~viewadapt.detect.renorm.RenormStage`)
+    renorm = False
+
+    @property
+    def has_stage(self) -> bool:
+        """Whether the kind's operator has a normalisation stage that :meth:`fold` can
+        leave out."""
+        return self.renorm
 
     def fold(self) -> DetectorKind:
         """The same detector without its per-window normalisation stage (the folded
         operator alone, eq. (7)); ValueError for a kind without one."""
-        raise ValueError(f"the {self.name} detector has no normalisation stage to leave out")
+        if not self.renorm:
+            raise ValueError(f"the {self.name} detector has no normalisation stage to "
+                             "leave out")
+        return self._without_stage()
+
+    def _without_stage(self) -> DetectorKind:
+        raise NotImplementedError
 
     def __repr__(self):
         return f"DetectorKind({self.name!r})"
@@ -107,13 +119,7 @@ class _HogDetector(DetectorKind):
         self.renorm = bool(renorm)
         self.verify_threshold = float(verify_threshold)
 
-    @property
-    def has_stage(self):
-        return self.renorm
-
-    def fold(self):
-        if not self.renorm:
-            return super().fold()
+    def _without_stage(self):
         return _HogDetector(renorm=False)
 
     def model(self, models):
@@ -190,13 +196,7 @@ class _OpenCVDetector(DetectorKind):
             W.setflags(write=False)
             self._own = (W, float(bias))
 
-    @property
-    def has_stage(self):
-        return self.renorm
-
-    def fold(self):
-        if not self.renorm:
-            return super().fold()
+    def _without_stage(self):
         return type(self)(*self._weights, renorm=False)
 
     def model(self, models=None):

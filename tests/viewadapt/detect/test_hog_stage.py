@@ -92,3 +92,16 @@ def test_a_frame_detector_with_the_hog_stage(tmp_path):
     assert all(L.operator.stage.threshold == 0.0 for L in default.operator("hog").layers)
     plain = FrameDetector(cam, models, kinds={"hog": fold}, cache_dir=tmp_path)
     assert all(L.operator.stage is None for L in plain.operator("hog").layers)
+
+
+def test_only_kinds_with_a_stage_have_a_fold():
+    from viewadapt.detect import ACF_DETECTOR, DAIMLER_DETECTOR, HOG_DETECTOR, OPENCV_DETECTOR
+
+    for kind in (HOG_DETECTOR, OPENCV_DETECTOR, DAIMLER_DETECTOR):
+        fold = kind.fold()
+        assert kind.has_stage and not fold.has_stage and fold.name == kind.name
+        with pytest.raises(ValueError, match="no normalisation stage"):
+            fold.fold()
+    assert not ACF_DETECTOR.has_stage
+    with pytest.raises(ValueError, match="the acf detector has no normalisation stage"):
+        ACF_DETECTOR.fold()
