@@ -38,7 +38,6 @@ def cmd_bench_footage(args) -> int:
     methods = expand_adapted(args.methods or list(FOOTAGE_METHODS), args.rules,
                              args.object_models)
     clip = open_clip(args.inputs, args.calibration, args.boxes, args.ignore, lens=args.lens,
-                     object_models=[m.object_model for m in methods if m.object_model],
                      start=args.start, every=args.every, max_frames=args.max_frames)
     needs = any(m.needs_training for m in methods)
     model_path = args.model or shipped_model_path()
@@ -139,7 +138,7 @@ def register_footage(bsub, common) -> None:
                         "ground-plane filter keeps boxes within 20%% of one of them")
     p.add_argument("--lens", choices=LENS_CHOICES, default=DEFAULT_LENS,
                    help="with dist in the calibration: as viewadapt detect --lens (default "
-                        "auto: windows through the lens; undistorted frames for the body model)")
+                        "auto: windows through the lens, for either object model)")
     p.add_argument("--tolerance", type=float, default=None,
                    help="shape tolerance of shared templates, HOG frame cells (default the "
                         "detector's)")

@@ -73,17 +73,15 @@ class Clip:
 
 
 def open_clip(inputs, calibration, boxes, ignore=None, *, lens: str = "auto",
-              object_models=("plane",), start: int = 0, every: int = 1,
+              start: int = 0, every: int = 1,
               max_frames: int | None = None) -> Clip:
     """Read a clip: frames, calibration, ground truth and ignore regions.
 
-    ``lens`` is ``detect``'s ``--lens`` (``auto``: windows through the lens for the
-    paper's plane, the frames undistorted when any method uses another object model --
-    every method then reads the same undistorted frames).
+    ``lens`` is ``detect``'s ``--lens`` (``auto``: windows through the lens; with
+    ``undistort`` every method reads the same undistorted frames).
     """
     cal = read_calibration_file(calibration)
-    model = "plane" if all(m == "plane" for m in object_models) else "body"
-    correction = lens_correction(cal.dist, lens, model)
+    correction = lens_correction(cal.dist, lens)
     stream = open_frames(inputs, start=start, every=every, max_frames=max_frames)
     truth = read_boxes(boxes, stream.paths,
                        n_frames=stream.n_total if stream.paths is None else None)

@@ -49,14 +49,13 @@ _CORRECTION_NOTE = {None: "", "undistort": ", undistorted",
                     "windows": ", windows through the lens"}
 
 
-def lens_correction(dist, lens: str, object_model: str):
+def lens_correction(dist, lens: str):
     """How ``detect`` handles a calibration's lens: None (no ``dist``), "undistort" or
-    "windows" (``lens`` one of :data:`LENS_CHOICES`)."""
+    "windows" (``lens`` one of :data:`LENS_CHOICES`; ``auto``: the windows through the lens,
+    for every object model)."""
     if dist is None:
         return None
-    if lens == "auto":
-        return "windows" if object_model == "plane" else "undistort"
-    return lens
+    return "windows" if lens == "auto" else lens
 
 
 def boxes_in_input_pixels(boxes, K, dist) -> np.ndarray:
@@ -256,7 +255,7 @@ def cmd_detect(args) -> int:
         args.threshold = DEFAULT_THRESHOLD if args.boxes else 0.0
     calibration = read_calibration_file(args.calibration)
     cam, dist = calibration.camera, calibration.dist
-    correction = lens_correction(dist, args.lens, args.object_model)
+    correction = lens_correction(dist, args.lens)
     undistort = Undistortion(cam.K, dist, cam.image_size) \
         if correction == "undistort" else None
     stream = open_frames(args.inputs, start=args.start, every=args.every,
@@ -460,10 +459,9 @@ def register(sub, common) -> None:
                    help="with dist in the calibration: windows (map the candidate windows "
                         "through the lens once and read the frames as they are), undistort "
                         "(remap every frame first, and the boxes found back through the "
-                        "lens) or auto: windows, undistort with "
-                        "--object-model body (default auto; the boxes are in the input's pixels "
-                        "in every mode; docs/findings.md, lens distortion, has the "
-                        "measurement)")
+                        "lens) or auto (default): windows, for either object model; the "
+                        "boxes are in the input's pixels in every mode (docs/findings.md, "
+                        "lens distortion, has the measurements)")
     p.add_argument("--threshold", type=float, default=None,
                    help="score threshold of the detections kept (default 0; with --boxes "
                         f"{DEFAULT_THRESHOLD:g}, low enough that the DET curve reaches 1 false "

@@ -145,16 +145,16 @@ def test_every_method_on_the_clip(toy, tmp_path, capsys):
         "persons counted" in first
 
 
-def test_undistorted_frames_for_the_body_model(toy, tmp_path):
+def test_the_body_model_through_the_lens_or_on_undistorted_frames(toy, tmp_path):
     out = tmp_path / "body"
     assert _footage(toy, out, "--methods", "opencv_native", "hog_adapted[body]",
                     "--max-frames", "2") == 0
-    assert json.loads((out / "run.json").read_text())["lens_correction"] == "undistort"
-    # the body model's windows through the lens, when asked for
-    assert _footage(toy, tmp_path / "lens", "--methods", "hog_adapted[body]", "--lens",
-                    "windows", "--max-frames", "2") == 0
-    assert json.loads((tmp_path / "lens" / "run.json").read_text())["lens_correction"] \
-        == "windows"
+    assert json.loads((out / "run.json").read_text())["lens_correction"] == "windows"
+    # every method on undistorted frames, when asked for
+    assert _footage(toy, tmp_path / "und", "--methods", "hog_adapted[body]", "--lens",
+                    "undistort", "--max-frames", "2") == 0
+    assert json.loads((tmp_path / "und" / "run.json").read_text())["lens_correction"] \
+        == "undistort"
 
 
 def test_the_daimler_detector_against_its_own_pyramids(toy, tmp_path, capsys):

@@ -353,15 +353,14 @@ def test_windows_through_the_lens_find_the_same_persons(toy, detect):
     assert json.loads((auto / "metadata.json").read_text())["lens_windows"]["dist"] == DIST
 
 
-def test_auto_lens_undistorts_for_the_body_model():
+def test_auto_lens_maps_the_windows_through_it():
     from viewadapt.commands.detect import DEFAULT_LENS, lens_correction
 
     assert DEFAULT_LENS == "auto"
-    assert lens_correction(None, "auto", "plane") is None
-    assert lens_correction(np.array(DIST), "auto", "plane") == "windows"
-    assert lens_correction(np.array(DIST), "auto", "body") == "undistort"
+    assert lens_correction(None, "auto") is None
+    assert lens_correction(np.array(DIST), "auto") == "windows"
     for lens in ("windows", "undistort"):
-        assert lens_correction(np.array(DIST), lens, "body") == lens
+        assert lens_correction(np.array(DIST), lens) == lens
 
 
 # ------------------------------------------------------------------ bad input
