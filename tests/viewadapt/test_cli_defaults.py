@@ -69,6 +69,19 @@ def test_the_walk_finds_the_options_it_should():
         assert want in seen, want
 
 
+def test_every_help_that_names_a_default_is_read():
+    """A help text that mentions its default in a form the walk cannot read would drop out
+    of the check below unseen (as ``detect --lens`` once did)."""
+    unread = [(" ".join(path), a.dest) for path, parser in _subcommands(build_parser())
+              for a in parser._actions
+              if a.dest != "help" and "default" in " ".join((a.help or "").split())
+              and not (_STATED.search(" ".join(a.help.split()))
+                       or _NAMED.search(" ".join(a.help.split())))]
+    assert not unread, f"help texts whose default the walk cannot read: {unread}"
+    assert _NAMED.search("or auto (default): windows") and not _STATED.search(
+        "or auto (the default): windows") and not _NAMED.search("or auto (the default): x")
+
+
 @pytest.mark.parametrize("command, dest, stated, value", CASES,
                          ids=[f"{c}:{d}" for c, d, _, _ in CASES])
 def test_help_states_the_parsed_default(command, dest, stated, value):
