@@ -1,7 +1,7 @@
 """What an adapted detector's cascade drops: ``python -m benchmark.studies.cascade_threshold``.
 
 The adapted OpenCV (and Daimler) detector -- and the HOG/SVM with its normalisation stage
-(``--kind hog``: ``hog_kind(renorm=True)``, the source model of ``--model``) -- scores every
+(``--kind hog``: the source model of ``--model``) -- scores every
 candidate window with the folded operator and rescores only those whose folded score
 reaches the stage's threshold with their own block normalisation
 (:class:`viewadapt.detect.RenormStage`); the rescoring is most of its per-frame cost. This study scores *every* window both ways on each frame of a
@@ -110,19 +110,18 @@ def main(argv=None) -> int:
     p.add_argument("--cache", type=Path, default=None, help="operator cache folder")
     p.add_argument("--out", type=Path, required=True)
     args = p.parse_args(argv)
-    from viewadapt.detect import FrameDetector, hog_kind
+    from viewadapt.detect import FrameDetector
     from viewadapt.io import SourceDetectors, shipped_model_path
 
     try:
         if args.every < 1:
             raise ValueError("--every must be at least 1")
-        models, kinds = None, None
-        if args.kind == "hog":          # the stage on (its threshold does not matter here)
+        models = None
+        if args.kind == "hog":          # the registry's HOG carries its stage
             models = SourceDetectors.load(args.model or shipped_model_path())
-            kinds = {"hog": hog_kind(renorm=True, verify_threshold=-2.0)}
         pairs = {}
         for name, cam, dist, images in _frame_sources(args):
-            det = FrameDetector(cam, models, cache_dir=args.cache, lens=dist, kinds=kinds)
+            det = FrameDetector(cam, models, cache_dir=args.cache, lens=dist)
             pairs.setdefault(name, []).extend(window_score_pairs(det, img, args.kind)
                                               for img in images)
         if any(not v for v in pairs.values()):

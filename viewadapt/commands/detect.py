@@ -16,14 +16,13 @@ from viewadapt.detect.evaluation import (
     BOOTSTRAP_BLOCK, BOOTSTRAP_DRAWS, block_bootstrap, evaluation_rows, frame_outcome,
     ground_truth_counts, summary_numbers, threshold_at_fppi,
 )
-from viewadapt.detect.kinds import DETECTOR_KINDS, PRETRAINED_KINDS, opencv_kind
+from viewadapt.detect.kinds import DETECTOR_KINDS, PRETRAINED_KINDS
 from viewadapt.detect.layers import UPSAMPLE_BELOW
-from viewadapt.detect.stream import DetectorSpec, detect_stream
+from viewadapt.detect.stream import DetectorSpec, detect_stream, pretrained_kinds
 from viewadapt.geometry import PERSON_HEIGHT_M
 from viewadapt.io.boxes import FrameBoxes, read_boxes, read_ignore_regions
 from viewadapt.io.cache import DEFAULT_CACHE_LIMIT_GB, check_cache_limit
 from viewadapt.io.calibration import read_calibration_file
-from viewadapt.io.hogfile import PRETRAINED_FILE_LAYOUTS, read_opencv_hog_detector
 from viewadapt.io.files import atomic_output_dir, atomic_write_text, check_output_dir, run_metadata
 from viewadapt.io.models import SourceDetectors, shipped_model_path
 from viewadapt.io.outputs import (
@@ -263,9 +262,7 @@ def cmd_detect(args) -> int:
     kinds = {}
     if args.detector in PRETRAINED_KINDS:         # its weights come with it, or in --model
         models = None
-        if args.model is not None:
-            w, b = read_opencv_hog_detector(args.model, PRETRAINED_FILE_LAYOUTS[args.detector])
-            kinds = {args.detector: opencv_kind(w, b, detector=args.detector)}
+        kinds = pretrained_kinds(args.detector, args.model)
     else:
         if args.model is None:
             args.model = shipped_model_path()

@@ -545,14 +545,14 @@ def hog_frame_features(image, cell_sizes, *, pad: int = 2, image_size=None,
     raw_sizes = [int(c) for c in raw_cell_sizes]
     cells = orientation_cell_maps(img, list(order) + raw_sizes)
     for c, F in maps.items():
-        X = cells[c]
-        ny, nx = X.shape[:2]
-        block_normalize_cells(X, eps=hog_cell_eps(c), out=F[pad:pad + ny, pad:pad + nx])
-    sizes = list(dict.fromkeys(raw_sizes))
-    at = np.r_[0, np.cumsum([cells[c].size for c in sizes])].astype(np.int64)
-    rflat = np.concatenate([cells[c].ravel() for c in sizes] or [[]]).astype(np.float32)
-    raw = ({c: rflat[o:o + cells[c].size].reshape(cells[c].shape) for c, o in zip(sizes, at)},
-           rflat, at[:-1]) if sizes else None
+        ny, nx = cells[c].shape[:2]
+        block_normalize_cells(cells[c], eps=hog_cell_eps(c), out=F[pad:pad + ny, pad:pad + nx])
+    raw = None
+    if raw_sizes:                   # one flat buffer, as raw_cell_maps lays it out
+        r_order, rflat, rmaps = padded_maps(raw_sizes, (M, N), 0, N_HOG_BINS)
+        for c in r_order:
+            rmaps[c][...] = cells[c]
+        raw = (rmaps, rflat, np.cumsum([0] + [rmaps[c].size for c in r_order[:-1]]))
     return FrameFeatures(maps, pad, (N, M), _flat=(order, flat), raw=raw)
 
 

@@ -10,6 +10,7 @@ training of the source detectors all read these specs instead of switching on na
 
 from __future__ import annotations
 
+import copy
 import hashlib
 from functools import cache
 
@@ -93,10 +94,9 @@ class DetectorKind:
         if not self.renorm:
             raise ValueError(f"the {self.name} detector has no normalisation stage to "
                              "leave out")
-        return self._without_stage()
-
-    def _without_stage(self) -> DetectorKind:
-        raise NotImplementedError
+        fold = copy.copy(self)          # the same model (weights shared, read-only)
+        fold.renorm = False
+        return fold
 
     def __repr__(self):
         return f"DetectorKind({self.name!r})"
@@ -118,9 +118,6 @@ class _HogDetector(DetectorKind):
         #: from folded score ``verify_threshold``
         self.renorm = bool(renorm)
         self.verify_threshold = float(verify_threshold)
-
-    def _without_stage(self):
-        return _HogDetector(renorm=False)
 
     def model(self, models):
         return models.hog_weights, models.hog_bias
@@ -188,16 +185,12 @@ class _OpenCVDetector(DetectorKind):
 
     def __init__(self, weights=None, bias: float = 0.0, *, renorm: bool = True):
         self._own = None
-        self._weights = (weights, bias)
         #: whether the windows the fold keeps are rescored (the stage)
         self.renorm = bool(renorm)
         if weights is not None:
             W = opencv_cell_weights(weights, window=self.window)
             W.setflags(write=False)
             self._own = (W, float(bias))
-
-    def _without_stage(self):
-        return type(self)(*self._weights, renorm=False)
 
     def model(self, models=None):
         return self._own if self._own is not None else self._default()

@@ -22,7 +22,20 @@ import numpy as np
 from .detector import FrameDetections, FrameDetector
 from .kinds import PRETRAINED_KINDS, detector_kind, opencv_kind
 
-__all__ = ["DetectorSpec", "detect_stream"]
+__all__ = ["DetectorSpec", "pretrained_kinds", "detect_stream"]
+
+
+def pretrained_kinds(kind: str, model) -> dict:
+    """``FrameDetector``'s ``kinds`` for the pretrained detector ``kind`` (``"opencv"``,
+    ``"daimler"``) with the weights of ``model``, an OpenCV HOGDescriptor file read in the
+    kind's own layout (:data:`viewadapt.io.hogfile.PRETRAINED_FILE_LAYOUTS`; Daimler's
+    48x96); ``{}`` (its own weights) when ``model`` is None or empty."""
+    from viewadapt.io.hogfile import PRETRAINED_FILE_LAYOUTS, read_opencv_hog_detector
+
+    if not model:
+        return {}
+    w, b = read_opencv_hog_detector(model, PRETRAINED_FILE_LAYOUTS[kind])
+    return {kind: opencv_kind(w, b, detector=kind)}
 
 
 @dataclass(frozen=True)
@@ -61,16 +74,12 @@ class DetectorSpec:
         """A new :class:`FrameDetector` of this spec (its operators built on first use, or
         read from the operator cache)."""
         from viewadapt.geometry import Camera
-        from viewadapt.io.hogfile import PRETRAINED_FILE_LAYOUTS, read_opencv_hog_detector
         from viewadapt.io.models import SourceDetectors
 
         cam = Camera.from_dict(json.loads(self.camera))
         if self.kind in PRETRAINED_KINDS:
-            kinds = {}
-            if self.model:                  # read in the kind's own layout (Daimler: 48x96)
-                w, b = read_opencv_hog_detector(self.model, PRETRAINED_FILE_LAYOUTS[self.kind])
-                kinds = {self.kind: opencv_kind(w, b, detector=self.kind)}
-            return FrameDetector(cam, None, kinds=kinds, **json.loads(self.options))
+            return FrameDetector(cam, None, kinds=pretrained_kinds(self.kind, self.model),
+                                 **json.loads(self.options))
         return FrameDetector(cam, SourceDetectors.load(self.model), **json.loads(self.options))
 
 
