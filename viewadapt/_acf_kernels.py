@@ -1,11 +1,11 @@
 """Compiled inner loops of the ACF frame features (numba), loaded on first use.
 
 The gradient, orientation and aggregation stages of
-:func:`viewadapt.detect.channels.acf_frame_features` without the ten-channel per-pixel
+:func:`viewadapt.detect.acf_channels.acf_frame_features` without the ten-channel per-pixel
 array: :func:`acf_gradient_bins` writes one magnitude plane and one orientation-bin plane,
 :func:`acf_channel_cell_sums` sums the ten channels straight into cells. Both keep the
 float32 operations of the OpenCV / numpy path they replace
-(:func:`viewadapt.detect.channels.fast_acf_pixel_channels`), so magnitudes and bins are the
+(:func:`viewadapt.detect.acf_channels.fast_acf_pixel_channels`), so magnitudes and bins are the
 same numbers; only the order of the cell sums differs.
 """
 

@@ -230,7 +230,9 @@ def hog_gradient_cell_sums(img, n_bins, sizes, offsets, n_x, n_y,
 
 
 @njit(cache=True, nogil=True, boundscheck=False)
-def _reflect(i, n, edge):
+def reflect_index(i, n, edge):  # pragma: no cover - compiled
+    """Index ``i`` of ``-1 .. n`` reflected into ``0 .. n - 1`` (reflect-101; ``edge``: a
+    single row or column, which reflects onto itself)."""
     if i < 0:
         return 0 if edge else 1
     if i >= n:
@@ -239,31 +241,42 @@ def _reflect(i, n, edge):
 
 
 @njit(cache=True, nogil=True, boundscheck=False)
-def block_normalize(X, eps, clip, out):  # pragma: no cover - compiled
+def block_normalize(X, eps, clip, out, r0=0, r1=-1):  # pragma: no cover - compiled
     """The body of ``viewadapt.detect.block_normalize_cells`` (see there): ``X`` (ny, nx,
-    B) cell histograms -> ``out`` (ny, nx, B + 4)."""
+    B) cell histograms -> ``out`` (ny, nx, B + 4), only its rows ``r0 <= i < r1``
+    (``r1 < 0``: to the last; the other rows of ``out`` are left as they are). Those rows
+    are those of the whole map: their blocks read the rows next to them and reflect at the
+    map's own border only."""
     ny, nx, nb = X.shape
+    if r1 < 0 or r1 > ny:
+        r1 = ny
+    r0 = max(r0, 0)
+    if r0 >= r1:
+        return
+    edge = min(ny, nx) == 1
+    # the cell rows the blocks of rows r0 .. r1 - 1 read (reflected at the border)
+    e0 = 0 if r0 <= 1 else r0 - 1
+    e1 = ny if r1 >= ny - 1 else r1 + 1
     E = np.empty((ny, nx), np.float32)
-    for i in range(ny):
+    for i in range(e0, e1):
         for j in range(nx):
             s = np.float32(0.0)
             for b in range(nb):
                 s += X[i, j, b] * X[i, j, b]
             E[i, j] = s
-    edge = min(ny, nx) == 1
     # inv[i, j]: 1 / norm of the block of cells rows {i - 1, i}, columns {j - 1, j}
     inv = np.empty((ny + 1, nx + 1), np.float32)
     e2 = np.float32(eps) * np.float32(eps)
-    for i in range(ny + 1):
-        i0 = _reflect(i - 1, ny, edge)
-        i1 = _reflect(i, ny, edge)
+    for i in range(r0, r1 + 1):
+        i0 = reflect_index(i - 1, ny, edge)
+        i1 = reflect_index(i, ny, edge)
         for j in range(nx + 1):
-            j0 = _reflect(j - 1, nx, edge)
-            j1 = _reflect(j, nx, edge)
+            j0 = reflect_index(j - 1, nx, edge)
+            j1 = reflect_index(j, nx, edge)
             s = E[i0, j0] + E[i1, j0] + E[i0, j1] + E[i1, j1]
             inv[i, j] = np.float32(1.0) / np.sqrt(s + e2)
     cl = np.float32(clip)
-    for i in range(ny):
+    for i in range(r0, r1):
         for j in range(nx):
             for b in range(nb):
                 out[i, j, b] = 0.0

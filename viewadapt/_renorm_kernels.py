@@ -20,7 +20,7 @@ import math
 import numpy as np
 from numba import njit
 
-from ._kernels import block_normalize
+from ._kernels import reflect_index
 
 
 @njit(cache=True, nogil=True, boundscheck=False, error_model="numpy")
@@ -156,39 +156,54 @@ def _window_cells(flat, base, ny, nx, c, Hn, rule, ncx, ncy, lo, hi, frac, h,
     raw cells of size ``c`` at ``flat[base:]`` ((ny, nx, 9)): each source cell the frame
     cells under its image (an axis-aligned rectangle: its centre mapped, its sides by the
     Jacobian there; ``S``), per source pixel of an 8-px cell, its orientations mapped by
-    the rule at the window's centre (``A``); ``lo, hi, frac, h`` scratch."""
+    the rule at the window's centre (``A``); ``lo, hi, frac, h`` scratch. (The centre and
+    Jacobian of :func:`_map` inline, with one division; the cell weights in float32.)"""
     n_bins = 9
     _, _, j00, j01, j10, j11 = _map(Hn, 4.0 * ncx - 0.5, 4.0 * ncy - 0.5)
     _angle_taps(j00, j01, j10, j11, rule, lo, hi, frac)
+    ic = 1.0 / c
+    area = 16.0 / (c * c)          # 64 / c^2 against the rectangle's area 4 ex ey
+    h00, h01, h02 = Hn[0, 0], Hn[0, 1], Hn[0, 2]
+    h10, h11, h12 = Hn[1, 0], Hn[1, 1], Hn[1, 2]
+    h20, h21, h22 = Hn[2, 0], Hn[2, 1], Hn[2, 2]
     for j in range(ncy):
+        y = 8.0 * j + 3.5
         for i in range(ncx):
-            px, py, a00, a01, a10, a11 = _map(Hn, 8.0 * i + 3.5, 8.0 * j + 3.5)
-            ex = 4.0 * abs(a00)
-            ey = 4.0 * abs(a11)
+            x = 8.0 * i + 3.5
+            iw = 1.0 / (h20 * x + h21 * y + h22)
+            px = (h00 * x + h01 * y + h02) * iw
+            py = (h10 * x + h11 * y + h12) * iw
+            ex = 4.0 * abs((h00 - px * h20) * iw)
+            ey = 4.0 * abs((h11 - py * h21) * iw)
             x0, x1, y0, y1 = px - ex, px + ex, py - ey, py + ey
-            h[:] = 0
-            u0 = int(math.floor((x0 + 0.5) / c))
-            u1 = int(math.floor((x1 + 0.5) / c))
-            v0 = int(math.floor((y0 + 0.5) / c))
-            v1 = int(math.floor((y1 + 0.5) / c))
-            for v in range(max(v0, 0), min(v1, ny - 1) + 1):
+            for k in range(n_bins):
+                h[k] = 0.0
+            # the frame cells the rectangle can touch (one more at an exact boundary
+            # reads weight 0)
+            u0 = max(int(math.floor((x0 + 0.5) * ic)), 0)
+            u1 = min(int(math.floor((x1 + 0.5) * ic)), nx - 1)
+            v0 = max(int(math.floor((y0 + 0.5) * ic)), 0)
+            v1 = min(int(math.floor((y1 + 0.5) * ic)), ny - 1)
+            for v in range(v0, v1 + 1):
                 wy = min(y1, c * (v + 1) - 0.5) - max(y0, c * v - 0.5)
                 if wy <= 0:
                     continue
-                for u in range(max(u0, 0), min(u1, nx - 1) + 1):
+                for u in range(u0, u1 + 1):
                     wx = min(x1, c * (u + 1) - 0.5) - max(x0, c * u - 0.5)
                     if wx <= 0:
                         continue
-                    wgt = wx * wy
+                    wgt = np.float32(wx * wy)
                     at = base + (v * nx + u) * n_bins
                     for k in range(n_bins):
                         h[k] += wgt * flat[at + k]
             # per source pixel of the cell: the rectangle's area against the cell's 64
-            scale = 64.0 / (c * c * max(4.0 * ex * ey, 1e-12))
-            src[j, i, :] = 0
+            scale = np.float32(area / max(ex * ey, 2.5e-13))
             for k in range(n_bins):
-                src[j, i, lo[k]] += (1.0 - frac[k]) * h[k] * scale
-                src[j, i, hi[k]] += frac[k] * h[k] * scale
+                src[j, i, k] = 0.0
+            for k in range(n_bins):
+                t = h[k] * scale
+                src[j, i, lo[k]] += (np.float32(1.0) - frac[k]) * t
+                src[j, i, hi[k]] += frac[k] * t
 
 
 @njit(cache=True, nogil=True, boundscheck=False, error_model="numpy")
@@ -225,30 +240,73 @@ def renorm_scores(flat, offsets, dims, size_of, cells, H, weights, bias, eps, cl
 
 
 @njit(cache=True, nogil=True, boundscheck=False, error_model="numpy")
+def _hog_window_score(src, W2, eps, clip, E, inv):  # pragma: no cover - compiled
+    """``sum(W * block_normalize(src))`` without the features: each cell's copy in block
+    ``k`` (``min(X v_k, clip)``, ``v_k`` the block's inverse norm, reflected at the
+    window's border as :func:`viewadapt._kernels.block_normalize` does) is dotted with
+    ``W2[i, j, k]``, its orientation weights plus its texture weight ``k``; ``E``, ``inv``
+    scratch ((ny, nx) and (ny + 1, nx + 1))."""
+    ny, nx, nb = src.shape
+    edge = min(ny, nx) == 1
+    for i in range(ny):
+        for j in range(nx):
+            s = np.float32(0.0)
+            for b in range(nb):
+                s += src[i, j, b] * src[i, j, b]
+            E[i, j] = s
+    e2 = np.float32(eps) * np.float32(eps)
+    for i in range(ny + 1):
+        i0 = reflect_index(i - 1, ny, edge)
+        i1 = reflect_index(i, ny, edge)
+        for j in range(nx + 1):
+            j0 = reflect_index(j - 1, nx, edge)
+            j1 = reflect_index(j, nx, edge)
+            s = E[i0, j0] + E[i1, j0] + E[i0, j1] + E[i1, j1]
+            inv[i, j] = np.float32(1.0) / np.sqrt(s + e2)
+    cl = np.float32(clip)
+    total = 0.0
+    for i in range(ny):
+        for j in range(nx):
+            for k in range(4):
+                v = inv[i + k // 2, j + k % 2]
+                acc = np.float32(0.0)
+                for b in range(nb):
+                    acc += min(src[i, j, b] * v, cl) * W2[i, j, k, b]
+                total += acc
+    return total
+
+
+@njit(cache=True, nogil=True, boundscheck=False, error_model="numpy")
 def hog_renorm_scores(flat, offsets, dims, size_of, cells, H, weights, bias, eps, clip,
                       rule, ncx, ncy, out):  # pragma: no cover - compiled
     """:func:`renorm_scores` for the project's HOG/SVM: each window's source cells
     (:func:`_window_cells`) block-normalised in the window as
     :func:`viewadapt.detect.block_normalize_cells` normalises a canonical window's cells
     (13 channels per cell, reflected borders, floor ``eps``, clip ``clip``), dotted with
-    ``weights`` ((ncy, ncx, 13) flat) plus ``bias``."""
+    ``weights`` ((ncy, ncx, 13) flat) plus ``bias``. The 13 channels are not formed: each
+    clipped block copy is dotted with its orientation weights plus its block's texture
+    weight (:func:`_hog_window_score`; the same sum in another order)."""
     n_bins = 9
+    nc = n_bins + 4
     src = np.empty((ncy, ncx, n_bins), np.float32)
-    feat = np.empty((ncy, ncx, n_bins + 4), np.float32)
+    W2 = np.empty((ncy, ncx, 4, n_bins), np.float32)   # [cell, block k, bin]
+    for i in range(ncy):
+        for j in range(ncx):
+            at = (i * ncx + j) * nc
+            for k in range(4):
+                for b in range(n_bins):
+                    W2[i, j, k, b] = weights[at + b] + weights[at + n_bins + k]
+    E = np.empty((ncy, ncx), np.float32)
+    inv = np.empty((ncy + 1, ncx + 1), np.float32)
     lo = np.empty(n_bins, np.int64)
     hi = np.empty(n_bins, np.int64)
     frac = np.empty(n_bins, np.float32)
     h = np.empty(n_bins, np.float32)
-    ff = feat.ravel()
     for n in range(len(out)):
         s = size_of[n]
         _window_cells(flat, offsets[s], dims[s, 0], dims[s, 1], cells[s], H[n], rule, ncx,
                       ncy, lo, hi, frac, h, src)
-        block_normalize(src, eps, clip, feat)
-        total = 0.0
-        for k in range(ff.size):
-            total += weights[k] * ff[k]
-        out[n] = total + bias
+        out[n] = _hog_window_score(src, W2, eps, clip, E, inv) + bias
 
 
 @njit(cache=True, nogil=True, boundscheck=False, error_model="numpy")

@@ -48,9 +48,11 @@ from .windows import (
 from .channels import (
     HOG_CELL, N_HOG_BINS, HOG_CHANNELS, HOG_WEIGHT_SHAPE, HOG_CLIP, ACF_SHRINK, N_ACF_CHANNELS,
     N_ACF_ORIENTS, ACF_WEIGHT_SHAPE, ACF_GRADIENT_LAMBDA, fast_orientation_channels,
-    fast_acf_pixel_channels, acf_channel_cell_maps, FrameFeatures, check_frame, cell_sums,
-    orientation_cell_maps, channel_slices3, correlate_slices, block_normalize_cells,
-    hog_window_features, acf_window_features, hog_frame_features, acf_frame_features,
+    FrameFeatures, check_frame, cell_sums, orientation_cell_maps, channel_slices3,
+    correlate_slices, block_normalize_cells, hog_window_features, hog_frame_features,
+)
+from .acf_channels import (
+    fast_acf_pixel_channels, acf_channel_cell_maps, acf_window_features, acf_frame_features,
 )
 from .opencv_cells import (
     OPENCV_CHANNELS, OPENCV_WEIGHT_SHAPE, OPENCV_L2HYS_CLIP, opencv_cell_weights,
@@ -74,7 +76,8 @@ from .features import (
     feature_maker_to_dict, feature_maker_from_dict,
 )
 from .renorm import (
-    RENORM_CELLS_PER_SOURCE_CELL, VERIFY_THRESHOLD, OPENCV_DESCRIPTOR_SIZE, stage_cell_sizes,
+    RENORM_CELLS_PER_SOURCE_CELL, STAGE_CELL_TOLERANCE, VERIFY_THRESHOLD, OPENCV_DESCRIPTOR_SIZE,
+    stage_cell_sizes,
     RenormStage,
 )
 from .linear import (
@@ -118,6 +121,7 @@ __all__ = [
     "opencv_frame_remap", "acf_frame_remap", "acf_gradient_rows", "FeatureKind", "HOG_FEATURES",
     "OPENCV_FEATURES", "DAIMLER_FEATURES", "ACF_FEATURES", "FEATURE_MAKERS", "FEATURE_CHANNELS",
     "feature_maker_to_dict", "feature_maker_from_dict", "RENORM_CELLS_PER_SOURCE_CELL",
+    "STAGE_CELL_TOLERANCE",
     "VERIFY_THRESHOLD", "OPENCV_DESCRIPTOR_SIZE", "stage_cell_sizes", "RenormStage",
     "AdaptedLinearOperator", "build_adapted_linear_operator", "build_adapted_opencv_operator",
     "AdaptedTreesOperator", "build_adapted_trees_operator", "UPSAMPLE_BELOW", "UPSAMPLE_FACTOR",

@@ -3,12 +3,13 @@
 The adapted detectors never resample the frame. Its per-pixel channels -- HOG's oriented
 gradient magnitudes (Dalal & Triggs 2005), ACF's LUV, gradient magnitude and orientation
 channels (Dollár et al. 2014) -- are computed once and summed into square cells of each
-size the operator's windows need (:func:`hog_frame_features`, :func:`acf_frame_features`);
-a window then reads about one frame cell per source cell (:mod:`viewadapt.detect.templates`).
-HOG cells are block-normalised on the frame's own grid (:func:`block_normalize_cells`), so
-the features of a frame cell are the same for every window that reads it and ``G`` folds
-into linear weights. :func:`hog_window_features` and :func:`acf_window_features` compute the
-same features on a canonical 64x128 window: what the source detectors are trained on.
+size the operator's windows need (:func:`hog_frame_features`; ACF's in
+:mod:`viewadapt.detect.acf_channels`); a window then reads about one frame cell per source
+cell (:mod:`viewadapt.detect.templates`). HOG cells are block-normalised on the frame's own
+grid (:func:`block_normalize_cells`), so the features of a frame cell are the same for every
+window that reads it and ``G`` folds into linear weights. :func:`hog_window_features`
+computes the same features on a canonical 64x128 window: what the source detectors are
+trained on.
 
 References
 ----------
@@ -26,17 +27,15 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .._validation import check_image
-from ..acf import LUV_CONSTANTS, acf_pixel_channels, convolve_triangle, triangle_kernel
 from ..geometry import WINDOW_HEIGHT, WINDOW_WIDTH
 
 __all__ = [
     "HOG_CELL", "N_HOG_BINS", "HOG_CHANNELS", "HOG_WEIGHT_SHAPE", "HOG_CLIP",
     "ACF_SHRINK", "N_ACF_CHANNELS", "N_ACF_ORIENTS", "ACF_WEIGHT_SHAPE", "ACF_GRADIENT_LAMBDA",
-    "fast_orientation_channels", "fast_acf_pixel_channels", "acf_channel_cell_maps",
-    "FrameFeatures", "check_frame", "gradient_polar", "gradient_bins", "padded_maps",
-    "cell_sums", "orientation_cell_maps", "channel_slices3", "correlate_slices",
-    "block_normalize_cells", "hog_cell_eps", "hog_window_features", "acf_window_features",
-    "hog_frame_features", "acf_frame_features"]
+    "fast_orientation_channels", "strongest_gradient", "FrameFeatures", "check_frame",
+    "gradient_polar", "gradient_bins", "padded_maps", "cell_sums", "multi_cell_sums",
+    "direct_cells", "orientation_cell_maps", "channel_slices3", "correlate_slices",
+    "block_normalize_cells", "hog_cell_eps", "hog_window_features", "hog_frame_features"]
 
 #: Source-view cell size of the HOG detectors (8 px in the 64x128 window, 16 x 8 cells).
 HOG_CELL = 8
@@ -67,7 +66,7 @@ ACF_GRADIENT_LAMBDA = 0.365
 
 
 
-def _strongest_gradient(dx, dy):
+def strongest_gradient(dx, dy):
     """Per pixel of (M, N, K) float32 derivatives, the ``(dx, dy)`` planes of the channel of
     largest magnitude (ties keep the earlier channel)."""
     from .._kernels import strongest_gradient
@@ -87,7 +86,7 @@ def gradient_polar(img):
     dx = cv2.filter2D(img, cv2.CV_32F, k, borderType=cv2.BORDER_REFLECT_101)
     dy = cv2.filter2D(img, cv2.CV_32F, k.T, borderType=cv2.BORDER_REFLECT_101)
     if img.ndim == 3:
-        dx, dy = _strongest_gradient(dx, dy)
+        dx, dy = strongest_gradient(dx, dy)
     return cv2.cartToPolar(dx, dy)
 
 
@@ -128,71 +127,6 @@ def fast_orientation_channels(image, *, n_bins: int = 9, gamma: bool = False) ->
         planes.append(cv2.multiply(cv2.max(cv2.subtract(1.0, d), 0.0), mag))
     out = cv2.merge(planes)
     return out.reshape(mag.shape + (n_bins,))
-
-
-def _smoothed_luv(image) -> np.ndarray:
-    """The toolbox LUV of an (M, N[, 3]) image smoothed by ``convTri(., 1)``: (M, N, 3)
-    float32 (a grey image as three equal RGB channels)."""
-    import cv2
-
-    from .._acf_kernels import rgb_to_luv_rows
-
-    img = check_image(image, dtype=np.float32) * np.float32(1 / 255)
-    if img.ndim == 2:
-        img = cv2.merge([img, img, img])
-    luv = np.empty(img.shape[:2] + (3,), np.float32)
-    xyz, *scalars = LUV_CONSTANTS
-    rgb_to_luv_rows(img, xyz.astype(np.float32), *map(np.float32, scalars), luv)
-    tri1 = triangle_kernel(1).astype(np.float32)
-    return cv2.sepFilter2D(luv, -1, tri1, tri1, borderType=cv2.BORDER_REFLECT)
-
-
-def fast_acf_pixel_channels(image) -> np.ndarray:
-    """:func:`viewadapt.acf.acf_pixel_channels` (default parameters) in float32 with OpenCV.
-
-    The same channels -- toolbox LUV smoothed by ``convTri(., 1)``, gradient magnitude of
-    the strongest colour channel normalised by ``convTri(M, 5) + 0.005``, six nearest-bin
-    orientation channels -- computed with OpenCV kernels in single precision, channels
-    last. Differences from the float64 reference are rounding (the orientation bin of a
-    pixel lying on a bin boundary may differ).
-
-    Parameters
-    ----------
-    image : (M, N[, 3]) ndarray, uint8 or float in [0, 1] RGB
-
-    Returns
-    -------
-    (M, N, 10) float32 ndarray, channel order of :data:`viewadapt.acf.ACF_CHANNEL_NAMES`.
-    """
-    import cv2
-
-    from .._kernels import acf_channels_out
-
-    luv = _smoothed_luv(image)
-    M, N = luv.shape[:2]
-    # toolbox grad1: central differences / 2 inside, one-sided at the ends
-    k = np.array([[-0.5, 0.0, 0.5]], np.float32)
-    gx = cv2.filter2D(luv, -1, k, borderType=cv2.BORDER_REPLICATE)
-    gy = cv2.filter2D(luv, -1, k.T, borderType=cv2.BORDER_REPLICATE)
-    if N > 1:
-        gx[:, 0] = luv[:, 1] - luv[:, 0]
-        gx[:, -1] = luv[:, -1] - luv[:, -2]
-    else:
-        gx[:] = 0
-    if M > 1:
-        gy[0] = luv[1] - luv[0]
-        gy[-1] = luv[-1] - luv[-2]
-    else:
-        gy[:] = 0
-    dx, dy = _strongest_gradient(gx, gy)
-    # not cv2.magnitude: its result depends on the output buffer's alignment (1 ulp)
-    mag = np.sqrt(dx * dx + dy * dy)
-    tri5 = triangle_kernel(5).astype(np.float32)
-    mag = mag / (cv2.sepFilter2D(mag, -1, tri5, tri5, borderType=cv2.BORDER_REFLECT)
-                 + np.float32(0.005))
-    out = np.empty((M, N, 4 + N_ACF_ORIENTS), np.float32)
-    acf_channels_out(luv, mag, dx, dy, N_ACF_ORIENTS, out)
-    return out
 
 
 @dataclass
@@ -271,7 +205,7 @@ def cell_sums(channels, c: int) -> np.ndarray:
     return out * np.float32(c * c)
 
 
-def _multi_cell_sums(shape, cell_sizes, from_pixels) -> dict:
+def multi_cell_sums(shape, cell_sizes, from_pixels) -> dict:
     """Cell sums over a frame of ``shape`` (rows, columns) at every size in ``cell_sizes``:
     ``from_pixels(c)`` computes a size from the pixels, a size that is a multiple of a
     smaller one is summed from that size's cells (same sums, fewer pixels read)."""
@@ -316,13 +250,13 @@ def orientation_cell_maps(image, cell_sizes, *, n_bins: int = N_HOG_BINS) -> dic
     sizes = sorted(set(int(c) for c in cell_sizes))
     if sizes and sizes[0] < 1:
         raise ValueError(f"cell sizes must be positive integers, got {sizes[0]}")
-    # the sizes _multi_cell_sums computes from the pixels, all in one compiled pass
-    direct, n_y, n_x, offsets, flat, pixel_sums = _direct_cells(sizes, (M, N), n_bins)
+    # the sizes multi_cell_sums computes from the pixels, all in one compiled pass
+    direct, n_y, n_x, offsets, flat, pixel_sums = direct_cells(sizes, (M, N), n_bins)
     hog_gradient_cell_sums(img, n_bins, direct, offsets, n_x, n_y, flat)
-    return _multi_cell_sums((M, N), sizes, pixel_sums.__getitem__)
+    return multi_cell_sums((M, N), sizes, pixel_sums.__getitem__)
 
 
-def _direct_cells(sizes, frame_shape, channels: int):
+def direct_cells(sizes, frame_shape, channels: int):
     """The layout a compiled cell-sum pass fills: the cell sizes it computes from the
     pixels (those not a multiple of a smaller size > 1), their cell counts, offsets into
     one zeroed float32 buffer, the buffer, and each size's (ny, nx, channels) view of it.
@@ -337,45 +271,6 @@ def _direct_cells(sizes, frame_shape, channels: int):
     views = {c: flat[o:o + k].reshape(ny, nx, channels)
              for c, o, k, ny, nx in zip(direct, offsets, counts, n_y, n_x)}
     return np.array(direct, np.int64), n_y, n_x, offsets, flat, views
-
-
-def acf_channel_cell_maps(image, cell_sizes) -> dict:
-    """The ten ACF pixel channels summed over ``c x c`` cells, for each ``c``.
-
-    The cell sums of :func:`fast_acf_pixel_channels` (kept as the reference) up to float32
-    rounding of the sums -- magnitudes and bins are the same numbers -- without its
-    ten-channel pixel array: one compiled pass for the strongest gradient's magnitude and
-    bin, ``convTri(M, 5)``, one that normalises and sums into the cells of each size not a
-    multiple of a smaller one (:mod:`viewadapt._acf_kernels`); the others are summed from
-    those. Remainder rows and columns are dropped.
-
-    Parameters
-    ----------
-    image : (M, N[, 3]) ndarray, uint8 or float in [0, 1] RGB
-    cell_sizes : iterable of int
-
-    Returns
-    -------
-    dict int -> (M // c, N // c, 10) float32 ndarray
-    """
-    import cv2
-
-    from .._acf_kernels import acf_channel_cell_sums, acf_gradient_bins
-
-    sizes = sorted(set(int(c) for c in cell_sizes))
-    if sizes and sizes[0] < 1:
-        raise ValueError(f"cell sizes must be positive integers, got {sizes[0]}")
-    luv = _smoothed_luv(image)
-    M, N = luv.shape[:2]
-    mag, bins = np.empty((M, N), np.float32), np.empty((M, N), np.int8)
-    acf_gradient_bins(luv, N_ACF_ORIENTS, mag, bins)
-    tri5 = triangle_kernel(5).astype(np.float32)
-    mag_smooth = cv2.sepFilter2D(mag, -1, tri5, tri5, borderType=cv2.BORDER_REFLECT)
-    C = 4 + N_ACF_ORIENTS
-    direct, n_y, n_x, offsets, flat, pixel_sums = _direct_cells(sizes, (M, N), C)
-    acf_channel_cell_sums(luv, mag, mag_smooth, np.float32(0.005), bins, N_ACF_ORIENTS,
-                          direct, offsets, n_x, n_y, flat)
-    return _multi_cell_sums((M, N), sizes, pixel_sums.__getitem__)
 
 
 def _gradient_input(image) -> np.ndarray:
@@ -403,7 +298,7 @@ def check_frame(image, image_size=None) -> np.ndarray:
 
 
 def block_normalize_cells(cells, *, eps: float = 1.0, clip: float = HOG_CLIP,
-                          out=None) -> np.ndarray:
+                          out=None, rows=None) -> np.ndarray:
     """Window-independent HOG cell features: Dalal-Triggs block normalisation per cell.
 
     Each cell's histogram ``X[l]`` is divided by the L2 norm of each of the four 2x2-cell
@@ -430,6 +325,10 @@ def block_normalize_cells(cells, *, eps: float = 1.0, clip: float = HOG_CLIP,
     clip : float
     out : (ny, nx, B + 4) float32 ndarray, optional
         Written in place (e.g. the inside of a zero-padded map); returned.
+    rows : (int, int), optional
+        Normalise only the cell rows ``rows[0] <= y < rows[1]`` (the same values as
+        without ``rows``: their blocks still read the rows next to them); the other rows
+        of ``out`` are left as they are (zeros when ``out`` is made here).
 
     Returns
     -------
@@ -443,12 +342,13 @@ def block_normalize_cells(cells, *, eps: float = 1.0, clip: float = HOG_CLIP,
         raise ValueError(f"cells must be (ny, nx, bins), got shape {X.shape}")
     ny, nx, nb = X.shape
     if out is None:
-        out = np.empty((ny, nx, nb + 4), np.float32)
+        out = (np.empty if rows is None else np.zeros)((ny, nx, nb + 4), np.float32)
     elif out.shape != (ny, nx, nb + 4) or out.dtype != np.float32:
         raise ValueError(f"out must be float32 of shape {(ny, nx, nb + 4)}, got {out.dtype} "
                          f"{out.shape}")
-    if X.size:
-        block_normalize(X, float(eps), float(clip), out)
+    r0, r1 = (0, ny) if rows is None else (max(int(rows[0]), 0), min(int(rows[1]), ny))
+    if X.size and r0 < r1:
+        block_normalize(X, float(eps), float(clip), out, r0, r1)
     return out
 
 
@@ -468,25 +368,6 @@ def hog_window_features(window, *, cell_size: int = HOG_CELL) -> np.ndarray:
     """
     X = orientation_cell_maps(window, [cell_size])[cell_size]
     return block_normalize_cells(X, eps=hog_cell_eps(cell_size))
-
-
-def acf_window_features(window) -> np.ndarray:
-    """Source-view ACF channels of a canonical window, as the full-frame detector reads them.
-
-    :func:`acf_frame_features` of the window at the 4-px block size (the float32 OpenCV
-    path of :func:`fast_acf_pixel_channels`), in the layout of
-    :func:`viewadapt.acf.acf_channels`.
-
-    Parameters
-    ----------
-    window : (128, 64[, 3]) ndarray
-
-    Returns
-    -------
-    (10, 32, 16) float32 ndarray (flatten for a classifier).
-    """
-    F = acf_frame_features(window, [ACF_SHRINK], pad=0).maps[ACF_SHRINK]
-    return np.ascontiguousarray(np.moveaxis(F, -1, 0))
 
 
 #: Floor of :func:`block_normalize_cells` per pixel of cell area (gradient units of 0..255
@@ -517,7 +398,7 @@ def padded_maps(cell_sizes, frame_shape, pad: int, channels: int):
 
 
 def hog_frame_features(image, cell_sizes, *, pad: int = 2, image_size=None,
-                       raw_cell_sizes=()) -> FrameFeatures:
+                       raw_cell_sizes=(), rows=None, raw_rows=None) -> FrameFeatures:
     """Normalised HOG cell maps of a frame at several cell sizes, native resolution.
 
     The per-pixel gradients are computed once and summed into ``c x c`` cells of oriented
@@ -534,6 +415,10 @@ def hog_frame_features(image, cell_sizes, *, pad: int = 2, image_size=None,
         Zero cells added on every side.
     image_size : (width, height), optional
         Expected frame size; a frame of another size is a ``ValueError``.
+    raw_cell_sizes : iterable of int
+    rows, raw_rows : dict ``c -> (y0, y1)``, optional
+        Limit a size's normalised (``rows``) or raw (``raw_rows``) map to the cell rows an
+        operator reads (the values there are those of the whole map; the other rows are 0).
 
     Returns
     -------
@@ -544,57 +429,16 @@ def hog_frame_features(image, cell_sizes, *, pad: int = 2, image_size=None,
     order, flat, maps = padded_maps(cell_sizes, (M, N), pad, HOG_CHANNELS)
     raw_sizes = [int(c) for c in raw_cell_sizes]
     cells = orientation_cell_maps(img, list(order) + raw_sizes)
+    rows, raw_rows = rows or {}, raw_rows or {}
     for c, F in maps.items():
         ny, nx = cells[c].shape[:2]
-        block_normalize_cells(cells[c], eps=hog_cell_eps(c), out=F[pad:pad + ny, pad:pad + nx])
+        block_normalize_cells(cells[c], eps=hog_cell_eps(c), out=F[pad:pad + ny, pad:pad + nx],
+                              rows=rows.get(c))
     raw = None
     if raw_sizes:                   # one flat buffer, as raw_cell_maps lays it out
         r_order, rflat, rmaps = padded_maps(raw_sizes, (M, N), 0, N_HOG_BINS)
         for c in r_order:
-            rmaps[c][...] = cells[c]
+            y0, y1 = raw_rows.get(c, (0, M // c))
+            rmaps[c][y0:y1] = cells[c][y0:y1]
         raw = (rmaps, rflat, np.cumsum([0] + [rmaps[c].size for c in r_order[:-1]]))
     return FrameFeatures(maps, pad, (N, M), _flat=(order, flat), raw=raw)
-
-
-def acf_frame_features(image, cell_sizes, *, pad: int = 2, smooth_channels: float = 1,
-                       image_size=None, **kwargs) -> FrameFeatures:
-    """ACF cell maps of a frame: pixel channels once, aggregated at each cell size.
-
-    ``x_c = convTri(block_mean_c(P), smooth_channels)`` with ``P`` the ten full-resolution
-    channels of :func:`viewadapt.acf.acf_pixel_channels` (``kwargs`` go there) -- the ACF
-    channels the toolbox would compute with ``shrink = c``; without ``kwargs`` the cell
-    sums come from :func:`acf_channel_cell_maps` (float32).
-
-    Returns
-    -------
-    FrameFeatures with (ny + 2 pad, nx + 2 pad, 10) maps, channel order of
-    :data:`viewadapt.acf.ACF_CHANNEL_NAMES`.
-    """
-    import cv2
-
-    img = check_frame(image, image_size)
-    M, N = img.shape[:2]
-    if kwargs:
-        P = acf_pixel_channels(img, shrink=1, **kwargs).astype(np.float32)   # (10, M, N)
-        P = np.ascontiguousarray(np.moveaxis(P, 0, -1))
-        cells = _multi_cell_sums(P.shape, cell_sizes, lambda c: cell_sums(P, c))
-    else:
-        cells = acf_channel_cell_maps(img, cell_sizes)
-    tri = triangle_kernel(smooth_channels)
-    order, flat, maps = padded_maps(cell_sizes, (M, N), pad, N_ACF_CHANNELS)
-    for c, F in maps.items():
-        A = cells[c]
-        ny, nx = A.shape[:2]
-        area = np.float32(1.0 / (c * c))
-        if tri is not None and min(ny, nx) > 1:
-            # the block mean's 1 / c^2 folded into the vertical kernel
-            t = tri.astype(np.float32)
-            A = cv2.sepFilter2D(A, -1, t, t * area, borderType=cv2.BORDER_REFLECT)
-        elif tri is not None:
-            A = np.moveaxis(convolve_triangle(np.moveaxis(A * area, -1, 0), smooth_channels),
-                            0, -1)
-        else:
-            A = A * area
-        F[pad:pad + ny, pad:pad + nx] = A
-    return FrameFeatures(maps, pad, (N, M), _flat=(order, flat))
-

@@ -8,10 +8,10 @@ from functools import partial
 from typing import Callable
 
 from ..arrays import is_int, is_json_scalar
+from .acf_channels import acf_frame_features, acf_window_features
 from .channels import (
     ACF_GRADIENT_LAMBDA, ACF_SHRINK, ACF_WEIGHT_SHAPE, HOG_CELL, HOG_CHANNELS, HOG_WEIGHT_SHAPE,
-    N_ACF_CHANNELS, acf_frame_features, acf_window_features, hog_frame_features,
-    hog_window_features,
+    N_ACF_CHANNELS, hog_frame_features, hog_window_features,
 )
 from .frame_remap import acf_frame_remap, acf_gradient_rows, hog_frame_remap, opencv_frame_remap
 from .opencv_cells import (
@@ -80,7 +80,7 @@ DAIMLER_FEATURES = FeatureKind("daimler", HOG_CELL,
                                partial(opencv_frame_remap, window=DAIMLER_WINDOW))
 
 
-#: ACF channels (:func:`~viewadapt.detect.channels.acf_window_features`)
+#: ACF channels (:func:`~viewadapt.detect.acf_channels.acf_window_features`)
 ACF_FEATURES = FeatureKind("acf", ACF_SHRINK, ACF_WEIGHT_SHAPE, acf_window_features,
                            acf_frame_features, acf_frame_remap, ACF_GRADIENT_LAMBDA,
                            acf_gradient_rows())

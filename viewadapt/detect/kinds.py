@@ -24,7 +24,9 @@ from .opencv_cells import (
     DAIMLER_WINDOW, opencv_cell_weights, opencv_daimler_people_detector,
     opencv_default_people_detector,
 )
-from .renorm import HOG_VERIFY_THRESHOLD, RENORM_CELLS_PER_SOURCE_CELL, VERIFY_THRESHOLD
+from .renorm import (
+    HOG_VERIFY_THRESHOLD, RENORM_CELLS_PER_SOURCE_CELL, STAGE_CELL_TOLERANCE, VERIFY_THRESHOLD,
+)
 from .templates import ACF_TOLERANCE, HOG_TOLERANCE
 from .trees import AdaptedTreesOperator, build_adapted_trees_operator
 
@@ -125,7 +127,8 @@ class _HogDetector(DetectorKind):
     def model_fingerprint(self, models) -> str:
         key = models.fingerprint()         # (the fold alone)
         return key if not self.renorm else hashlib.sha256(
-            f"{key} renorm {self.verify_threshold}".encode()).hexdigest()
+            f"{key} renorm {self.verify_threshold} cells +{STAGE_CELL_TOLERANCE}".encode()
+        ).hexdigest()
 
     def build_operator(self, windows, models, **kw):
         w, b = self.model(models)
@@ -199,7 +202,8 @@ class _OpenCVDetector(DetectorKind):
         W, b = self.model()
         h = hashlib.sha256(np.ascontiguousarray(W, np.float64).tobytes())
         h.update(np.float64(b).tobytes())
-        h.update(f"renorm {RENORM_CELLS_PER_SOURCE_CELL} {VERIFY_THRESHOLD} binned".encode())
+        h.update(f"renorm {RENORM_CELLS_PER_SOURCE_CELL} {VERIFY_THRESHOLD} binned "
+                 f"+{STAGE_CELL_TOLERANCE}".encode())
         if self.window != (WINDOW_WIDTH, WINDOW_HEIGHT) or not self.gamma:
             h.update(f"window {self.window} gamma {self.gamma}".encode())
         if not self.renorm:

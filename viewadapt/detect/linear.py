@@ -142,9 +142,9 @@ class AdaptedLinearOperator(TemplateOperator):
         return out[r.row_of] + self.bias
 
     def frame_features(self, image) -> FrameFeatures:
-        """The frame's feature maps this operator reads (OpenCV's cells: only the cell rows
-        it reads, :meth:`read_rows`)."""
-        if getattr(self.features, "func", None) is opencv_frame_features:
+        """The frame's feature maps this operator reads (HOG's and OpenCV's cells: only the
+        cell rows it reads, :meth:`read_rows`)."""
+        if getattr(self.features, "func", None) in (opencv_frame_features, hog_frame_features):
             rows, raw_rows = self.read_rows()
             return self.features(image, rows=rows, raw_rows=raw_rows)
         return self.features(image)

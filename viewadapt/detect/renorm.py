@@ -33,12 +33,17 @@ from .opencv_cells import OPENCV_CHANNELS, OPENCV_L2HYS_CLIP, block_axis_weights
 from .templates import choose_cell_sizes
 from .windows import detector_window_homography
 
-__all__ = ["RENORM_CELLS_PER_SOURCE_CELL", "VERIFY_THRESHOLD", "HOG_VERIFY_THRESHOLD",
+__all__ = ["RENORM_CELLS_PER_SOURCE_CELL", "STAGE_CELL_TOLERANCE", "VERIFY_THRESHOLD", "HOG_VERIFY_THRESHOLD",
            "OPENCV_DESCRIPTOR_SIZE", "BINNINGS", "stage_cell_sizes", "RenormStage"]
 
 #: Frame cells per source cell of the raw cells the stage reads
 #: (:func:`~viewadapt.detect.templates.choose_cell_sizes`' ``cells_per_source_cell``).
 RENORM_CELLS_PER_SOURCE_CELL = 1.0
+#: How much larger than its source cells' image a window's raw cells may be (a fraction):
+#: a window whose scale falls just below a cell size's boundary reads that size, as its
+#: neighbours do, instead of a size a handful of windows would need a whole frame's raw
+#: cells for (windows mapped through a lens straggle across the boundaries).
+STAGE_CELL_TOLERANCE = 0.02
 #: Folded score from which a window is rescored: one SVM margin below the lowest detection
 #: threshold the DET curves use (``DEFAULT_THRESHOLD``, -1), so that a window the stage would
 #: score above -1 is rarely dropped before it.
@@ -230,6 +235,9 @@ def _stored_window(v):
 
 
 def stage_cell_sizes(scale, allowed) -> np.ndarray:
-    """The raw cell size of each window of frame pixels per canonical pixel ``scale``."""
-    return choose_cell_sizes(scale, HOG_CELL, cells_per_source_cell=RENORM_CELLS_PER_SOURCE_CELL,
+    """The raw cell size of each window of frame pixels per canonical pixel ``scale``: the
+    largest allowed size at most :data:`STAGE_CELL_TOLERANCE` larger than the image of a
+    source cell at :data:`RENORM_CELLS_PER_SOURCE_CELL`."""
+    s = np.asarray(scale, np.float64) * (1.0 + STAGE_CELL_TOLERANCE)
+    return choose_cell_sizes(s, HOG_CELL, cells_per_source_cell=RENORM_CELLS_PER_SOURCE_CELL,
                              allowed=allowed)

@@ -25,9 +25,9 @@ import scipy.sparse as sp
 
 from ..arrays import stored_array, under_prefix, with_prefix
 from ..boosting import AdaBoostTrees
+from .acf_channels import acf_frame_features
 from .channels import (
     ACF_GRADIENT_LAMBDA, ACF_SHRINK, ACF_WEIGHT_SHAPE, N_ACF_CHANNELS, FrameFeatures,
-    acf_frame_features,
 )
 from .frame_remap import (
     acf_frame_remap, acf_gradient_rows, resolve_object_model, window_mapping,

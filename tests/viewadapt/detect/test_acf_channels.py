@@ -1,7 +1,7 @@
-"""The fused ACF cell sums (:func:`viewadapt.detect.channels.acf_channel_cell_maps`) and
-:func:`viewadapt.detect.channels.acf_frame_features` against the unfused OpenCV path they
+"""The fused ACF cell sums (:func:`viewadapt.detect.acf_channels.acf_channel_cell_maps`) and
+:func:`viewadapt.detect.acf_channels.acf_frame_features` against the unfused OpenCV path they
 replaced: the per-pixel channels of
-:func:`viewadapt.detect.channels.fast_acf_pixel_channels` summed by
+:func:`viewadapt.detect.acf_channels.fast_acf_pixel_channels` summed by
 :func:`viewadapt.detect.channels.cell_sums`, on deterministic random images."""
 
 from __future__ import annotations
@@ -12,10 +12,10 @@ import pytest
 from numpy.testing import assert_allclose
 
 from viewadapt.acf import triangle_kernel
-from viewadapt.detect.channels import (
-    N_ACF_CHANNELS, acf_channel_cell_maps, acf_frame_features, cell_sums,
-    fast_acf_pixel_channels,
+from viewadapt.detect.acf_channels import (
+    acf_channel_cell_maps, acf_frame_features, fast_acf_pixel_channels,
 )
+from viewadapt.detect.channels import N_ACF_CHANNELS, cell_sums
 from tests.images import SHAPES, random_image
 
 #: float32 tolerances: magnitudes and orientation bins are the same float32 numbers on both

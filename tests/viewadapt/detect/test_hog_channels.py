@@ -82,6 +82,37 @@ def test_frame_features_match_unfused_path(shape):
         assert not F[:2].any() and not F[:, :2].any()
 
 
+@pytest.mark.parametrize("ny, nx", [(9, 7), (2, 5), (1, 4), (6, 1)])
+def test_block_normalisation_of_some_rows_is_that_of_the_whole_map(ny, nx):
+    """``rows`` computes exactly those rows of the whole map's features (their blocks read
+    the rows beside them, reflected only at the map's own border) and leaves the others."""
+    X = np.random.default_rng(ny * nx).uniform(0, 5, (ny, nx, N_HOG_BINS)).astype(np.float32)
+    whole = block_normalize_cells(X, eps=2.0)
+    for r0, r1 in [(0, 1), (0, ny), (1, ny - 1), (ny - 1, ny), (ny // 2, ny // 2 + 1), (3, 2)]:
+        part = block_normalize_cells(X, eps=2.0, rows=(r0, r1))
+        inside = np.zeros(ny, bool)
+        inside[max(r0, 0):max(r1, 0)] = True
+        assert_allclose(part[inside], whole[inside], rtol=0, atol=0)
+        assert not part[~inside].any()
+    out = np.full((ny, nx, HOG_CHANNELS), 7.0, np.float32)
+    block_normalize_cells(X, eps=2.0, out=out, rows=(0, 1))
+    assert (out[1:] == 7.0).all() and (out[0] == whole[0]).all()
+
+
+def test_frame_features_of_some_rows_are_those_of_the_whole_frame():
+    img = random_image((96, 120, 3), seed=4)
+    whole = hog_frame_features(img, [4, 6], pad=2, raw_cell_sizes=[3, 4])
+    part = hog_frame_features(img, [4, 6], pad=2, raw_cell_sizes=[3, 4],
+                              rows={4: (5, 11)}, raw_rows={3: (0, 4), 4: (20, 24)})
+    F, G = whole.maps[4][2:-2], part.maps[4][2:-2]
+    assert_allclose(G[5:11], F[5:11], rtol=0, atol=0)
+    assert not G[:5].any() and not G[11:].any()
+    assert_allclose(part.maps[6], whole.maps[6], rtol=0, atol=0)     # no rows: every row
+    assert_allclose(part.raw[0][3][:4], whole.raw[0][3][:4], rtol=0, atol=0)
+    assert not part.raw[0][3][4:].any() and not part.raw[0][4][:20].any()
+    assert_allclose(part.raw[0][4][20:24], whole.raw[0][4][20:24], rtol=0, atol=0)
+
+
 def test_errors():
     with pytest.raises(ValueError, match="positive"):
         orientation_cell_maps(random_image((10, 10), seed=0), [0, 4])

@@ -71,6 +71,49 @@ def test_the_hog_cascade_rescores_what_the_fold_keeps_and_is_stored(tmp_path):
                                          object_model="body").stage is None
 
 
+def test_the_hog_operator_reads_only_the_cell_rows_it_computes():
+    """As OpenCV's (test_opencv_detector): map rows outside ``read_rows`` can hold anything
+    -- the fold's and the stage's scores, every window rescored, do not change -- and the
+    features the operator computes per frame leave rows out on this camera."""
+    cam = camera_from_pose(focal=200.0, principal_point=(95.5, 71.5), height=4.0,
+                           tilt=np.radians(35), image_size=SIZE)
+    frame = bars_scene((SIZE[1], SIZE[0]), 14)
+    W, b = _weights(2)
+    op = build_adapted_linear_operator(select_candidate_windows(cam), W, b, renorm=True,
+                                       verify_threshold=-1e9)
+    whole = op.features(frame)
+    want = op.scores(whole)
+    rows, raw_rows = op.read_rows()
+    assert set(rows) == set(op.cell_sizes) and set(raw_rows) == set(op.stage.cell_sizes)
+    rng = np.random.default_rng(5)
+    left_out, p = 0, whole.pad
+    for c, F in whole.maps.items():
+        y0, y1 = rows[c]
+        inner = F[p:F.shape[0] - p]
+        left_out += y0 + len(inner) - y1
+        inner[:y0] = rng.uniform(0, 1, inner[:y0].shape)
+        inner[y1:] = rng.uniform(0, 1, inner[y1:].shape)
+    for c, R in whole.raw[0].items():
+        y0, y1 = raw_rows[c]
+        left_out += y0 + len(R) - y1
+        R[:y0] = rng.uniform(0, 50, R[:y0].shape)
+        R[y1:] = rng.uniform(0, 50, R[y1:].shape)
+    assert left_out > 0
+    np.testing.assert_array_equal(op.scores(whole), want)
+    np.testing.assert_array_equal(op.scores(op.frame_features(frame)), want)
+
+
+def test_a_window_a_hair_below_a_cell_size_reads_that_size():
+    """The stage's raw cells may be up to STAGE_CELL_TOLERANCE larger than a window's
+    source cells' image, no more (8-px source cells: scale s reads at most 8 s px)."""
+    from viewadapt.detect import STAGE_CELL_TOLERANCE, stage_cell_sizes
+
+    allowed = (2, 3, 4, 6, 8)
+    s = np.array([3.0, 3.0 / (1 + STAGE_CELL_TOLERANCE / 2), 3.0 / (1 + 2 * STAGE_CELL_TOLERANCE),
+                  7.99, 0.1]) / 8
+    np.testing.assert_array_equal(stage_cell_sizes(s, allowed), [3, 3, 2, 8, 2])
+
+
 def test_a_frame_detector_with_the_hog_stage(tmp_path):
     """``hog_kind()`` carries the stage (threshold 0 unless given), as the registry's HOG
     does; each setting is its own cache entry, and the fold alone keeps the model's key."""
