@@ -14,7 +14,9 @@
 * **CAVIAR XML** (``.xml``): ``<frame number="N"><objectlist><object id=...><box xc yc w
   h/>`` (centre and size), frames numbered from 0 (Fisher 2004).
 
-Frames are matched by file name (CSV, COCO), or by number (MOTChallenge, CAVIAR, a CSV
+Frames are matched by file name (CSV, COCO) -- by as much of the path the file gives as it
+takes to tell images apart when the file names the same file name in several folders (a
+COCO file of several cameras' ``frame_0.png``) -- or by number (MOTChallenge, CAVIAR, a CSV
 ``frame`` that is a whole number): an image whose name (without suffix) ends in the
 number, e.g. ``000007.jpg`` for MOTChallenge frame 7; in a video the frame of that index
 (MOTChallenge frame ``k`` and COCO image ``id`` ``k`` are the ``k``-th frame, 1-based as
@@ -44,7 +46,8 @@ from __future__ import annotations
 
 import csv
 import re
-from pathlib import Path
+from collections import defaultdict
+from pathlib import Path, PurePosixPath
 from typing import NamedTuple
 
 import numpy as np
@@ -186,8 +189,17 @@ def read_boxes(path, frame_paths=None, *, n_frames: int | None = None,
 
 
 def _image_keys(rows: _Rows, paths, path) -> list:
-    """The image (file name) of each row, or None where no image is it."""
-    names = {p.name for p in paths}
+    """The image (file name) of each row, or None where no image is it. A row's file name
+    with folders matches the image whose path ends in them when the file uses that file
+    name in more than one folder, else by its name alone; images that share a file name
+    are refused (their boxes could not be told apart)."""
+    by_name = {}
+    for p in paths:
+        other = by_name.setdefault(p.name, p)
+        if other != p:
+            raise ValueError(f"{path}: the images {other} and {p} have the same file name, "
+                             "and boxes are matched to images by name: give images with "
+                             "distinct names")
     numbers = {}
     if any(isinstance(f, int) for f in rows.frames):
         for p in paths:
@@ -198,13 +210,37 @@ def _image_keys(rows: _Rows, paths, path) -> list:
                 raise ValueError(f"{path} names frames by number, and the images "
                                  f"{numbers[n]} and {p.name} both end in {n}")
             numbers[n] = p.name
-    keys = [numbers.get(f) if isinstance(f, int) else (Path(f).name if Path(f).name in names
-                                                       else None) for f in rows.frames]
+    folders = defaultdict(set)          # file name -> the distinct paths the file gives it
+    for f in rows.frames:
+        if not isinstance(f, int):
+            q = _posix(f)
+            folders[q.name].add(q)
+
+    def key(f):
+        if isinstance(f, int):
+            return numbers.get(f)
+        q = _posix(f)
+        p = by_name.get(q.name)
+        if p is None or (len(folders[q.name]) > 1
+                         and Path(p).absolute().parts[-len(q.parts):] != q.parts):
+            return None
+        return p.name
+
+    keys = [key(f) for f in rows.frames]
     if rows.frames and all(k is None for k in keys):
         shown = ", ".join(str(f) for f in sorted(set(rows.frames), key=str)[:3])
         raise ValueError(f"{path}: none of its frames ({shown} ...) is among the frames "
-                         "given (a frame number matches the image whose name ends in it)")
+                         "given (a frame number matches the image whose name ends in it; a "
+                         "file name used in several folders, the image whose path ends in "
+                         "that folder)")
     return keys
+
+
+def _posix(name) -> PurePosixPath:
+    """A frame's name in a boxes file as a relative POSIX path (backslashes as slashes,
+    ``.`` and a root dropped)."""
+    q = PurePosixPath(str(name).replace("\\", "/"))
+    return PurePosixPath(*[c for c in q.parts if c not in ("/", ".")]) if q.parts else q
 
 
 def _video_keys(rows: _Rows, path) -> list:
@@ -305,7 +341,7 @@ def _read_coco(text: str, path) -> _Rows:
         if not isinstance(im, dict) or "id" not in im or "file_name" not in im:
             raise ValueError(f"{path}: images[{k}] needs id and file_name")
         try:
-            files[im["id"]] = Path(str(im["file_name"])).name
+            files[im["id"]] = str(im["file_name"])
         except TypeError:
             raise ValueError(f"{path}: images[{k}]: id must be a number or a string") from None
     person = None

@@ -422,6 +422,14 @@ def test_demo_frames_stage(toy, tmp_path):
     assert cam.to_dict() == frames[0].camera.to_dict()
     same = [f for f in frames if f.camera.to_dict() == cam.to_dict()]
     assert len(list((tmp_path / "detections" / "annotated").glob("*.png"))) == len(same) > 0
+    # scored against the boxes of exactly those frames (not of every scene's frame_0.png)
+    coco = json.loads((toy / "frames_coco.json").read_text())
+    mine = {im["id"] for im in coco["images"]
+            if any(str(f.path).endswith(im["file_name"]) for f in same)}
+    ev = json.loads((tmp_path / "detections" / "evaluation.json").read_text())
+    assert ev["n_gt"] + ev["n_gt_ignored"] == sum(a["image_id"] in mine
+                                                  for a in coco["annotations"]) > 0
+    assert ev["annotate_threshold"] is not None
 
 
 def test_bench_frames_one_row_per_rule_and_object_model(toy, bench, tmp_path):

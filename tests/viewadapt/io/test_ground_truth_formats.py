@@ -153,6 +153,30 @@ def test_coco_crowds_categories_and_video_ids(tmp_path):
     assert "not valid JSON" in _one_line_error(_write(tmp_path / "bad.json", '{"images": ['))
 
 
+def test_a_file_name_in_several_folders_matches_by_its_folder(tmp_path):
+    """The generator's frames_coco.json names every camera's frame_0.png: each image gets
+    the boxes of its own folder, not of every frame_0.png; a name the file uses once still
+    matches by name alone, wherever the image is."""
+    coco = {"images": [{"id": 1, "file_name": "frames/carpark/frame_0.png"},
+                       {"id": 2, "file_name": "frames/lobby/frame_0.png"},
+                       {"id": 3, "file_name": "elsewhere/frame_1.png"}],
+            "annotations": [{"image_id": 1, "bbox": [1, 2, 10, 30]},
+                            {"image_id": 2, "bbox": [40, 2, 10, 30]},
+                            {"image_id": 2, "bbox": [60, 2, 10, 30]},
+                            {"image_id": 3, "bbox": [7, 2, 10, 30]}]}
+    path = _write(tmp_path / "gt.json", json.dumps(coco))
+    lobby = [tmp_path / "data" / "frames" / "lobby" / n for n in ("frame_0.png", "frame_1.png")]
+    b = read_boxes(path, lobby)
+    assert b["frame_0.png"].boxes[:, 0].tolist() == [40, 60]
+    assert b["frame_1.png"].boxes[:, 0].tolist() == [7]
+    carpark = read_boxes(path, ["data/frames/carpark/frame_0.png"])      # relative paths
+    assert carpark["frame_0.png"].boxes[:, 0].tolist() == [1]
+    msg = _one_line_error(path, ["somewhere/frame_0.png"])      # which frame_0.png?
+    assert "none of its frames" in msg and "that folder" in msg
+    msg = _one_line_error(path, ["a/frame_0.png", "b/frame_0.png"])
+    assert "have the same file name" in msg
+
+
 # ------------------------------------------------------------------ CAVIAR
 
 
