@@ -241,6 +241,33 @@ def reflect_index(i, n, edge):  # pragma: no cover - compiled
 
 
 @njit(cache=True, nogil=True, boundscheck=False)
+def block_inverse_norms(X, eps, r0, r1, E, inv):  # pragma: no cover - compiled
+    """``inv[i, j]``, ``r0 <= i <= r1``: one over the L2 norm (floor ``eps``) of the 2x2-cell
+    block of ``X`` (ny, nx, B) on cell rows ``{i - 1, i}`` and columns ``{j - 1, j}``,
+    reflected (reflect-101) at the map's border; ``E`` (ny, nx) scratch, the cells' squared
+    norms of the rows those blocks read."""
+    ny, nx, nb = X.shape
+    edge = min(ny, nx) == 1
+    e0 = 0 if r0 <= 1 else r0 - 1
+    e1 = ny if r1 >= ny - 1 else r1 + 1
+    for i in range(e0, e1):
+        for j in range(nx):
+            s = np.float32(0.0)
+            for b in range(nb):
+                s += X[i, j, b] * X[i, j, b]
+            E[i, j] = s
+    e2 = np.float32(eps) * np.float32(eps)
+    for i in range(r0, r1 + 1):
+        i0 = reflect_index(i - 1, ny, edge)
+        i1 = reflect_index(i, ny, edge)
+        for j in range(nx + 1):
+            j0 = reflect_index(j - 1, nx, edge)
+            j1 = reflect_index(j, nx, edge)
+            s = E[i0, j0] + E[i1, j0] + E[i0, j1] + E[i1, j1]
+            inv[i, j] = np.float32(1.0) / np.sqrt(s + e2)
+
+
+@njit(cache=True, nogil=True, boundscheck=False)
 def block_normalize(X, eps, clip, out, r0=0, r1=-1):  # pragma: no cover - compiled
     """The body of ``viewadapt.detect.block_normalize_cells`` (see there): ``X`` (ny, nx,
     B) cell histograms -> ``out`` (ny, nx, B + 4), only its rows ``r0 <= i < r1``
@@ -253,28 +280,9 @@ def block_normalize(X, eps, clip, out, r0=0, r1=-1):  # pragma: no cover - compi
     r0 = max(r0, 0)
     if r0 >= r1:
         return
-    edge = min(ny, nx) == 1
-    # the cell rows the blocks of rows r0 .. r1 - 1 read (reflected at the border)
-    e0 = 0 if r0 <= 1 else r0 - 1
-    e1 = ny if r1 >= ny - 1 else r1 + 1
     E = np.empty((ny, nx), np.float32)
-    for i in range(e0, e1):
-        for j in range(nx):
-            s = np.float32(0.0)
-            for b in range(nb):
-                s += X[i, j, b] * X[i, j, b]
-            E[i, j] = s
-    # inv[i, j]: 1 / norm of the block of cells rows {i - 1, i}, columns {j - 1, j}
     inv = np.empty((ny + 1, nx + 1), np.float32)
-    e2 = np.float32(eps) * np.float32(eps)
-    for i in range(r0, r1 + 1):
-        i0 = reflect_index(i - 1, ny, edge)
-        i1 = reflect_index(i, ny, edge)
-        for j in range(nx + 1):
-            j0 = reflect_index(j - 1, nx, edge)
-            j1 = reflect_index(j, nx, edge)
-            s = E[i0, j0] + E[i1, j0] + E[i0, j1] + E[i1, j1]
-            inv[i, j] = np.float32(1.0) / np.sqrt(s + e2)
+    block_inverse_norms(X, eps, r0, r1, E, inv)
     cl = np.float32(clip)
     for i in range(r0, r1):
         for j in range(nx):

@@ -20,7 +20,7 @@ import math
 import numpy as np
 from numba import njit
 
-from ._kernels import reflect_index
+from ._kernels import block_inverse_norms
 
 
 @njit(cache=True, nogil=True, boundscheck=False, error_model="numpy")
@@ -247,22 +247,7 @@ def _hog_window_score(src, W2, eps, clip, E, inv):  # pragma: no cover - compile
     ``W2[i, j, k]``, its orientation weights plus its texture weight ``k``; ``E``, ``inv``
     scratch ((ny, nx) and (ny + 1, nx + 1))."""
     ny, nx, nb = src.shape
-    edge = min(ny, nx) == 1
-    for i in range(ny):
-        for j in range(nx):
-            s = np.float32(0.0)
-            for b in range(nb):
-                s += src[i, j, b] * src[i, j, b]
-            E[i, j] = s
-    e2 = np.float32(eps) * np.float32(eps)
-    for i in range(ny + 1):
-        i0 = reflect_index(i - 1, ny, edge)
-        i1 = reflect_index(i, ny, edge)
-        for j in range(nx + 1):
-            j0 = reflect_index(j - 1, nx, edge)
-            j1 = reflect_index(j, nx, edge)
-            s = E[i0, j0] + E[i1, j0] + E[i0, j1] + E[i1, j1]
-            inv[i, j] = np.float32(1.0) / np.sqrt(s + e2)
+    block_inverse_norms(src, eps, 0, ny, E, inv)
     cl = np.float32(clip)
     total = 0.0
     for i in range(ny):

@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 
 from tests.images import bars_scene
+from tests.viewadapt.detect.unread_rows import scramble_unread_rows
 from viewadapt.detect import (
     HOG_WEIGHT_SHAPE, RenormStage, block_normalize_cells, build_adapted_linear_operator,
     hog_frame_features, select_candidate_windows,
@@ -85,19 +86,7 @@ def test_the_hog_operator_reads_only_the_cell_rows_it_computes():
     want = op.scores(whole)
     rows, raw_rows = op.read_rows()
     assert set(rows) == set(op.cell_sizes) and set(raw_rows) == set(op.stage.cell_sizes)
-    rng = np.random.default_rng(5)
-    left_out, p = 0, whole.pad
-    for c, F in whole.maps.items():
-        y0, y1 = rows[c]
-        inner = F[p:F.shape[0] - p]
-        left_out += y0 + len(inner) - y1
-        inner[:y0] = rng.uniform(0, 1, inner[:y0].shape)
-        inner[y1:] = rng.uniform(0, 1, inner[y1:].shape)
-    for c, R in whole.raw[0].items():
-        y0, y1 = raw_rows[c]
-        left_out += y0 + len(R) - y1
-        R[:y0] = rng.uniform(0, 50, R[:y0].shape)
-        R[y1:] = rng.uniform(0, 50, R[y1:].shape)
+    left_out = scramble_unread_rows(whole, rows, raw_rows, seed=5)
     assert left_out > 0
     np.testing.assert_array_equal(op.scores(whole), want)
     np.testing.assert_array_equal(op.scores(op.frame_features(frame)), want)

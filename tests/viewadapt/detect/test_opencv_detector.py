@@ -8,6 +8,7 @@ import pytest
 
 from tests.images import bars_scene
 from tests.tolerances import FLOAT32
+from tests.viewadapt.detect.unread_rows import scramble_unread_rows
 from viewadapt.detect import (
     HOG_CELL, OPENCV_CHANNELS, OPENCV_WEIGHT_SHAPE, FrameDetector, build_adapted_opencv_operator,
     detector_kind, opencv_block_cells, opencv_cell_weights, opencv_default_people_detector,
@@ -283,20 +284,7 @@ def test_the_operator_reads_only_the_cell_rows_it_computes(camera):
     assert np.isfinite(want).all()
     rows, raw_rows = op.read_rows()
     assert set(rows) == set(op.cell_sizes) and set(raw_rows) == set(op.stage.cell_sizes)
-    rng = np.random.default_rng(3)
-    left_out = 0
-    p = whole.pad
-    for c, F in whole.maps.items():
-        y0, y1 = rows[c]
-        inner = F[p:F.shape[0] - p]
-        left_out += y0 + len(inner) - y1
-        inner[:y0] = rng.uniform(0, 1, inner[:y0].shape)
-        inner[y1:] = rng.uniform(0, 1, inner[y1:].shape)
-    for c, R in whole.raw[0].items():
-        y0, y1 = raw_rows[c]
-        left_out += y0 + len(R) - y1
-        R[:y0] = rng.uniform(0, 50, R[:y0].shape)
-        R[y1:] = rng.uniform(0, 50, R[y1:].shape)
+    left_out = scramble_unread_rows(whole, rows, raw_rows, seed=3)
     assert left_out > 0
     np.testing.assert_array_equal(op.scores(whole), want)
     np.testing.assert_array_equal(op.scores(op.frame_features(frame)), want)
