@@ -447,7 +447,8 @@ _LENS_FIT_POINTS = np.stack(np.meshgrid(np.linspace(-0.5, WINDOW_WIDTH - 0.5, 5)
 
 def distort_pixels(points, K, dist) -> np.ndarray:
     """Pixels of the pinhole camera ``K`` -> where a lens with OpenCV coefficients ``dist``
-    images them (``cv2.projectPoints`` of the normalised rays; the forward lens model).
+    images them (the forward lens model,
+    :func:`viewadapt.camera.distortion.distort_points`, keeping the points' shape).
 
     Parameters
     ----------
@@ -459,16 +460,10 @@ def distort_pixels(points, K, dist) -> np.ndarray:
     -------
     (..., 2) ndarray
     """
-    import cv2
+    from ..camera.distortion import distort_points
 
     p = np.asarray(points, dtype=np.float64)
-    K = np.asarray(K, dtype=np.float64)
-    rays = np.c_[p.reshape(-1, 2), np.ones(p.size // 2)] @ np.linalg.inv(K).T
-    if np.any(rays[:, 2] <= 0):
-        raise ValueError("points behind the camera")
-    q, _ = cv2.projectPoints(rays.reshape(-1, 1, 3), np.zeros(3), np.zeros(3), K,
-                             np.asarray(dist, dtype=np.float64))
-    return q.reshape(p.shape)
+    return distort_points(p.reshape(-1, 2), K, dist).reshape(p.shape)
 
 
 def windows_through_lens(windows: CandidateWindows, K, dist) -> tuple:
