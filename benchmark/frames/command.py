@@ -106,9 +106,7 @@ def run_frames_benchmark(data, *, methods, seed=0, quick=False, max_frames=None,
     from benchmark.frames.phases import grid_phases
     from benchmark.frames.methods import evaluate_method, load_frames, train_source_detectors
 
-    if upsample_below is None:
-        upsample_below = UPSAMPLE_BELOW
-    if not np.isfinite(upsample_below) or upsample_below < 0:
+    if upsample_below is not None and (not np.isfinite(upsample_below) or upsample_below < 0):
         raise ValueError(f"--upsample-below must be >= 0, got {upsample_below}")
     phase_list = grid_phases(phases)
     frames = load_frames(data)
@@ -452,8 +450,10 @@ def register(sub, common) -> None:
                         f"window's frame cell size (default {CELLS_PER_SOURCE_CELL:g})")
     p.add_argument("--upsample-below", type=float, default=None,
                    help="windows of persons smaller than 96 x this many px read the frame "
-                        f"upsampled 2x (default {UPSAMPLE_BELOW:g}, i.e. "
-                        f"{96 * UPSAMPLE_BELOW:.0f} px; 0 = never)")
+                        "upsampled 2x; 0 = never (default: each detector's own, "
+                        f"{UPSAMPLE_BELOW:g} for hog and acf, i.e. {96 * UPSAMPLE_BELOW:.0f} px; "
+                        "1 for opencv and 0.75 for daimler, where their window is its own "
+                        "size)")
     p.add_argument("--model", type=Path, default=None,
                    help="reuse trained source detectors (models/source_detectors.npz of "
                         "an earlier run) instead of training")

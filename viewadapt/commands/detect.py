@@ -199,6 +199,7 @@ def _metadata(args, det, stream, writer, dist, correction, annotate, *, imported
         stage=any(getattr(L.operator, "stage", None) is not None
                   for L in det.operator(args.detector).layers),
         person_heights=list(det.params["person_heights"]), windows=len(det.windows),
+        upsample_below=det.upsample_below(args.detector),
         input=stream.describe(), frames=writer.n_frames, detections=writer.n_detections,
         annotate=annotate, annotate_threshold=args.annotate_threshold,
         annotate_fppi=args.annotate_fppi, jobs=args.jobs,
@@ -320,8 +321,7 @@ def cmd_detect(args) -> int:
         return out
     options = dict(person_heights=args.heights, cache_dir=args.cache or (args.out / "cache"),
                    cache_limit_gb=args.cache_limit,
-                   upsample_below=UPSAMPLE_BELOW if args.upsample_below is None
-                   else args.upsample_below,
+                   upsample_below=args.upsample_below,
                    thresholds={args.detector: args.threshold}, rule=args.rule,
                    object_model=args.object_model, stage=args.stage == "on")
     if correction == "windows":
@@ -479,8 +479,10 @@ def register(sub, common) -> None:
     add_cache_options(p)
     p.add_argument("--upsample-below", type=float, default=None,
                    help="windows of persons smaller than 96 x this many px read the frame "
-                        f"upsampled 2x (default {UPSAMPLE_BELOW:g}, i.e. "
-                        f"{96 * UPSAMPLE_BELOW:.0f} px; 0 = never)")
+                        "upsampled 2x; 0 = never (default: the detector's own, "
+                        f"{UPSAMPLE_BELOW:g} for hog and acf, i.e. {96 * UPSAMPLE_BELOW:.0f} px; "
+                        "1 for opencv and 0.75 for daimler, where their window is its own "
+                        "size)")
     p.add_argument("--boxes", type=Path, default=None,
                    help="optional ground truth to evaluate against: CSV with frame,x,y,w,h"
                         "[,occlusion,ignore], COCO JSON, MOTChallenge gt.txt or CAVIAR XML, in "

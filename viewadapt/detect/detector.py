@@ -21,7 +21,7 @@ from ..objectmodel import OBJECT_MODELS
 from ..remap import ANGLE_RULES
 from .channels import check_frame
 from .kinds import DETECTOR_KINDS, HOG_DETECTOR, PRETRAINED_KINDS, detector_kind
-from .layers import UPSAMPLE_BELOW, build_multiresolution_operator
+from .layers import build_multiresolution_operator
 from .templates import CELLS_PER_SOURCE_CELL, HOG_TOLERANCE
 from .windows import select_candidate_windows, windows_through_lens
 
@@ -71,9 +71,13 @@ class FrameDetector:
         Shape tolerance of shared templates in HOG frame cells; every detector kind scales
         it by its own default (:attr:`DetectorKind.tolerance`) against HOG's, so that the
         tolerance in pixels is the same.
-    cells_per_source_cell, upsample_below
-        See :func:`~viewadapt.detect.templates.choose_cell_sizes` and
-        :func:`~viewadapt.detect.layers.build_multiresolution_operator`.
+    cells_per_source_cell : float
+        See :func:`~viewadapt.detect.templates.choose_cell_sizes`.
+    upsample_below : float or None
+        Windows of a smaller scale read the frame upsampled
+        (:func:`~viewadapt.detect.layers.build_multiresolution_operator`); None (default):
+        each kind's own (:attr:`DetectorKind.upsample_below`: 0.5 for ``hog`` and ``acf``,
+        1 for ``opencv``, 0.75 for ``daimler``).
     thresholds : dict kind -> float
         Score threshold of each kind's detections (before non-maximum suppression;
         default :data:`DEFAULT_THRESHOLD`).
@@ -106,7 +110,7 @@ class FrameDetector:
                  cache_limit_gb: float | None = DEFAULT_CACHE_LIMIT_GB,
                  tolerance: float = HOG_TOLERANCE,
                  cells_per_source_cell: float = CELLS_PER_SOURCE_CELL,
-                 upsample_below: float = UPSAMPLE_BELOW, thresholds=None,
+                 upsample_below: float | None = None, thresholds=None,
                  rule: str = "covariant", object_model: str = "plane", lens=None,
                  grid_phase=(0.0, 0.0), kinds=None, stage: bool = True):
         if not isinstance(camera, Camera) or camera.image_size is None:
@@ -117,7 +121,11 @@ class FrameDetector:
         self.params = dict(person_heights=tuple(float(h) for h in person_heights),
                            tolerance=float(tolerance),
                            cells_per_source_cell=float(cells_per_source_cell),
-                           upsample_below=float(upsample_below), rule=str(rule))
+                           upsample_below=None if upsample_below is None
+                           else float(upsample_below), rule=str(rule))
+        if upsample_below is not None and not (np.isfinite(upsample_below)
+                                               and upsample_below >= 0):
+            raise ValueError(f"upsample_below must be >= 0, got {upsample_below!r}")
         if rule not in ANGLE_RULES:
             raise ValueError(f"rule must be one of {ANGLE_RULES}, got {rule!r}")
         if object_model not in OBJECT_MODELS:
@@ -163,8 +171,7 @@ class FrameDetector:
         if kind in self._ops:
             return self._ops[kind]
         t0 = time.perf_counter()
-        key_parts = dict(camera=self.camera.to_dict(), kind=kind,
-                         model=self.kind(kind).model_fingerprint(self.models), **self.params)
+        key_parts = self.cache_key(kind)
         cache = OperatorCache(self.cache_dir, self.cache_limit_gb) if self.cache_dir else None
         op = cache.load(key_parts) if cache else None
         self.cache_hit[kind] = op is not None
@@ -175,6 +182,21 @@ class FrameDetector:
         self.build_seconds[kind] = time.perf_counter() - t0
         self._ops[kind] = op
         return op
+
+    def cache_key(self, kind) -> dict:
+        """What :class:`~viewadapt.io.cache.OperatorCache` keys ``kind``'s operator by: the
+        camera, the kind, its model's fingerprint and this detector's parameters (the
+        upsampling threshold the kind's operator uses)."""
+        kind = detector_kind(kind).name
+        return dict(camera=self.camera.to_dict(), kind=kind,
+                    model=self.kind(kind).model_fingerprint(self.models),
+                    **(self.params | dict(upsample_below=self.upsample_below(kind))))
+
+    def upsample_below(self, kind) -> float:
+        """The upsampling threshold of ``kind``'s operator: the one this detector was given,
+        else the kind's own."""
+        given = self.params["upsample_below"]
+        return float(self.kind(kind).upsample_below) if given is None else given
 
     def _build(self, name):
         kind = self.kind(name)
@@ -187,7 +209,7 @@ class FrameDetector:
                                        object_model=self.params.get("object_model", "plane"))
 
         return build_multiresolution_operator(self.windows, build,
-                                              upsample_below=self.params["upsample_below"])
+                                              upsample_below=self.upsample_below(name))
 
     def detect(self, image, kind: str = "hog") -> np.ndarray:
         """(D, 5) detections ``(x, y, w, h, score)`` of the adapted ``kind`` detector on one

@@ -27,6 +27,7 @@ from .opencv_cells import (
 from .renorm import (
     HOG_VERIFY_THRESHOLD, RENORM_CELLS_PER_SOURCE_CELL, STAGE_CELL_TOLERANCE, VERIFY_THRESHOLD,
 )
+from .layers import UPSAMPLE_BELOW
 from .templates import ACF_TOLERANCE, HOG_TOLERANCE
 from .trees import AdaptedTreesOperator, build_adapted_trees_operator
 
@@ -48,6 +49,13 @@ class DetectorKind:
     window : (width, height)
         The detector's window, px: the canonical 64x128, or that window scaled
         (:func:`~viewadapt.detect.windows.detector_window_homography`; Daimler's 48x96).
+    upsample_below : float
+        Windows of a smaller scale (frame px per canonical px) read the frame upsampled
+        (:func:`~viewadapt.detect.layers.build_multiresolution_operator`), unless the
+        detector is given another threshold: the project's detectors, trained with
+        frame-view copies of small persons, from :data:`UPSAMPLE_BELOW`; a pretrained
+        detector, trained on its window alone, wherever its window would be smaller than
+        it is (see :class:`_OpenCVDetector`).
     """
 
     name: str
@@ -55,6 +63,7 @@ class DetectorKind:
     tolerance: float
     operator_class: type
     window: tuple = (WINDOW_WIDTH, WINDOW_HEIGHT)
+    upsample_below: float = UPSAMPLE_BELOW
 
     @property
     def nms_overlap(self) -> str:
@@ -185,6 +194,13 @@ class _OpenCVDetector(DetectorKind):
     #: OpenCV's square-root gamma correction in the features
     gamma = True
     _default = staticmethod(_opencv_people)
+
+    @property
+    def upsample_below(self) -> float:
+        """The scale at which its window is its own size in the frame (1 for a 64x128
+        detector, 3/4 for Daimler's 48x96): trained on windows alone, it reads smaller
+        persons from the upsampled frame, as ``detectMultiScale`` users upsample frames."""
+        return self.window[1] / WINDOW_HEIGHT
 
     def __init__(self, weights=None, bias: float = 0.0, *, renorm: bool = True):
         self._own = None

@@ -436,3 +436,34 @@ def test_detector_kinds_are_the_specs_every_part_reads(windows, frame):
     with pytest.raises(ValueError, match=r"unknown detector 'sift'; choose from "
                                          r"\('hog', 'acf', 'opencv', 'daimler'\)"):
         detector_kind("sift")
+
+
+def test_each_kind_upsamples_below_its_own_scale_unless_told(tmp_path, camera):
+    """The project's detectors read persons under 48 px upsampled; OpenCV's, trained on
+    64x128 windows alone, every person smaller than its window (scale 1), Daimler's 48x96
+    below 3/4; a given threshold holds for every kind, and is part of the cache key."""
+    from viewadapt.detect import FrameDetector
+
+    class Models:  # the minimal model interface FrameDetector needs for hog
+        hog_weights = np.random.default_rng(1).normal(size=(16, 8, HOG_CHANNELS))
+        hog_bias = 0.0
+
+        def fingerprint(self):
+            return "test-model"
+
+    det = FrameDetector(camera, Models(), cache_dir=tmp_path)
+    assert (det.upsample_below("hog"), det.upsample_below("acf"), det.upsample_below("opencv"),
+            det.upsample_below("daimler")) == (0.5, 0.5, 1.0, 0.75)
+    scale = det.windows.scale
+    assert scale.max() < 1.0 and (scale < 0.5).any() and (scale >= 0.5).any()
+    # every person on this small camera is smaller than OpenCV's window: all upsampled
+    assert [layer.factor for layer in det.operator("opencv").layers] == [2]
+    assert [layer.factor for layer in det.operator("hog").layers] == [1, 2]
+    told = FrameDetector(camera, None, cache_dir=tmp_path, upsample_below=0.5)
+    assert told.upsample_below("opencv") == 0.5
+    told.operator("opencv")
+    assert told.cache_hit["opencv"] is False        # another operator, not the cached one
+    assert sum(len(L.index) for L in told.operator("opencv").layers if L.factor == 2) \
+        == int((scale < 0.5).sum())
+    with pytest.raises(ValueError, match="upsample_below must be >= 0"):
+        FrameDetector(camera, None, upsample_below=-1)

@@ -220,9 +220,7 @@ def test_a_cached_operator_scores_as_the_built_one(camera, models, frame, kind, 
 
 
 def _key_parts(camera, models, kind, tmp_path):
-    det = FrameDetector(camera, models, cache_dir=tmp_path)
-    return dict(camera=det.camera.to_dict(), kind=kind,
-                model=det.kind(kind).model_fingerprint(models), **det.params)
+    return FrameDetector(camera, models, cache_dir=tmp_path).cache_key(kind)
 
 
 def test_a_pickled_cache_entry_is_a_miss_and_runs_nothing(files, models, tmp_path, capsys):
