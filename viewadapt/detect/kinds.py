@@ -18,6 +18,7 @@ import numpy as np
 
 from ..geometry import WINDOW_HEIGHT, WINDOW_WIDTH
 from .features import ACF_FEATURES, DAIMLER_FEATURES, HOG_FEATURES, OPENCV_FEATURES
+from .layers import UPSAMPLE_BELOW
 from .linear import AdaptedLinearOperator, build_adapted_linear_operator, \
     build_adapted_opencv_operator
 from .opencv_cells import (
@@ -27,7 +28,6 @@ from .opencv_cells import (
 from .renorm import (
     HOG_VERIFY_THRESHOLD, RENORM_CELLS_PER_SOURCE_CELL, STAGE_CELL_TOLERANCE, VERIFY_THRESHOLD,
 )
-from .layers import UPSAMPLE_BELOW
 from .templates import ACF_TOLERANCE, HOG_TOLERANCE
 from .trees import AdaptedTreesOperator, build_adapted_trees_operator
 

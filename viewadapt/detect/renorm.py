@@ -33,8 +33,9 @@ from .opencv_cells import OPENCV_CHANNELS, OPENCV_L2HYS_CLIP, block_axis_weights
 from .templates import choose_cell_sizes
 from .windows import detector_window_homography
 
-__all__ = ["RENORM_CELLS_PER_SOURCE_CELL", "STAGE_CELL_TOLERANCE", "VERIFY_THRESHOLD", "HOG_VERIFY_THRESHOLD",
-           "OPENCV_DESCRIPTOR_SIZE", "BINNINGS", "stage_cell_sizes", "RenormStage"]
+__all__ = ["RENORM_CELLS_PER_SOURCE_CELL", "STAGE_CELL_TOLERANCE", "VERIFY_THRESHOLD",
+           "HOG_VERIFY_THRESHOLD", "OPENCV_DESCRIPTOR_SIZE", "BINNINGS", "stage_cell_sizes",
+           "RenormStage"]
 
 #: Frame cells per source cell of the raw cells the stage reads
 #: (:func:`~viewadapt.detect.templates.choose_cell_sizes`' ``cells_per_source_cell``).

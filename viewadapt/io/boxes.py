@@ -46,7 +46,7 @@ from __future__ import annotations
 
 import csv
 import re
-from collections import defaultdict
+from collections import Counter
 from pathlib import Path, PurePosixPath
 from typing import NamedTuple
 
@@ -210,23 +210,19 @@ def _image_keys(rows: _Rows, paths, path) -> list:
                 raise ValueError(f"{path} names frames by number, and the images "
                                  f"{numbers[n]} and {p.name} both end in {n}")
             numbers[n] = p.name
-    folders = defaultdict(set)          # file name -> the distinct paths the file gives it
-    for f in rows.frames:
-        if not isinstance(f, int):
-            q = _posix(f)
-            folders[q.name].add(q)
+    paths_of = [None if isinstance(f, int) else _posix(f) for f in rows.frames]
+    named = set(paths_of) - {None}
+    folders = Counter(q.name for q in named)    # file name -> distinct paths the file gives it
 
-    def key(f):
-        if isinstance(f, int):
-            return numbers.get(f)
-        q = _posix(f)
+    def image_of(q):
         p = by_name.get(q.name)
-        if p is None or (len(folders[q.name]) > 1
+        if p is None or (folders[q.name] > 1
                          and Path(p).absolute().parts[-len(q.parts):] != q.parts):
             return None
         return p.name
 
-    keys = [key(f) for f in rows.frames]
+    image = {q: image_of(q) for q in named}       # once per distinct name, not per row
+    keys = [numbers.get(f) if q is None else image[q] for f, q in zip(rows.frames, paths_of)]
     if rows.frames and all(k is None for k in keys):
         shown = ", ".join(str(f) for f in sorted(set(rows.frames), key=str)[:3])
         raise ValueError(f"{path}: none of its frames ({shown} ...) is among the frames "
@@ -237,10 +233,10 @@ def _image_keys(rows: _Rows, paths, path) -> list:
 
 
 def _posix(name) -> PurePosixPath:
-    """A frame's name in a boxes file as a relative POSIX path (backslashes as slashes,
-    ``.`` and a root dropped)."""
+    """A frame's name in a boxes file as a relative POSIX path (backslashes as slashes, a
+    root dropped)."""
     q = PurePosixPath(str(name).replace("\\", "/"))
-    return PurePosixPath(*[c for c in q.parts if c not in ("/", ".")]) if q.parts else q
+    return q.relative_to("/") if q.is_absolute() else q
 
 
 def _video_keys(rows: _Rows, path) -> list:
