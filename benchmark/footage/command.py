@@ -52,9 +52,9 @@ def cmd_bench_footage(args) -> int:
     if run.n_frames == 0:
         raise ValueError(f"{clip.stream.name} has no frames to evaluate")
     size = clip.camera.image_size
-    kw = dict(regions=clip.regions, block=args.bootstrap_block, seed=args.seed)
-    evaluations = evaluate_run(run, size, **kw)
-    differences = paired_differences(run, size, evaluations, **kw)
+    kw = dict(block=args.bootstrap_block, seed=args.seed)
+    evaluations, matches = evaluate_run(run, size, regions=clip.regions, **kw)
+    differences = paired_differences(run, evaluations, matches, **kw)
     lines = summary_lines(run, evaluations, differences)
     n_gt = next(iter(evaluations.values()))[0]["n_gt"]
     n_ign = next(iter(evaluations.values()))[0]["n_gt_ignored"]

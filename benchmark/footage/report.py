@@ -2,7 +2,8 @@
 
 Every method is evaluated as ``viewadapt detect --boxes`` evaluates (Caltech protocol,
 LAMR over 1e-2..1e0 FPPI, miss rates at 0.1 and 1 FPPI, 95 % intervals from a circular
-block bootstrap over consecutive frames: :func:`viewadapt.commands.detect.evaluation_summary`).
+block bootstrap over consecutive frames:
+:func:`viewadapt.detect.evaluation.evaluation_summary`), each method matched once.
 Comparisons are paired: the LAMR difference of two methods on the same resampled blocks
 (:func:`viewadapt.detect.evaluation.paired_matches_bootstrap`), against the best unadapted
 baseline (the lowest-LAMR pyramid, ground-filtered or not) and, per detector, adapted
@@ -15,18 +16,25 @@ import numpy as np
 
 from benchmark.frames.report import WARP_MARGIN
 from benchmark.frames.spec import FrameMethod
-from viewadapt.commands.detect import evaluation_summary
 from viewadapt.detect import PRETRAINED_KINDS
-from viewadapt.detect.evaluation import evaluation_rows, frame_matches, paired_matches_bootstrap
+from viewadapt.detect.evaluation import (
+    evaluation_matches, matches_summary, paired_matches_bootstrap,
+)
 
 __all__ = ["evaluate_run", "paired_differences", "best_unadapted", "footage_targets",
            "summary_lines", "summary_rows"]
 
 
-def evaluate_run(run, image_size, *, regions=None, block: int = 10, seed: int = 0) -> dict:
-    """{method: (evaluation, curve)} of every method of a :class:`FootageRun`."""
-    return {m: evaluation_summary(d, run.truth, image_size, regions=regions, block=block,
-                                  seed=seed) for m, d in run.detections.items()}
+def evaluate_run(run, image_size, *, regions=None, block: int = 10,
+                 seed: int = 0) -> tuple[dict, dict]:
+    """``(evaluations, matches)`` of every method of a :class:`FootageRun`: {method:
+    (evaluation, curve)} and {method: per-frame matches}, each method matched once
+    (:func:`~viewadapt.detect.evaluation.evaluation_matches`)."""
+    evaluations, matches = {}, {}
+    for m, d in run.detections.items():
+        matches[m], gts = evaluation_matches(d, run.truth, image_size, regions=regions)
+        evaluations[m] = matches_summary(matches[m], gts, block=block, seed=seed)
+    return evaluations, matches
 
 
 def best_unadapted(evaluations):
@@ -36,20 +44,12 @@ def best_unadapted(evaluations):
     return min(base, key=lambda m: evaluations[m][0]["lamr"]) if base else None
 
 
-def paired_differences(run, image_size, evaluations, *, regions=None, block: int = 10,
-                       seed: int = 0) -> list:
-    """``(method, reference, result)`` of :func:`paired_block_bootstrap`: every other
-    method against the best unadapted baseline, each adapted detector against the best
-    unadapted pyramid of the same detector (when that is another one) and against image
-    warping of the same model."""
-    gt = [(t.boxes, t.occlusion, image_size, t.ignore) for t in run.truth]
-    matches = {}
-
-    def matched(m):                 # each method's frames matched once, for all its pairs
-        if m not in matches:
-            matches[m] = frame_matches(*evaluation_rows(run.detections[m], gt, regions=regions))
-        return matches[m]
-
+def paired_differences(run, evaluations, matches, *, block: int = 10, seed: int = 0) -> list:
+    """``(method, reference, result)`` of
+    :func:`~viewadapt.detect.evaluation.paired_matches_bootstrap`: every other method
+    against the best unadapted baseline, each adapted detector against the best unadapted
+    pyramid of the same detector (when that is another one) and against image warping of
+    the same model. ``evaluations, matches``: :func:`evaluate_run`'s."""
     pairs = []
     ref = best_unadapted(evaluations)
     if ref is not None:
@@ -63,7 +63,7 @@ def paired_differences(run, image_size, evaluations, *, regions=None, block: int
         warp = FrameMethod(m.kind, "warp")
         if warp in run.detections:
             pairs.append((m, warp))
-    return [(m, r, paired_matches_bootstrap(matched(m), matched(r), block=block, seed=seed))
+    return [(m, r, paired_matches_bootstrap(matches[m], matches[r], block=block, seed=seed))
             for m, r in pairs]
 
 

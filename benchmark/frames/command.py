@@ -14,6 +14,7 @@ from viewadapt.commands.detect import add_cache_options, person_heights
 from viewadapt.detect import (
     CELLS_PER_SOURCE_CELL, DEFAULT_FRAME_VIEW, FRAME_VIEW_CHOICES, HOG_TOLERANCE, UPSAMPLE_BELOW,
 )
+from viewadapt.detect.layers import check_upsample_below
 from viewadapt.geometry import PERSON_HEIGHT_M
 from viewadapt.io import DEFAULT_CACHE_LIMIT_GB, plot_det_figure
 from viewadapt.objectmodel import OBJECT_MODELS
@@ -106,8 +107,7 @@ def run_frames_benchmark(data, *, methods, seed=0, quick=False, max_frames=None,
     from benchmark.frames.phases import grid_phases
     from benchmark.frames.methods import evaluate_method, load_frames, train_source_detectors
 
-    if upsample_below is not None and (not np.isfinite(upsample_below) or upsample_below < 0):
-        raise ValueError(f"--upsample-below must be >= 0, got {upsample_below}")
+    check_upsample_below(upsample_below, "--upsample-below")
     phase_list = grid_phases(phases)
     frames = load_frames(data)
     if max_frames:

@@ -38,9 +38,8 @@ def compare_models(clip, models: dict, methods, *, heights, block: int = 10,
     same order each time).
     """
     from benchmark.footage.run import run_footage
-    from viewadapt.commands.detect import evaluation_summary
     from viewadapt.detect.evaluation import (
-        evaluation_rows, frame_matches, matches_lamr, paired_groups_bootstrap,
+        evaluation_matches, matches_lamr, matches_summary, paired_groups_bootstrap,
     )
 
     size = clip.camera.image_size
@@ -53,19 +52,17 @@ def compare_models(clip, models: dict, methods, *, heights, block: int = 10,
     keys = runs[first][0].keys
     if any(run.keys != keys for group in runs.values() for run in group):  # pragma: no cover
         raise RuntimeError("the clip's frames were read in another order")
-    gt = [(t.boxes, t.occlusion, size, t.ignore) for t in truth]
-
     rows = []
     for m in methods:
-        matches = {label: [frame_matches(*evaluation_rows(run.detections[m], gt,
-                                                          regions=clip.regions))
-                           for run in group] for label, group in runs.items()}
+        matched = {label: [evaluation_matches(run.detections[m], truth, size,
+                                              regions=clip.regions) for run in group]
+                   for label, group in runs.items()}
+        matches = {label: [mt for mt, _ in group] for label, group in matched.items()}
         for label, group in runs.items():
             fps = [run.n_frames / run.seconds[m] if run.seconds[m] else float("inf")
                    for run in group]
             if len(group) == 1:                      # one model: LAMR with its interval
-                ev = evaluation_summary(group[0].detections[m], truth, size,
-                                        regions=clip.regions, block=block, seed=seed)[0]
+                ev = matches_summary(*matched[label][0], block=block, seed=seed)[0]
                 row = {"model": label, "method": m.name, "models": 1, "lamr": ev["lamr"],
                        "lamr_low": ev["lamr_ci95"][0], "lamr_high": ev["lamr_ci95"][1],
                        "fps": fps[0]}

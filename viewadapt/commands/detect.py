@@ -13,8 +13,8 @@ from viewadapt.boxes import mapped_boxes
 from viewadapt.camera.distortion import Undistortion, distort_points
 from viewadapt.detect.detector import DEFAULT_THRESHOLD, FrameDetector
 from viewadapt.detect.evaluation import (
-    BOOTSTRAP_BLOCK, BOOTSTRAP_DRAWS, block_bootstrap, evaluation_rows, frame_outcome,
-    ground_truth_counts, summary_numbers, threshold_at_fppi,
+    BOOTSTRAP_BLOCK, BOOTSTRAP_DRAWS, evaluation_rows, evaluation_summary, frame_outcome,
+    threshold_at_fppi,
 )
 from viewadapt.detect.kinds import DETECTOR_KINDS, PRETRAINED_KINDS
 from viewadapt.detect.layers import UPSAMPLE_BELOW
@@ -34,7 +34,7 @@ from viewadapt.remap import ANGLE_RULES
 
 __all__ = ["LENS_CHOICES", "DEFAULT_LENS", "register", "cmd_detect", "check_frame_selection",
            "person_heights", "cache_limit", "add_cache_options", "lens_correction",
-           "boxes_in_input_pixels", "evaluation_summary"]
+           "boxes_in_input_pixels"]
 
 
 #: How ``detect`` handles a calibration's lens distortion (``--lens``); ``auto`` maps the
@@ -62,57 +62,6 @@ def boxes_in_input_pixels(boxes, K, dist) -> np.ndarray:
     detections in the distorted input's pixels (:func:`viewadapt.boxes.mapped_boxes`
     through :func:`~viewadapt.camera.distortion.distort_points`)."""
     return mapped_boxes(boxes, lambda p: distort_points(p, K, dist))
-
-
-def evaluation_summary(detections, truth, image_size, *, regions=None,
-                       block: int = BOOTSTRAP_BLOCK, seed: int = 0) -> tuple[dict, dict]:
-    """``evaluation.json`` of detections on frames, and the curve for the DET figure.
-
-    Parameters
-    ----------
-    detections : list of (D, 5) ndarray
-        Per frame, in the input's pixels.
-    truth : list of FrameBoxes
-        Per frame, its ground truth.
-    image_size : (width, height)
-    regions : list of polygons, optional
-        Ignore regions.
-    block, seed
-        Of the block bootstrap (:func:`~viewadapt.detect.evaluation.block_bootstrap`).
-
-    Raises
-    ------
-    ValueError
-        No counted ground truth in the frames.
-    """
-    from viewadapt.metrics import evaluate_frames
-
-    gt = [(t.boxes, t.occlusion, image_size, t.ignore) for t in truth]
-    dts, gts = evaluation_rows(detections, gt, regions=regions)
-    n_gt, n_ignored = ground_truth_counts(gts)
-    if n_gt == 0:
-        raise ValueError(f"no ground-truth box is counted in the {len(gts)} frames detected "
-                         f"({n_ignored} ignored): nothing to evaluate")
-    ev = evaluate_frames(dts, gts)
-    numbers = summary_numbers(ev["fppi"], ev["miss_rate"])
-    ci = block_bootstrap(dts, gts, block=block, draws=BOOTSTRAP_DRAWS, seed=seed)
-    out = {}
-    for k, v in numbers.items():
-        out[k] = v
-        out[f"{k}_ci95"] = ci[k]
-    out |= {
-        "n_gt": n_gt, "n_gt_ignored": n_ignored, "n_frames": len(gts),
-        "fppi": ev["fppi"].tolist(), "miss_rate": ev["miss_rate"].tolist(),
-        "bootstrap": {"method": "circular block bootstrap over consecutive frames (Politis "
-                                "& Romano 1992), 2.5 and 97.5 percentiles",
-                      "block_frames": ci["block_frames"], "draws": BOOTSTRAP_DRAWS,
-                      "draws_used": ci["draws_used"], "seed": seed},
-        "protocol": "Caltech (Dollar et al. 2012): IoU >= 0.5 on boxes standardised to "
-                    "width 0.41 height; ground truth under 24 px tall, over half occluded, "
-                    "cut by the frame's border, ignored by its file or with its "
-                    "bottom-centre in an ignore region is ignored and absorbs detections; "
-                    "detections with the bottom-centre in an ignore region are dropped"}
-    return out, {"fppi": ev["fppi"], "miss_rate": ev["miss_rate"], "lamr": ev["lamr"]}
 
 
 def person_heights(text):

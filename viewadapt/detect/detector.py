@@ -21,7 +21,7 @@ from ..objectmodel import OBJECT_MODELS
 from ..remap import ANGLE_RULES
 from .channels import check_frame
 from .kinds import DETECTOR_KINDS, HOG_DETECTOR, PRETRAINED_KINDS, detector_kind
-from .layers import build_multiresolution_operator
+from .layers import build_multiresolution_operator, check_upsample_below
 from .templates import CELLS_PER_SOURCE_CELL, HOG_TOLERANCE
 from .windows import select_candidate_windows, windows_through_lens
 
@@ -121,11 +121,8 @@ class FrameDetector:
         self.params = dict(person_heights=tuple(float(h) for h in person_heights),
                            tolerance=float(tolerance),
                            cells_per_source_cell=float(cells_per_source_cell),
-                           upsample_below=None if upsample_below is None
-                           else float(upsample_below), rule=str(rule))
-        if upsample_below is not None and not (np.isfinite(upsample_below)
-                                               and upsample_below >= 0):
-            raise ValueError(f"upsample_below must be >= 0, got {upsample_below!r}")
+                           upsample_below=check_upsample_below(upsample_below),
+                           rule=str(rule))
         if rule not in ANGLE_RULES:
             raise ValueError(f"rule must be one of {ANGLE_RULES}, got {rule!r}")
         if object_model not in OBJECT_MODELS:

@@ -28,7 +28,8 @@ from ..metrics import (
 
 __all__ = ["standardize_boxes", "ground_truth_rows", "evaluate_detections", "in_regions",
            "bottom_centres", "evaluation_rows", "ground_truth_counts", "block_length",
-           "block_bootstrap", "frame_matches", "block_resamples", "paired_block_bootstrap",
+           "block_bootstrap", "matches_bootstrap", "evaluation_matches", "matches_summary",
+           "evaluation_summary", "frame_matches", "block_resamples", "paired_block_bootstrap",
            "paired_matches_bootstrap", "paired_groups_bootstrap", "matches_lamr",
            "threshold_at_fppi", "frame_outcome", "summary_numbers", "BOOTSTRAP_BLOCK",
            "BOOTSTRAP_DRAWS"]
@@ -216,7 +217,14 @@ def block_bootstrap(dts, gts, *, block: int = BOOTSTRAP_BLOCK, draws: int = BOOT
         Per summary name ``[low, high]``; ``"draws_used"``: resamples with ground truth;
         ``"block_frames"``: the block length used.
     """
-    matches = frame_matches(dts, gts)
+    return matches_bootstrap(frame_matches(dts, gts), block=block, draws=draws, seed=seed,
+                             level=level)
+
+
+def matches_bootstrap(matches, *, block: int = BOOTSTRAP_BLOCK, draws: int = BOOTSTRAP_DRAWS,
+                      seed: int = 0, level: float = 0.95) -> dict:
+    """:func:`block_bootstrap` of per-frame matches (:func:`frame_matches`), frames in their
+    order in the clip."""
     idx, length = block_resamples(len(matches), block=block, draws=draws, seed=seed)
     values = {k: [] for k in ("lamr", "miss_rate_at_0.1_fppi", "miss_rate_at_1_fppi")}
     for sel in idx:
@@ -232,6 +240,76 @@ def block_bootstrap(dts, gts, *, block: int = BOOTSTRAP_BLOCK, draws: int = BOOT
     out["draws_used"] = len(values["lamr"])
     out["block_frames"] = length
     return out
+
+
+def evaluation_matches(detections, truth, image_size, *, regions=None) -> tuple[list, list]:
+    """``(matches, gts)``: per frame, the matches (:func:`frame_matches`) of detections in
+    the input's pixels against ``truth`` (per frame, an object with ``boxes``,
+    ``occlusion`` and ``ignore``: :class:`viewadapt.io.boxes.FrameBoxes`), and
+    :func:`evaluation_rows`' ground truth."""
+    gt = [(t.boxes, t.occlusion, image_size, t.ignore) for t in truth]
+    dts, gts = evaluation_rows(detections, gt, regions=regions)
+    return frame_matches(dts, gts), gts
+
+
+def matches_summary(matches, gts, *, block: int = BOOTSTRAP_BLOCK,
+                    seed: int = 0) -> tuple[dict, dict]:
+    """``evaluation.json`` of :func:`evaluation_matches`' output, and the DET curve.
+
+    Raises
+    ------
+    ValueError
+        No counted ground truth in the frames.
+    """
+    n_gt, n_ignored = ground_truth_counts(gts)
+    if n_gt == 0:
+        raise ValueError(f"no ground-truth box is counted in the {len(gts)} frames detected "
+                         f"({n_ignored} ignored): nothing to evaluate")
+    fppi, miss, _ = accumulate_frames(matches)
+    numbers = summary_numbers(fppi, miss)
+    ci = matches_bootstrap(matches, block=block, draws=BOOTSTRAP_DRAWS, seed=seed)
+    out = {}
+    for k, v in numbers.items():
+        out[k] = v
+        out[f"{k}_ci95"] = ci[k]
+    out |= {
+        "n_gt": n_gt, "n_gt_ignored": n_ignored, "n_frames": len(gts),
+        "fppi": fppi.tolist(), "miss_rate": miss.tolist(),
+        "bootstrap": {"method": "circular block bootstrap over consecutive frames (Politis "
+                                "& Romano 1992), 2.5 and 97.5 percentiles",
+                      "block_frames": ci["block_frames"], "draws": BOOTSTRAP_DRAWS,
+                      "draws_used": ci["draws_used"], "seed": seed},
+        "protocol": "Caltech (Dollar et al. 2012): IoU >= 0.5 on boxes standardised to "
+                    "width 0.41 height; ground truth under 24 px tall, over half occluded, "
+                    "cut by the frame's border, ignored by its file or with its "
+                    "bottom-centre in an ignore region is ignored and absorbs detections; "
+                    "detections with the bottom-centre in an ignore region are dropped"}
+    return out, {"fppi": fppi, "miss_rate": miss, "lamr": numbers["lamr"]}
+
+
+def evaluation_summary(detections, truth, image_size, *, regions=None,
+                       block: int = BOOTSTRAP_BLOCK, seed: int = 0) -> tuple[dict, dict]:
+    """``evaluation.json`` of detections on frames, and the curve for the DET figure.
+
+    Parameters
+    ----------
+    detections : list of (D, 5) ndarray
+        Per frame, in the input's pixels.
+    truth : list of FrameBoxes
+        Per frame, its ground truth.
+    image_size : (width, height)
+    regions : list of polygons, optional
+        Ignore regions.
+    block, seed
+        Of the block bootstrap (:func:`block_bootstrap`).
+
+    Raises
+    ------
+    ValueError
+        No counted ground truth in the frames.
+    """
+    return matches_summary(*evaluation_matches(detections, truth, image_size, regions=regions),
+                           block=block, seed=seed)
 
 
 def frame_matches(dts, gts) -> list:

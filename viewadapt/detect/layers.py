@@ -21,8 +21,8 @@ from .channels import check_frame
 from .templates import SnappedBoxes, check_windows
 from .windows import CandidateWindows
 
-__all__ = ["UPSAMPLE_BELOW", "UPSAMPLE_FACTOR", "frame_to_band", "upsampled_windows",
-           "upsampled_band",
+__all__ = ["UPSAMPLE_BELOW", "UPSAMPLE_FACTOR", "check_upsample_below", "frame_to_band",
+           "upsampled_windows", "upsampled_band",
            "MultiResolutionOperator", "build_multiresolution_operator"]
 
 #: Windows with fewer frame pixels per canonical pixel than this (persons smaller than
@@ -30,6 +30,20 @@ __all__ = ["UPSAMPLE_BELOW", "UPSAMPLE_FACTOR", "frame_to_band", "upsampled_wind
 #: chosen on rendered frames (docs/findings.md, "full frames").
 UPSAMPLE_BELOW = 0.5
 UPSAMPLE_FACTOR = 2
+
+
+def check_upsample_below(value, name: str = "upsample_below"):
+    """``value`` as a float (None stays None: each detector kind's own threshold); a
+    ValueError naming ``name`` when it is not a finite number >= 0."""
+    if value is None:
+        return None
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        v = float("nan")
+    if not np.isfinite(v) or v < 0:
+        raise ValueError(f"{name} must be a number >= 0, got {value!r}")
+    return v
 
 
 def upsampled_windows(windows: CandidateWindows, factor: int) -> CandidateWindows:
@@ -229,8 +243,9 @@ def build_multiresolution_operator(windows: CandidateWindows, build, *,
     MultiResolutionOperator
     """
     check_windows(windows)
-    if not np.isfinite(upsample_below) or upsample_below < 0:
-        raise ValueError(f"upsample_below must be >= 0, got {upsample_below!r}")
+    if upsample_below is None:
+        raise ValueError("upsample_below must be >= 0, got None")
+    upsample_below = check_upsample_below(upsample_below)
     f = int(factor)
     small = windows.scale < upsample_below
     w, h = windows.image_size

@@ -18,8 +18,9 @@ from viewadapt.camera.distortion import Undistortion, distort_image, distort_poi
 from viewadapt.cli import main
 from viewadapt.commands.detect import boxes_in_input_pixels
 from viewadapt.detect.evaluation import (
-    block_bootstrap, evaluate_detections, evaluation_rows, in_regions,
+    block_bootstrap, evaluate_detections, evaluation_rows, evaluation_summary, in_regions,
 )
+from viewadapt.io.boxes import FrameBoxes
 from tests.toy_frames import mot_toy_clip
 from tests.box_iou import iou as box_iou
 
@@ -83,6 +84,31 @@ def test_block_bootstrap_is_seeded_and_brackets_the_estimate():
         assert 0 <= a[k][0] <= a[k][1] <= 1
     with pytest.raises(ValueError, match="at least 1 frame"):
         block_bootstrap(dts, gts, block=0)
+
+
+def test_evaluation_summary_agrees_with_the_plain_evaluation_and_the_bootstrap():
+    rng = np.random.default_rng(2)
+    size = (320, 240)
+    truth, dets = [], []
+    for _ in range(30):
+        xy = rng.uniform(0, 250, (3, 2))
+        boxes = np.c_[xy, np.full((3, 1), 20.0), np.full((3, 1), 60.0)]
+        truth.append(FrameBoxes(boxes, np.zeros(3), np.array([False, False, rng.random() < 0.3])))
+        found = boxes[rng.random(3) < 0.6]
+        fp = np.c_[rng.uniform(0, 250, (2, 2)), np.full((2, 1), 20.0), np.full((2, 1), 60.0)]
+        dets.append(np.c_[np.r_[found, fp], rng.random(len(found) + 2)])
+    region = [np.array([[0, 0], [60, 0], [60, 240], [0, 240]], float)]
+    ev, curve = evaluation_summary(dets, truth, size, regions=region, block=5, seed=7)
+    gt = [(t.boxes, t.occlusion, size, t.ignore) for t in truth]
+    plain = evaluate_detections(dets, gt, regions=region)
+    assert ev["lamr"] == pytest.approx(plain["lamr"]) == pytest.approx(curve["lamr"])
+    assert np.allclose(curve["fppi"], plain["fppi"]) and ev["miss_rate"] == plain[
+        "miss_rate"].tolist()
+    assert (ev["n_gt"], ev["n_gt_ignored"]) == (plain["n_gt"], plain["n_gt_ignored"])
+    ci = block_bootstrap(*evaluation_rows(dets, gt, regions=region), block=5, seed=7)
+    assert ev["lamr_ci95"] == ci["lamr"] and ev["bootstrap"]["block_frames"] == 5
+    with pytest.raises(ValueError, match="no ground-truth box is counted"):
+        evaluation_summary([d[:0] for d in dets], [FrameBoxes.empty()] * 30, size)
 
 
 def test_boxes_through_the_lens_are_undistorted_back():

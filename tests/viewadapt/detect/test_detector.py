@@ -465,5 +465,6 @@ def test_each_kind_upsamples_below_its_own_scale_unless_told(tmp_path, camera):
     assert told.cache_hit["opencv"] is False        # another operator, not the cached one
     assert sum(len(L.index) for L in told.operator("opencv").layers if L.factor == 2) \
         == int((scale < 0.5).sum())
-    with pytest.raises(ValueError, match="upsample_below must be >= 0"):
-        FrameDetector(camera, None, upsample_below=-1)
+    for bad in (-1, float("nan"), "half"):
+        with pytest.raises(ValueError, match="upsample_below must be a number >= 0"):
+            FrameDetector(camera, None, upsample_below=bad)
