@@ -12,6 +12,14 @@ seeded random ``--per-frame`` of them join the background windows as negatives; 
 training is otherwise the one ``bench frames`` gives (:func:`train_source_detectors`,
 same seed, recipe and frame-view copies).
 
+``--misframed`` tests another hypothesis: that a detector trained on centred persons
+scores windows that frame a person badly (shifted or of the wrong size, so that the
+protocol counts them as false positives and, winning the non-maximum suppression, can
+cost the person too) as highly as the window that frames the person. Instead of
+person-free windows it draws, per person, up to ``--per-person`` candidate windows whose
+IoU with that person lies in ``--iou`` and with no person above it
+(:func:`misframed_windows`), rectified the same way.
+
 Writes ``source_detectors.npz`` (the models, their training record naming the added set)
 and ``frame_negatives.json`` (per frame: candidates, kept, drawn) into ``--out``; compare
 the models with ``bench frames --model`` or on a real clip with
@@ -27,7 +35,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-__all__ = ["frame_negative_windows", "main"]
+__all__ = ["frame_negative_windows", "misframed_windows", "main"]
 
 
 def _iou(a, b) -> np.ndarray:
@@ -78,6 +86,50 @@ def frame_negative_windows(frames, *, per_frame: int, max_iou: float = 0.1,
     return WindowSet(key, items, meta.assign(label=0)), report
 
 
+def misframed_windows(frames, *, iou=(0.15, 0.4), per_person: int = 40,
+                      min_height: float = 40.0, seed: int = 0):
+    """A :class:`~benchmark.crops.features.WindowSet` of candidate windows of rendered
+    frames that frame a person badly -- IoU with that person in ``iou`` (low, high) and
+    with no person above ``high`` -- each rectified to the canonical window by its
+    homography: at most ``per_person`` per person drawn at random (seeded by ``seed`` and
+    the frame's index), only windows inside the frame whose person box is at least
+    ``min_height`` px tall. Returns ``(window set, per-frame report)``."""
+    from benchmark.crops.features import WindowSet
+    from viewadapt.detect import select_candidate_windows
+
+    lo, hi = (float(v) for v in iou)
+    if not 0 <= lo < hi < 0.5:
+        raise ValueError(f"iou must be (low, high) with 0 <= low < high < 0.5, got {iou!r}")
+    items, meta, report = [], [], []
+    for i, f in enumerate(frames):
+        if not len(f.gt):
+            continue
+        w, h = f.camera.image_size
+        cw = select_candidate_windows(f.camera, (w, h))
+        corners = cw.window_corners()
+        inside = ((corners[..., 0] >= 0) & (corners[..., 0] <= w - 1)
+                  & (corners[..., 1] >= 0) & (corners[..., 1] <= h - 1)).all(axis=1)
+        boxes = cw.person_boxes()
+        overlap = _iou(boxes, f.gt)
+        best = overlap.max(axis=1)
+        rng = np.random.default_rng([int(seed), i])
+        n = 0
+        for g in range(len(f.gt)):
+            ok = inside & (boxes[:, 3] >= min_height) & (overlap[:, g] >= lo) \
+                & (overlap[:, g] <= hi) & (best <= hi)
+            idx = np.flatnonzero(ok)
+            for j in np.sort(rng.choice(idx, size=min(per_person, len(idx)), replace=False)):
+                items.append((Path(f.path), np.asarray(cw.homographies[j], float)))
+                meta.append((str(f.path), "", f.scene_id, int(f.image_id),
+                             float(boxes[j, 0]), float(boxes[j, 1])))
+                n += 1
+        report.append({"frame": Path(f.path).name, "scene_id": f.scene_id,
+                       "persons": len(f.gt), "drawn": n})
+    meta = pd.DataFrame(meta, columns=["path", "person_id", "scene_id", "instance", "x", "y"])
+    key = f"misframed|{lo}-{hi}|n{per_person}|h{min_height}|s{seed}"
+    return WindowSet(key, items, meta.assign(label=0)), report
+
+
 def main(argv=None) -> int:
     from benchmark.data import load_dataset
     from benchmark.frames.methods import load_frames, train_source_detectors
@@ -92,28 +144,47 @@ def main(argv=None) -> int:
                     help="negatives drawn per frame (default 1000)")
     ap.add_argument("--max-iou", type=float, default=0.1,
                     help="a window is person-free below this IoU with every person (0.1)")
-    ap.add_argument("--min-height", type=float, default=0.0,
-                    help="only windows whose person is at least this tall, frame px (0)")
+    ap.add_argument("--min-height", type=float, default=None,
+                    help="only windows whose person is at least this tall, frame px "
+                         "(default 0; 40 with --misframed)")
+    ap.add_argument("--misframed", action="store_true",
+                    help="instead, windows that frame a person badly: IoU with a person "
+                         "within --iou (misframed_windows)")
+    ap.add_argument("--iou", type=float, nargs=2, default=(0.15, 0.4), metavar=("LOW", "HIGH"),
+                    help="with --misframed: the IoU band (default 0.15 0.4)")
+    ap.add_argument("--per-person", type=int, default=40,
+                    help="with --misframed: windows drawn per person (default 40)")
     ap.add_argument("--recipe", default=DEFAULT_RECIPE)
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--quick", action="store_true", help="smaller detectors (tests)")
     args = ap.parse_args(argv)
-    if args.per_frame < 1:
-        ap.error(f"--per-frame must be at least 1, got {args.per_frame}")
+    if args.per_frame < 1 or args.per_person < 1:
+        ap.error(f"--per-frame and --per-person must be at least 1, got {args.per_frame} "
+                 f"and {args.per_person}")
     check_output_dir(args.out)
     ds = load_dataset(args.data)
     frames = load_frames(args.data)
-    negs, report = frame_negative_windows(frames, per_frame=args.per_frame,
-                                          max_iou=args.max_iou, min_height=args.min_height,
-                                          seed=args.seed)
+    if args.misframed:
+        min_height = 40.0 if args.min_height is None else args.min_height
+        try:
+            negs, report = misframed_windows(frames, iou=args.iou, per_person=args.per_person,
+                                             min_height=min_height, seed=args.seed)
+        except ValueError as exc:
+            ap.error(str(exc))
+        settings = {"misframed": True, "iou": list(args.iou), "per_person": args.per_person}
+    else:
+        min_height = 0.0 if args.min_height is None else args.min_height
+        negs, report = frame_negative_windows(frames, per_frame=args.per_frame,
+                                              max_iou=args.max_iou, min_height=min_height,
+                                              seed=args.seed)
+        settings = {"per_frame": args.per_frame, "max_iou": args.max_iou}
     print(f"{len(negs)} negatives from {len(frames)} rendered frames")
     models = train_source_detectors(ds, seed=args.seed, quick=args.quick,
                                     recipe=args.recipe, extra_negatives=[negs])
     with atomic_output_dir(args.out) as tmp:
         models.save(tmp / "source_detectors.npz")
         (tmp / "frame_negatives.json").write_text(json.dumps(
-            {"per_frame": args.per_frame, "max_iou": args.max_iou,
-             "min_height": args.min_height, "seed": args.seed,
+            {**settings, "min_height": min_height, "seed": args.seed,
              "recipe": args.recipe, "negatives": len(negs), "frames": report}, indent=1))
     print(f"wrote {args.out}/source_detectors.npz, frame_negatives.json")
     return 0

@@ -43,6 +43,7 @@ def test_every_error_is_sorted_once():
     assert (r["with_neighbour"], r["missed_with_neighbour"]) == (2, 2)
     assert (r["false_positives"], r["localisation"], r["duplicates"], r["background"]) == \
         (3, 1, 1, 1)
+    assert r["localisation_on_missed"] == 0                      # A is found
     assert [b[2:] for b in r["height_bands"]] == [(0, 0), (3, 2), (0, 0), (0, 0), (0, 0)]
     assert r["log_height_ratio_mean"] == pytest.approx(0) and r["log_height_ratio_sd"] == 0
     # at most one false positive in the two frames: the threshold keeps the first only
@@ -53,6 +54,9 @@ def test_every_error_is_sorted_once():
     region = [np.array([[90, 0], [200, 0], [200, 150], [90, 150]], float)]
     r = error_breakdown(DETS, TRUTH, SIZE, regions=region, fppi=5.0)
     assert (r["counted"], r["missed"], r["false_positives"]) == (1, 0, 2)
+    # without the hit, A is missed under its badly framed detection: an error twice
+    r = error_breakdown([DETS[0][1:2], DETS[1]], TRUTH, SIZE, fppi=5.0)
+    assert (r["missed"], r["localisation"], r["localisation_on_missed"]) == (3, 1, 1)
 
 
 def test_the_map_marks_found_missed_and_false():

@@ -6,7 +6,9 @@ import numpy as np
 import pytest
 
 from benchmark.frames.methods import load_frames
-from benchmark.studies.frame_negatives import _iou, frame_negative_windows, main
+from benchmark.studies.frame_negatives import (
+    _iou, frame_negative_windows, main, misframed_windows,
+)
 from tests.toy_frames import small_toy_frames
 from viewadapt.detect import person_boxes
 from viewadapt.io import SourceDetectors
@@ -54,6 +56,27 @@ def test_drawn_windows_are_person_free_inside_and_seeded(toy):
     assert wins[0].shape == (128, 64, 3) and wins[0].dtype == np.uint8
 
 
+def test_misframed_windows_frame_a_person_badly(toy):
+    from viewadapt.detect import select_candidate_windows
+
+    frames = load_frames(toy)
+    ws, report = misframed_windows(frames, iou=(0.15, 0.4), per_person=5, min_height=0,
+                                   seed=2)
+    assert 0 < len(ws) == sum(r["drawn"] for r in report)
+    assert all(r["drawn"] <= 5 * r["persons"] for r in report)
+    by_path = {str(f.path): f for f in frames}
+    for path, H in ws.items:
+        f = by_path[str(path)]
+        cw = select_candidate_windows(f.camera, f.camera.image_size)
+        j = int(np.flatnonzero(np.all(np.isclose(cw.homographies, H), axis=(1, 2)))[0])
+        overlap = _iou(cw.person_boxes()[j], f.gt)
+        assert 0.15 <= overlap.max() <= 0.4
+    again, _ = misframed_windows(frames, iou=(0.15, 0.4), per_person=5, min_height=0, seed=2)
+    assert all(np.array_equal(a[1], b[1]) for a, b in zip(ws.items, again.items))
+    with pytest.raises(ValueError, match="low < high < 0.5"):
+        misframed_windows(frames, iou=(0.3, 0.6))
+
+
 def test_main_trains_with_the_added_negatives(toy, tmp_path):
     out = tmp_path / "out"
     assert main(["--data", str(toy), "--out", str(out), "--per-frame", "20", "--quick"]) == 0
@@ -64,3 +87,11 @@ def test_main_trains_with_the_added_negatives(toy, tmp_path):
     assert models.training["background_windows"] > 0
     with pytest.raises(SystemExit):
         main(["--data", str(toy), "--out", str(tmp_path / "o2"), "--per-frame", "0"])
+    mis = tmp_path / "mis"
+    assert main(["--data", str(toy), "--out", str(mis), "--misframed", "--per-person", "5",
+                 "--min-height", "0", "--quick"]) == 0
+    rec = json.loads((mis / "frame_negatives.json").read_text())
+    assert rec["misframed"] and rec["iou"] == [0.15, 0.4] and rec["negatives"] > 0
+    with pytest.raises(SystemExit):
+        main(["--data", str(toy), "--out", str(tmp_path / "o3"), "--misframed", "--iou",
+              "0.4", "0.2"])
