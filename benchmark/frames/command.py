@@ -324,18 +324,20 @@ def cmd_bench_frames(args) -> int:
 
 
 def cmd_bench_runtime(args) -> int:
+    from viewadapt.io import SourceDetectors
     from viewadapt.io.files import atomic_output_dir, check_output_dir, run_metadata
 
     from benchmark.frames.runtime import format_table, run_runtime
 
     check_output_dir(args.out, overwrite=args.overwrite)
+    models = SourceDetectors.load(args.model) if args.model else None
     t0 = time.perf_counter()
     table, info = run_runtime(args.data, n_frames=args.frames, warp_windows=args.warp_windows,
                               heights=args.heights, jobs=args.jobs, seed=args.seed,
                               quick=args.quick, cache_dir=args.cache,
                               cache_limit_gb=args.cache_limit,
                               frame_view=args.frame_view, recipe=args.recipe,
-                              size=_frame_size(args.size))
+                              size=_frame_size(args.size), models=models)
     md = format_table(table, info)
     with atomic_output_dir(args.out) as tmp:
         (tmp / "runtime.md").write_text(md)
@@ -494,5 +496,11 @@ def register(sub, common) -> None:
                    help="frame size every method is timed on, e.g. 768x576 (default "
                         f"{TIMING_SIZE[0]}x{TIMING_SIZE[1]}, the paper's); the camera keeps "
                         "its field of view")
+    p.add_argument("--model", type=Path, default=None,
+                   help="time these trained source detectors (e.g. the shipped "
+                        "viewadapt/data/source_detectors.npz, or models/source_detectors.npz "
+                        "of a bench frames run) instead of training quick ones: the adapted "
+                        "HOG's normalisation stage rescores the windows its fold calls a "
+                        "person, so its speed depends on the model")
     p.set_defaults(func=cmd_bench_runtime)
     register_footage(bsub, common)

@@ -367,9 +367,11 @@ def time_all_cores(rows, frames, model_path, *, jobs=-1, heights=(1.65, 1.85),
 def measure_runtime(data, *, n_frames=3, warp_windows=1000, heights=(1.65, 1.85), jobs=-1,
                     seed=0, quick=True, cache_dir=None, throughput_seconds=4.0,
                     frame_view=DEFAULT_FRAME_VIEW, cache_limit_gb=DEFAULT_CACHE_LIMIT_GB,
-                    recipe=DEFAULT_RECIPE, size=TIMING_SIZE):
-    """Train the detectors on ``data`` and time every method on its frames, ``size``
-    (width, height) large; judge nothing.
+                    recipe=DEFAULT_RECIPE, size=TIMING_SIZE, models=None):
+    """Train the detectors on ``data`` (or take ``models``, a loaded
+    :class:`viewadapt.io.SourceDetectors`) and time every method on its frames, ``size``
+    (width, height) large; judge nothing. The adapted HOG's normalisation stage rescores
+    the windows its fold scores a person, so its time depends on the model and the frames.
 
     The models (and the operator cache, unless ``cache_dir`` is given) live in a temporary
     folder for the run, removed when it ends, whether it succeeds or raises.
@@ -387,8 +389,9 @@ def measure_runtime(data, *, n_frames=3, warp_windows=1000, heights=(1.65, 1.85)
     from benchmark.frames.methods import train_source_detectors
 
     frames = timing_frames(data, n_frames, size)
-    models = train_source_detectors(load_dataset(data), seed=seed, quick=quick,
-                                    frame_view=frame_view, recipe=recipe)
+    if models is None:
+        models = train_source_detectors(load_dataset(data), seed=seed, quick=quick,
+                                        frame_view=frame_view, recipe=recipe)
     with tempfile.TemporaryDirectory(prefix="viewadapt-runtime-") as tmp:
         cache_dir = Path(cache_dir) if cache_dir else Path(tmp) / "cache"
         model_path = Path(tmp) / "models.npz"

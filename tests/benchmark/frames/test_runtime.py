@@ -154,6 +154,34 @@ def test_the_temporary_folder_is_gone_after_a_run_that_raises(stubbed, monkeypat
     assert list(root.iterdir()) == []
 
 
+def test_models_given_are_timed_without_training(stubbed, monkeypatch):
+    root, seen = stubbed
+
+    class Given:
+        training = {"seed": 7, "quick": False}
+
+        def save(self, path):
+            path.write_bytes(b"given")
+
+    def no_training(ds, **_):
+        raise AssertionError("trained although models were given")
+
+    monkeypatch.setattr(benchmark.frames.methods, "train_source_detectors", no_training)
+    rows, info = run_runtime("data", jobs=1, models=Given())
+    assert info["training"] == {"seed": 7, "quick": False} and len(seen) == 1
+
+
+def test_a_model_file_that_is_not_there_is_one_line(tmp_path, capsys):
+    from viewadapt.cli import main
+
+    (tmp_path / "data").mkdir()
+    rc = main(["bench", "runtime", "--data", str(tmp_path / "data"), "--out",
+               str(tmp_path / "o"), "--model", str(tmp_path / "missing.npz")])
+    err = capsys.readouterr().err
+    assert rc != 0 and "missing.npz" in err and len(err.strip().splitlines()) == 1
+    assert not (tmp_path / "o").exists()
+
+
 def test_a_cache_folder_given_is_kept(stubbed, tmp_path):
     root, seen = stubbed
     run_runtime("data", jobs=1, cache_dir=tmp_path / "cache")
