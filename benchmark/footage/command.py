@@ -6,6 +6,8 @@ import json
 import time
 from pathlib import Path
 
+import numpy as np
+
 from benchmark.footage.report import evaluate_run, paired_differences, summary_lines, summary_rows
 from benchmark.footage.run import FOOTAGE_METHODS, open_clip, run_footage
 from benchmark.frames.spec import expand_adapted, method_arg
@@ -75,8 +77,7 @@ def cmd_bench_footage(args) -> int:
         (tmp / "paired_differences.json").write_text(json.dumps(
             [dict(method=m.name, reference=r.name, **d) for m, r, d in differences], indent=1))
         (tmp / "detections.json").write_text(json.dumps(
-            {m.name: dict(zip(map(str, run.keys), (d.round(3).tolist()
-                                                   for d in run.detections[m])))
+            {m.name: dict(zip(map(str, run.keys), (_stored(d) for d in run.detections[m])))
              for m in methods}))
         plot_det_figure({m.name: c for m, (_, c) in evaluations.items()}, tmp / "det_footage",
                         title=f"{run.n_frames} frames, {n_gt} persons counted")
@@ -96,6 +97,13 @@ def cmd_bench_footage(args) -> int:
     print(f"\nwrote {args.out}/footage_summary.{{md,csv}}, det_footage.{{png,pdf}}, "
           "evaluations.json, paired_differences.json, detections.json, run.json")
     return 0
+
+
+def _stored(boxes) -> list:
+    """(D, 5) detections as ``detections.json`` stores them: unrounded (rounded scores tie
+    and rounded boxes can cross the protocol's IoU of 0.5), so that evaluating the file
+    again gives the run's numbers and curves."""
+    return np.asarray(boxes, float).reshape(-1, 5).tolist()
 
 
 def register_footage(bsub, common) -> None:

@@ -15,8 +15,9 @@ score threshold read from the DET curve) sorts the errors under the Caltech prot
 
 Writes ``errors.md``, ``errors.csv`` and ``error_map.jpg`` (per method, every counted
 person's foot point on the clip's first frame, found or missed, and the false positives'
-foot points, at the last operating point; at most 640 px wide) under ``--out``. Scores in ``detections.json``
-are rounded to three decimals, so a LAMR read back can differ from the run's in the fourth.
+foot points, at the last operating point; at most 640 px wide) under ``--out``. (Runs
+before 2026-12-05 stored scores rounded to three decimals, so a LAMR read back from them
+can differ from the run's in the fourth.)
 """
 
 from __future__ import annotations

@@ -132,6 +132,20 @@ def test_every_method_on_the_clip(toy, tmp_path, capsys):
                                               abs=1e-5)
     dets = json.loads((out / "detections.json").read_text())
     assert set(dets) == set(METHODS)
+    # the stored detections, evaluated again, give the run's numbers
+    from benchmark.footage.run import open_clip
+    from viewadapt.detect.evaluation import evaluation_summary
+    from viewadapt.io import FrameBoxes
+
+    clip = open_clip([str(toy.img1)], toy.calibration, toy.gt, toy.regions)
+    keys = list(dets["hog_adapted"])
+    truth = [clip.truth.get(k, FrameBoxes.empty()) for k in keys]
+    for m in METHODS:
+        again, _ = evaluation_summary([np.asarray(dets[m][k]).reshape(-1, 5) for k in keys],
+                                      truth, clip.camera.image_size, regions=clip.regions,
+                                      block=2)
+        assert again["lamr"] == pytest.approx(ev[m]["lamr"], abs=1e-9)
+        assert again["fppi"] == pytest.approx(ev[m]["fppi"], abs=1e-9)
     assert set(dets["hog_adapted"]) == {f"{k:06d}.png" for k in range(1, N_FRAMES + 1)}
     # the ground-filtered pyramid keeps a subset of the pyramid's boxes
     for k, boxes in dets["opencv_native[ground]"].items():
