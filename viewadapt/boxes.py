@@ -8,7 +8,8 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["check_boxes", "check_scores", "box_intersections", "safe_ratio", "mapped_boxes"]
+__all__ = ["check_boxes", "check_scores", "box_intersections", "safe_ratio", "box_iou",
+           "mapped_boxes"]
 
 
 def check_boxes(boxes, name: str = "boxes") -> np.ndarray:
@@ -64,6 +65,15 @@ def safe_ratio(num: np.ndarray, den: np.ndarray) -> np.ndarray:
     out = np.zeros(np.broadcast_shapes(num.shape, den.shape), dtype=np.float64)
     np.divide(num, den, out=out, where=den > 0)
     return out
+
+
+def box_iou(a, b) -> np.ndarray:
+    """Pairwise intersection over union, shape (len(a), len(b)), of (x, y, w, h) boxes
+    (0 for degenerate ones)."""
+    a = np.asarray(a, float).reshape(-1, 4)
+    b = np.asarray(b, float).reshape(-1, 4)
+    inter = box_intersections(a, b)
+    return safe_ratio(inter, (a[:, 2] * a[:, 3])[:, None] + (b[:, 2] * b[:, 3])[None] - inter)
 
 
 def mapped_boxes(detections, mapping) -> np.ndarray:

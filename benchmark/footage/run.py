@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, replace
+from pathlib import Path
 
 import numpy as np
 
@@ -24,7 +25,8 @@ from viewadapt.commands.detect import boxes_in_input_pixels, lens_correction
 from viewadapt.io import FrameBoxes, open_frames, read_boxes, read_ignore_regions
 from viewadapt.io.calibration import read_calibration_file
 
-__all__ = ["FOOTAGE_METHODS", "Clip", "open_clip", "FootageRun", "run_footage"]
+__all__ = ["FOOTAGE_METHODS", "Clip", "open_clip", "add_clip_arguments", "FootageRun",
+           "run_footage"]
 
 #: The methods ``bench footage`` runs by default, in its order: OpenCV's own
 #: ``detectMultiScale`` at 1x, 2x and 4x without and with the ground-plane filter (the
@@ -87,6 +89,16 @@ def open_clip(inputs, calibration, boxes, ignore=None, *, lens: str = "auto",
                        n_frames=stream.n_total if stream.paths is None else None)
     regions = None if ignore is None else read_ignore_regions(ignore)
     return Clip(cal.camera, cal.dist, correction, stream, truth, regions, cal.imported)
+
+
+def add_clip_arguments(parser) -> None:
+    """The clip a study reads, as ``bench footage`` reads it (:func:`open_clip`): the frames
+    (positional), ``--calibration``, ``--boxes`` and ``--ignore``."""
+    parser.add_argument("inputs", nargs="+", help="the clip's frames, as bench footage reads "
+                                                  "them")
+    parser.add_argument("--calibration", type=Path, required=True)
+    parser.add_argument("--boxes", type=Path, required=True)
+    parser.add_argument("--ignore", type=Path, default=None)
 
 
 class FootageRun:

@@ -28,6 +28,8 @@ from pathlib import Path
 
 import numpy as np
 
+from viewadapt.boxes import box_iou
+
 __all__ = ["neighbours", "error_breakdown", "error_map", "main"]
 
 #: Box-height bands of the miss rates, pixels.
@@ -44,17 +46,6 @@ def neighbours(boxes) -> np.ndarray:
     near = (ox >= 0.2 * b[:, 2:3]) & (oy >= 0.5 * b[:, 3:4])
     np.fill_diagonal(near, False)
     return near.any(axis=1)
-
-
-def _iou(a, b) -> np.ndarray:
-    if not len(a) or not len(b):
-        return np.zeros((len(a), len(b)))
-    x0 = np.maximum(a[:, None, 0], b[None, :, 0])
-    y0 = np.maximum(a[:, None, 1], b[None, :, 1])
-    x1 = np.minimum(a[:, None, 0] + a[:, None, 2], b[None, :, 0] + b[None, :, 2])
-    y1 = np.minimum(a[:, None, 1] + a[:, None, 3], b[None, :, 1] + b[None, :, 3])
-    inter = np.clip(x1 - x0, 0, None) * np.clip(y1 - y0, 0, None)
-    return inter / (a[:, None, 2] * a[:, None, 3] + b[None, :, 2] * b[None, :, 3] - inter)
 
 
 def _frame_errors(detections, truth, image_size, regions, fppi):
@@ -114,11 +105,11 @@ def error_breakdown(detections, truth, image_size, *, regions=None, fppi: float 
         np.add.at(bands[:, 1], k[missed], 1)
         hit = labels == 1
         if hit.any():            # each hit against the counted box it overlaps most
-            iou = _iou(d[hit, :4], g[:, :4]) * counted[None, :]
+            iou = box_iou(d[hit, :4], g[:, :4]) * counted[None, :]
             ratios += (d[hit, 3] / g[iou.argmax(axis=1), 3]).tolist()
         fp = labels == 0
         if fp.any():
-            iou = _iou(d[fp, :4], g[:, :4])
+            iou = box_iou(d[fp, :4], g[:, :4])
             best = iou.max(axis=1) if len(g) else np.zeros(fp.sum())
             loc = (best >= 0.3) & (best < 0.5)
             out["false_positives"] += int(fp.sum())
@@ -193,16 +184,13 @@ def main(argv=None) -> int:
     import cv2
     import pandas as pd
 
-    from benchmark.footage.run import open_clip
+    from benchmark.footage.run import add_clip_arguments, open_clip
     from viewadapt.io import FrameBoxes
     from viewadapt.io.files import atomic_output_dir, check_output_dir, run_metadata
 
     ap = argparse.ArgumentParser(prog="python -m benchmark.studies.footage_errors",
                                  description=__doc__.split("\n\n")[1])
-    ap.add_argument("inputs", nargs="+", help="the clip's frames, as bench footage read them")
-    ap.add_argument("--calibration", type=Path, required=True)
-    ap.add_argument("--boxes", type=Path, required=True)
-    ap.add_argument("--ignore", type=Path, default=None)
+    add_clip_arguments(ap)
     ap.add_argument("--detections", type=Path, required=True,
                     help="a bench footage output folder, or its detections.json")
     ap.add_argument("--methods", nargs="+", default=None,

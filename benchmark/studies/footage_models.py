@@ -97,7 +97,7 @@ def _lines(rows, first) -> list[str]:
 def main(argv=None) -> int:
     import pandas as pd
 
-    from benchmark.footage.run import open_clip
+    from benchmark.footage.run import add_clip_arguments, open_clip
     from benchmark.frames.spec import FrameMethod
     from viewadapt.geometry import PERSON_HEIGHT_M
     from viewadapt.io import SourceDetectors
@@ -105,10 +105,7 @@ def main(argv=None) -> int:
 
     ap = argparse.ArgumentParser(prog="python -m benchmark.studies.footage_models",
                                  description=__doc__.split("\n\n")[1])
-    ap.add_argument("inputs", nargs="+", help="the clip's frames, as bench footage reads them")
-    ap.add_argument("--calibration", type=Path, required=True)
-    ap.add_argument("--boxes", type=Path, required=True)
-    ap.add_argument("--ignore", type=Path, default=None)
+    add_clip_arguments(ap)
     ap.add_argument("--model", action="append", required=True, metavar="LABEL=FILE[,FILE...]",
                     help="a source-detector file and its label, or several files (e.g. one "
                          "per training seed) compared by their mean LAMR; the first label "

@@ -35,17 +35,22 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from viewadapt.boxes import box_iou
+
 __all__ = ["frame_negative_windows", "misframed_windows", "main"]
 
 
-def _iou(a, b) -> np.ndarray:
-    """(len(a), len(b)) IoU of ``(x, y, w, h)`` boxes."""
-    from viewadapt.boxes import box_intersections, safe_ratio
+def _candidates_inside(frame):
+    """A rendered frame's candidate windows (those the adapted detector scores), which of
+    them lie inside the frame, and their person boxes."""
+    from viewadapt.detect import select_candidate_windows
 
-    a = np.asarray(a, float).reshape(-1, 4)
-    b = np.asarray(b, float).reshape(-1, 4)
-    inter = box_intersections(a, b)
-    return safe_ratio(inter, (a[:, 2] * a[:, 3])[:, None] + (b[:, 2] * b[:, 3])[None] - inter)
+    w, h = frame.camera.image_size
+    cw = select_candidate_windows(frame.camera, (w, h))
+    corners = cw.window_corners()
+    inside = ((corners[..., 0] >= 0) & (corners[..., 0] <= w - 1)
+              & (corners[..., 1] >= 0) & (corners[..., 1] <= h - 1)).all(axis=1)
+    return cw, inside, cw.person_boxes()
 
 
 def frame_negative_windows(frames, *, per_frame: int, max_iou: float = 0.1,
@@ -57,19 +62,13 @@ def frame_negative_windows(frames, *, per_frame: int, max_iou: float = 0.1,
     kept. ``min_height``: only windows whose person box is at least this tall (frame px),
     so that the rectified window is not mostly upsampled blur."""
     from benchmark.crops.features import WindowSet
-    from viewadapt.detect import select_candidate_windows
 
     items, meta, report = [], [], []
     for i, f in enumerate(frames):
-        w, h = f.camera.image_size
-        cw = select_candidate_windows(f.camera, (w, h))
-        corners = cw.window_corners()
-        inside = ((corners[..., 0] >= 0) & (corners[..., 0] <= w - 1)
-                  & (corners[..., 1] >= 0) & (corners[..., 1] <= h - 1)).all(axis=1)
-        boxes = cw.person_boxes()
+        cw, inside, boxes = _candidates_inside(f)
         free = inside & (boxes[:, 3] >= min_height)
         if len(f.gt):
-            free &= _iou(boxes, f.gt).max(axis=1) < max_iou
+            free &= box_iou(boxes, f.gt).max(axis=1) < max_iou
         idx = np.flatnonzero(free)
         rng = np.random.default_rng([int(seed), i])
         drawn = np.sort(rng.choice(idx, size=min(per_frame, len(idx)), replace=False))
@@ -95,7 +94,6 @@ def misframed_windows(frames, *, iou=(0.15, 0.4), per_person: int = 40,
     the frame's index), only windows inside the frame whose person box is at least
     ``min_height`` px tall. Returns ``(window set, per-frame report)``."""
     from benchmark.crops.features import WindowSet
-    from viewadapt.detect import select_candidate_windows
 
     lo, hi = (float(v) for v in iou)
     if not 0 <= lo < hi < 0.5:
@@ -104,13 +102,8 @@ def misframed_windows(frames, *, iou=(0.15, 0.4), per_person: int = 40,
     for i, f in enumerate(frames):
         if not len(f.gt):
             continue
-        w, h = f.camera.image_size
-        cw = select_candidate_windows(f.camera, (w, h))
-        corners = cw.window_corners()
-        inside = ((corners[..., 0] >= 0) & (corners[..., 0] <= w - 1)
-                  & (corners[..., 1] >= 0) & (corners[..., 1] <= h - 1)).all(axis=1)
-        boxes = cw.person_boxes()
-        overlap = _iou(boxes, f.gt)
+        cw, inside, boxes = _candidates_inside(f)
+        overlap = box_iou(boxes, f.gt)
         best = overlap.max(axis=1)
         rng = np.random.default_rng([int(seed), i])
         n = 0

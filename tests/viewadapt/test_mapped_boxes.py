@@ -1,4 +1,4 @@
-"""viewadapt.boxes.mapped_boxes: boxes through a point mapping."""
+"""viewadapt.boxes: boxes through a point mapping (mapped_boxes), and their IoU (box_iou)."""
 
 import numpy as np
 
@@ -23,3 +23,12 @@ def test_a_curved_mapping_takes_the_outline_bounding_box_and_empty_stays_empty()
     got = mapped_boxes([[0.0, 0.0, 10.0, 4.0, 1.0]], bulge)
     np.testing.assert_allclose(got, [[0, -1, 10, 5, 1.0]])
     assert mapped_boxes(np.zeros((0, 5)), bulge).shape == (0, 5)
+
+
+def test_iou_of_boxes():
+    from viewadapt.boxes import box_iou
+
+    a = np.array([[0, 0, 10, 10], [20, 20, 5, 5]], float)
+    b = np.array([[5, 0, 10, 10], [0, 0, 10, 10], [3, 3, 0, 4]], float)
+    assert np.allclose(box_iou(a, b), [[50 / 150, 1.0, 0.0], [0.0, 0.0, 0.0]])
+    assert box_iou(np.zeros((0, 4)), b).shape == (0, 3)

@@ -6,10 +6,9 @@ import numpy as np
 import pytest
 
 from benchmark.frames.methods import load_frames
-from benchmark.studies.frame_negatives import (
-    _iou, frame_negative_windows, main, misframed_windows,
-)
+from benchmark.studies.frame_negatives import frame_negative_windows, main, misframed_windows
 from tests.toy_frames import small_toy_frames
+from viewadapt.boxes import box_iou
 from viewadapt.detect import person_boxes
 from viewadapt.io import SourceDetectors
 
@@ -17,12 +16,6 @@ from viewadapt.io import SourceDetectors
 @pytest.fixture(scope="module")
 def toy(tmp_path_factory):
     return small_toy_frames(tmp_path_factory.mktemp("fneg") / "data")
-
-
-def test_iou_of_boxes():
-    a = np.array([[0, 0, 10, 10], [20, 20, 5, 5]], float)
-    b = np.array([[5, 0, 10, 10], [0, 0, 10, 10]], float)
-    assert np.allclose(_iou(a, b), [[50 / 150, 1.0], [0.0, 0.0]])
 
 
 def test_drawn_windows_are_person_free_inside_and_seeded(toy):
@@ -39,7 +32,7 @@ def test_drawn_windows_are_person_free_inside_and_seeded(toy):
         j = int(np.flatnonzero(np.all(np.isclose(cw.homographies, H), axis=(1, 2)))[0])
         box = cw.person_boxes()[j]
         if len(f.gt):
-            assert _iou(box, f.gt).max() < 0.1
+            assert box_iou(box, f.gt).max() < 0.1
         w, h = f.camera.image_size
         c = cw.window_corners()[j]
         assert (c >= 0).all() and (c[:, 0] <= w - 1).all() and (c[:, 1] <= h - 1).all()
@@ -69,7 +62,7 @@ def test_misframed_windows_frame_a_person_badly(toy):
         f = by_path[str(path)]
         cw = select_candidate_windows(f.camera, f.camera.image_size)
         j = int(np.flatnonzero(np.all(np.isclose(cw.homographies, H), axis=(1, 2)))[0])
-        overlap = _iou(cw.person_boxes()[j], f.gt)
+        overlap = box_iou(cw.person_boxes()[j], f.gt)
         assert 0.15 <= overlap.max() <= 0.4
     again, _ = misframed_windows(frames, iou=(0.15, 0.4), per_person=5, min_height=0, seed=2)
     assert all(np.array_equal(a[1], b[1]) for a, b in zip(ws.items, again.items))
