@@ -154,6 +154,13 @@ def test_every_method_on_the_clip(toy, tmp_path, capsys):
     assert run["lens_correction"] == "windows" and run["methods"] == METHODS
     assert run["n_frames"] == N_FRAMES and set(run["seconds_per_method"]) == set(METHODS)
     assert (out / "det_footage.png").is_file() and "hog_adapted - hog_warp" in printed
+    # the errors of every method at 0.1 and 1 FPPI, and their map
+    errors = (out / "errors.md").read_text()
+    assert all(f"| {m} | 0.1 |" in errors and f"| {m} | 1 |" in errors for m in METHODS)
+    import cv2
+
+    grid = cv2.imread(str(out / "error_map.jpg"))
+    assert grid.shape[0] == len(METHODS) * 144 and grid.shape[1] == 192
     first = (out / "footage_summary.md").read_text().splitlines()[0]
     assert first.startswith("# ") and f"img1: {N_FRAMES} frames, {int(table['n_gt'][0])} " \
         "persons counted" in first

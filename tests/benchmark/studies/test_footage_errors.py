@@ -1,4 +1,5 @@
-"""benchmark.studies.footage_errors: a method's misses and false positives on a clip, sorted."""
+"""benchmark.footage.errors and benchmark.studies.footage_errors: a method's misses and false
+positives on a clip, sorted."""
 
 import json
 
@@ -7,7 +8,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from benchmark.studies.footage_errors import error_breakdown, error_map, main, neighbours
+from benchmark.footage.errors import error_breakdown, error_map, neighbours
+from benchmark.studies.footage_errors import main
 from viewadapt.geometry import camera_from_pose
 from viewadapt.io import FrameBoxes
 
