@@ -81,7 +81,10 @@ def error_breakdown(detections, truth, image_size, *, regions=None, fppi: float 
     dict
         ``threshold``; ``counted`` and ``missed`` persons; ``with_neighbour`` and
         ``missed_with_neighbour``; ``height_bands`` ``[(low, high, counted, missed)]``;
-        ``false_positives`` and of them ``localisation``, ``duplicates``, ``background``.
+        ``false_positives`` and of them ``localisation`` (of which
+        ``localisation_on_missed``: on a person who is missed), ``duplicates`` and
+        ``background``; ``log_height_ratio_mean`` and ``_sd`` of ``log(h_det / h_gt)``
+        over the hits.
     """
     frames, thr = _frame_errors(detections, truth, image_size, regions, fppi)
     out = dict(threshold=thr, counted=0, missed=0, with_neighbour=0, missed_with_neighbour=0,

@@ -100,13 +100,14 @@ def occluded_copies(windows, masks, person_ids, *, modes=MODES, seed: int = 0):
     neighbour another person's window, drawn with the rest from ``seed``): ``(copies,
     {mode: count})``."""
     ids = np.asarray(person_ids)
-    if len(set(ids.tolist())) < 2 and set(modes) - {"pole"}:
+    several = len(set(ids.tolist())) > 1
+    if not several and set(modes) - {"pole"}:
         raise ValueError("a neighbour needs crops of at least two persons")
     rng = np.random.default_rng(1000 + int(seed))
     copies, counts = [], {m: 0 for m in MODES}
     for i, win in enumerate(windows):
         j = i
-        while ids[j] == ids[i] and len(set(ids.tolist())) > 1:
+        while several and ids[j] == ids[i]:
             j = int(rng.integers(len(windows)))
         out, mode = occlusion_copy(win, masks[i], windows[j], masks[j], rng)
         if mode in modes:
@@ -119,7 +120,7 @@ def main(argv=None) -> int:
     from dataclasses import replace
 
     from benchmark.crops.features import background_windows, person_windows
-    from benchmark.data import load_dataset, read_depth_map
+    from benchmark.data import DatasetError, load_dataset, read_depth_map
     from benchmark.frames.methods import dataset_provenance
     from viewadapt.detect import train_on_windows
     from viewadapt.io.files import atomic_output_dir, check_output_dir
@@ -137,7 +138,13 @@ def main(argv=None) -> int:
     ds = load_dataset(args.data)
     pw = person_windows(ds, 0)
     rows = ds.persons.set_index("path").loc[list(pw.meta["path"])].reset_index()
-    masks = [np.isfinite(read_depth_map(ds.root, r)) for r in rows.to_dict("records")]
+    if "depth_path" not in rows.columns:
+        ap.error(f"{args.data}: its crops have no depth maps (rerun `viewadapt generate` "
+                 "with the same --out to add them)")
+    try:
+        masks = [np.isfinite(read_depth_map(ds.root, r)) for r in rows.to_dict("records")]
+    except DatasetError as exc:
+        ap.error(str(exc))
     pos = list(pw.images(ds.root))
     modes = {"all": MODES, "neighbours": ("front", "behind"), "poles": ("pole",)}[args.modes]
     copies, counts = occluded_copies(pos, masks, pw.meta["person_id"], modes=modes,

@@ -63,3 +63,14 @@ def test_copies_take_their_neighbour_from_another_person_and_keep_the_modes_aske
     assert len(poles) == counts["pole"] and counts["front"] == counts["behind"] == 0
     with pytest.raises(ValueError, match="at least two persons"):
         occluded_copies(wins[:2], masks[:2], ids[:2])
+
+
+def test_a_dataset_without_depth_maps_is_one_usage_error(tmp_path, capsys):
+    from benchmark.studies.occlusion_copies import main
+    from tests.toy_frames import small_toy_frames
+
+    data = small_toy_frames(tmp_path / "data")
+    with pytest.raises(SystemExit) as exc:
+        main(["--data", str(data), "--out", str(tmp_path / "out"), "--quick"])
+    assert exc.value.code == 2 and "no depth maps" in capsys.readouterr().err
+    assert not (tmp_path / "out").exists()
