@@ -13,8 +13,8 @@ from viewadapt.boxes import mapped_boxes
 from viewadapt.camera.distortion import Undistortion, distort_points
 from viewadapt.detect.detector import DEFAULT_THRESHOLD, FrameDetector
 from viewadapt.detect.evaluation import (
-    BOOTSTRAP_BLOCK, BOOTSTRAP_DRAWS, evaluation_rows, evaluation_summary, frame_outcome,
-    threshold_at_fppi,
+    BOOTSTRAP_BLOCK, BOOTSTRAP_DRAWS, evaluation_matches, frame_outcome, matches_summary,
+    matches_threshold_at_fppi,
 )
 from viewadapt.detect.kinds import DETECTOR_KINDS, PRETRAINED_KINDS
 from viewadapt.detect.layers import UPSAMPLE_BELOW
@@ -306,14 +306,13 @@ def cmd_detect(args) -> int:
         seconds, cpu_seconds = time.perf_counter() - t0, time.process_time() - c0
         evaluation = None
         if boxes is not None:
-            evaluation, curve = evaluation_summary(dets, truth, cam.image_size, regions=regions,
-                                                   block=args.bootstrap_block, seed=args.seed)
+            matches, gts = evaluation_matches(dets, truth, cam.image_size, regions=regions)
+            evaluation, curve = matches_summary(matches, gts, block=args.bootstrap_block,
+                                                seed=args.seed)
             evaluation = {"boxes": str(args.boxes), "ignore_regions":
                           None if args.ignore is None else str(args.ignore)} | evaluation
-            if later:
-                dts, gts = evaluation_rows(dets, [(t.boxes, t.occlusion, cam.image_size,
-                                                   t.ignore) for t in truth], regions=regions)
-                args.annotate_threshold = threshold_at_fppi(dts, gts, args.annotate_fppi)
+            if later:                   # the same matches: each frame matched once
+                args.annotate_threshold = matches_threshold_at_fppi(matches, args.annotate_fppi)
                 evaluation["annotate_threshold"] = args.annotate_threshold
                 _annotate_again(args, tmp, annotate, dets, truth, annotation, cam)
             atomic_write_text(tmp / "evaluation.json", json.dumps(evaluation))

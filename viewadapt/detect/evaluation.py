@@ -31,7 +31,7 @@ __all__ = ["standardize_boxes", "ground_truth_rows", "evaluate_detections", "in_
            "block_bootstrap", "matches_bootstrap", "evaluation_matches", "matches_summary",
            "evaluation_summary", "frame_matches", "block_resamples", "paired_block_bootstrap",
            "paired_matches_bootstrap", "paired_groups_bootstrap", "matches_lamr",
-           "threshold_at_fppi", "frame_outcome", "summary_numbers", "BOOTSTRAP_BLOCK",
+           "threshold_at_fppi", "matches_threshold_at_fppi", "frame_outcome", "summary_numbers", "BOOTSTRAP_BLOCK",
            "BOOTSTRAP_DRAWS"]
 
 #: Frames per block of :func:`block_bootstrap`.
@@ -404,10 +404,15 @@ def threshold_at_fppi(dts, gts, fppi: float) -> float:
     """The lowest score threshold at which the frames have at most ``fppi`` false
     positives per image (:func:`evaluation_rows`' output; the DET curve's operating point);
     ``inf`` when even the best detection is a false positive beyond it."""
+    return matches_threshold_at_fppi(frame_matches(dts, gts), fppi)
+
+
+def matches_threshold_at_fppi(matches, fppi: float) -> float:
+    """:func:`threshold_at_fppi` of per-frame matches (:func:`frame_matches`)."""
     if not np.isfinite(fppi) or fppi < 0:
         raise ValueError(f"the operating point must be >= 0 false positives per image, got "
                          f"{fppi!r}")
-    curve, _, thresholds = accumulate_frames(frame_matches(dts, gts))
+    curve, _, thresholds = accumulate_frames(matches)
     ok = np.flatnonzero(curve <= fppi)
     return float(thresholds[ok[-1]]) if len(ok) else float("inf")
 
