@@ -109,8 +109,9 @@ class FootageRun:
     detections : dict FrameMethod -> list of (D, 5) ndarray
         Per frame, ``(x, y, w, h, score)`` in the input's pixels.
     seconds : dict FrameMethod -> float
-        Seconds detecting (summed over frames, one process; a ground-filtered pyramid's
-        include its unfiltered pyramid's).
+        Seconds detecting (summed over frames, one process, after each method's untimed
+        run on the first frame; a ground-filtered pyramid's include its unfiltered
+        pyramid's).
     prepare_seconds : dict FrameMethod -> float
         The offline step (building or loading the adapted operators).
     truth : list of FrameBoxes
@@ -172,15 +173,17 @@ def run_footage(clip: Clip, methods, models, *, heights, cache_dir=None, cache_l
         fm.prepare(m)
         out.prepare_seconds[m] = time.perf_counter() - t
     with single_thread():
-        for frame in clip.stream:
-            _run_frame(frame, clip, fm, methods, undistort, out)
+        for i, frame in enumerate(clip.stream):
+            _run_frame(frame, clip, fm, methods, undistort, out, warm_up=i == 0)
             if progress is not None:
                 progress()
     return out
 
 
-def _run_frame(frame, clip, fm, methods, undistort, out) -> None:
-    """Every method on one frame of the clip, each timed, into ``out``."""
+def _run_frame(frame, clip, fm, methods, undistort, out, *, warm_up: bool = False) -> None:
+    """Every method on one frame of the clip, each timed, into ``out``; ``warm_up``: each
+    method first runs once on the frame untimed (the first call of a compiled kernel loads
+    it, which is not the per-frame cost)."""
     cam = clip.camera
     if (frame.image.shape[1], frame.image.shape[0]) != tuple(cam.image_size):
         raise ValueError(f"frame {frame.source} is {frame.image.shape[1]}x"
@@ -193,6 +196,8 @@ def _run_frame(frame, clip, fm, methods, undistort, out) -> None:
         out.undistort_seconds += time.perf_counter() - t
     raw = {}
     for m in methods:
+        if warm_up:
+            fm.detect(m, image)
         t = time.perf_counter()
         base = replace(m, ground=False) if m.ground else None
         if base in raw:

@@ -214,3 +214,30 @@ def test_an_unknown_method_is_refused_by_the_parser(toy, tmp_path, capfd):
     with pytest.raises(SystemExit) as exc:
         _footage(toy, tmp_path / "bad", "--methods", "sift_adapted")
     assert exc.value.code == 2 and "unknown method 'sift_adapted'" in capfd.readouterr().err
+
+
+def test_each_method_runs_once_untimed_before_the_timed_frames(toy, monkeypatch):
+    """The first call of a compiled kernel loads it: each method first runs on the first
+    frame untimed, so its seconds are those of the clip's frames alone."""
+    from benchmark.footage.run import open_clip, run_footage
+    from benchmark.frames.methods import FrameMethods
+    from benchmark.frames.spec import FrameMethod
+    from viewadapt.io import SourceDetectors
+
+    calls = []
+    detect = FrameMethods.detect
+
+    def counted(self, method, image):
+        calls.append(method.name)
+        return detect(self, method, image)
+
+    monkeypatch.setattr(FrameMethods, "detect", counted)
+    methods = [FrameMethod.parse(m) for m in ("opencv_native", "opencv_native[ground]",
+                                              "hog_adapted")]
+    clip = open_clip([str(toy.img1)], toy.calibration, toy.gt, max_frames=2)
+    run = run_footage(clip, methods, SourceDetectors.load(toy.model), heights=(1.75,),
+                      cache_dir=toy.cache)
+    assert run.n_frames == 2 and all(len(run.detections[m]) == 2 for m in methods)
+    # once untimed and once per frame; the ground-filtered pyramid reuses the timed boxes
+    assert calls.count("opencv_native") == 3 and calls.count("hog_adapted") == 3
+    assert calls.count("opencv_native[ground]") == 1
