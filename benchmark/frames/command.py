@@ -14,6 +14,7 @@ from viewadapt.commands.detect import add_cache_options, person_heights
 from viewadapt.detect import (
     CELLS_PER_SOURCE_CELL, DEFAULT_FRAME_VIEW, FRAME_VIEW_CHOICES, HOG_TOLERANCE, UPSAMPLE_BELOW,
 )
+from viewadapt.detect.kinds import OPENCV_FOLD_CELLS_PER_SOURCE_CELL, PRETRAINED_UPSAMPLE_BELOW
 from viewadapt.detect.layers import check_upsample_below
 from viewadapt.geometry import PERSON_HEIGHT_M
 from viewadapt.io import DEFAULT_CACHE_LIMIT_GB, plot_det_figure
@@ -78,7 +79,7 @@ def _detect_camera(group, models, methods, heights, cache_dir, cache_limit_gb, t
 def run_frames_benchmark(data, *, methods, seed=0, quick=False, max_frames=None,
                          heights=(PERSON_HEIGHT_M,), cache_dir=None,
                          cache_limit_gb=DEFAULT_CACHE_LIMIT_GB, models=None, progress=True,
-                         tolerance=HOG_TOLERANCE, cells_per_source_cell=CELLS_PER_SOURCE_CELL,
+                         tolerance=HOG_TOLERANCE, cells_per_source_cell=None,
                          upsample_below=None, jobs=1, frame_view=DEFAULT_FRAME_VIEW,
                          recipe=DEFAULT_RECIPE, phases=1):
     """Detect with every method (``methods``: :class:`~benchmark.frames.spec.FrameMethod` s)
@@ -447,15 +448,17 @@ def register(sub, common) -> None:
     p.add_argument("--tolerance", type=float, default=HOG_TOLERANCE,
                    help="shape tolerance (HOG frame cells) for windows sharing an adapted "
                         f"template; 0 = an exact template per window (default {HOG_TOLERANCE:g})")
-    p.add_argument("--cells-per-source-cell", type=float, default=CELLS_PER_SOURCE_CELL,
+    p.add_argument("--cells-per-source-cell", type=float, default=None,
                    help="frame cells per source cell along each axis when choosing a "
-                        f"window's frame cell size (default {CELLS_PER_SOURCE_CELL:g})")
+                        "window's frame cell size (default: each detector's own, "
+                        f"{CELLS_PER_SOURCE_CELL:g}; {OPENCV_FOLD_CELLS_PER_SOURCE_CELL:g} for "
+                        "opencv's fold, which its stage rescores)")
     p.add_argument("--upsample-below", type=float, default=None,
                    help="windows of persons smaller than 96 x this many px read the frame "
                         "upsampled 2x; 0 = never (default: each detector's own, "
                         f"{UPSAMPLE_BELOW:g} for hog and acf, i.e. {96 * UPSAMPLE_BELOW:.0f} px; "
-                        "1 for opencv and 0.75 for daimler, where their window is its own "
-                        "size)")
+                        f"{PRETRAINED_UPSAMPLE_BELOW:g} for opencv and daimler, trained on "
+                        "their windows alone)")
     p.add_argument("--model", type=Path, default=None,
                    help="reuse trained source detectors (models/source_detectors.npz of "
                         "an earlier run) instead of training")

@@ -42,7 +42,7 @@ import numpy as np
 
 from benchmark.footage.run import open_clip
 from viewadapt.detect import (
-    FrameDetector, HOG_CELL, choose_cell_sizes, opencv_default_people_detector, person_boxes,
+    CELLS_PER_SOURCE_CELL, FrameDetector, HOG_CELL, choose_cell_sizes, opencv_default_people_detector, person_boxes,
 )
 from viewadapt.detect.evaluation import in_regions
 from viewadapt.detect.kinds import detector_kind
@@ -163,7 +163,8 @@ def main(argv=None) -> int:
         scores["warp_cells"] += [float(hog_descriptor(w, method="cells", gamma=True) @ W3780
                                        + b) for w in warped]
         cells = choose_cell_sizes(wins.subset(idx).scale, HOG_CELL,
-                                  cells_per_source_cell=base.params["cells_per_source_cell"])
+                                  cells_per_source_cell=cps.get("cells_per_source_cell",
+                                                                CELLS_PER_SOURCE_CELL))
         scores["renorm"] += renorm_scores(img, Hs, cells, W3780, b).tolist()
         for way, det in folds.items():          # the operators of these windows alone
             det.windows = wins.subset(idx)

@@ -16,7 +16,7 @@ from viewadapt.detect.evaluation import (
     BOOTSTRAP_BLOCK, BOOTSTRAP_DRAWS, evaluation_matches, frame_outcome, matches_summary,
     matches_threshold_at_fppi,
 )
-from viewadapt.detect.kinds import DETECTOR_KINDS, PRETRAINED_KINDS
+from viewadapt.detect.kinds import DETECTOR_KINDS, PRETRAINED_KINDS, PRETRAINED_UPSAMPLE_BELOW
 from viewadapt.detect.layers import UPSAMPLE_BELOW
 from viewadapt.detect.stream import DetectorSpec, detect_stream, pretrained_kinds
 from viewadapt.geometry import PERSON_HEIGHT_M
@@ -429,8 +429,8 @@ def register(sub, common) -> None:
                    help="windows of persons smaller than 96 x this many px read the frame "
                         "upsampled 2x; 0 = never (default: the detector's own, "
                         f"{UPSAMPLE_BELOW:g} for hog and acf, i.e. {96 * UPSAMPLE_BELOW:.0f} px; "
-                        "1 for opencv and 0.75 for daimler, where their window is its own "
-                        "size)")
+                        f"{PRETRAINED_UPSAMPLE_BELOW:g} for opencv and daimler, trained on "
+                        "their windows alone)")
     p.add_argument("--boxes", type=Path, default=None,
                    help="optional ground truth to evaluate against: CSV with frame,x,y,w,h"
                         "[,occlusion,ignore], COCO JSON, MOTChallenge gt.txt or CAVIAR XML, in "

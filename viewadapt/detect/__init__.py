@@ -77,11 +77,12 @@ from .features import (
 )
 from .renorm import (
     RENORM_CELLS_PER_SOURCE_CELL, STAGE_CELL_TOLERANCE, VERIFY_THRESHOLD, OPENCV_DESCRIPTOR_SIZE,
-    stage_cell_sizes,
+    OPENCV_STAGE_CELL_SIZES, stage_cell_sizes,
     RenormStage,
 )
 from .linear import (
-    AdaptedLinearOperator, build_adapted_linear_operator, build_adapted_opencv_operator,
+    AdaptedLinearOperator, OPENCV_FOLD_CELL_SIZES, build_adapted_linear_operator,
+    build_adapted_opencv_operator,
 )
 from .trees import AdaptedTreesOperator, build_adapted_trees_operator
 from .layers import (
@@ -122,8 +123,9 @@ __all__ = [
     "OPENCV_FEATURES", "DAIMLER_FEATURES", "ACF_FEATURES", "FEATURE_MAKERS", "FEATURE_CHANNELS",
     "feature_maker_to_dict", "feature_maker_from_dict", "RENORM_CELLS_PER_SOURCE_CELL",
     "STAGE_CELL_TOLERANCE",
-    "VERIFY_THRESHOLD", "OPENCV_DESCRIPTOR_SIZE", "stage_cell_sizes", "RenormStage",
-    "AdaptedLinearOperator", "build_adapted_linear_operator", "build_adapted_opencv_operator",
+    "VERIFY_THRESHOLD", "OPENCV_DESCRIPTOR_SIZE", "OPENCV_STAGE_CELL_SIZES", "stage_cell_sizes",
+    "RenormStage", "AdaptedLinearOperator", "OPENCV_FOLD_CELL_SIZES",
+    "build_adapted_linear_operator", "build_adapted_opencv_operator",
     "AdaptedTreesOperator", "build_adapted_trees_operator", "UPSAMPLE_BELOW", "UPSAMPLE_FACTOR",
     "frame_to_band", "upsampled_windows", "upsampled_band", "MultiResolutionOperator",
     "build_multiresolution_operator", "FRAME_VIEW_SCALES", "frame_view", "frame_view_features",

@@ -22,7 +22,7 @@ from ..remap import ANGLE_RULES
 from .channels import check_frame
 from .kinds import DETECTOR_KINDS, HOG_DETECTOR, PRETRAINED_KINDS, detector_kind
 from .layers import build_multiresolution_operator, check_upsample_below
-from .templates import CELLS_PER_SOURCE_CELL, HOG_TOLERANCE
+from .templates import HOG_TOLERANCE
 from .windows import select_candidate_windows, windows_through_lens
 
 __all__ = ["DEFAULT_THRESHOLD", "FrameDetections", "FrameDetector"]
@@ -71,13 +71,14 @@ class FrameDetector:
         Shape tolerance of shared templates in HOG frame cells; every detector kind scales
         it by its own default (:attr:`DetectorKind.tolerance`) against HOG's, so that the
         tolerance in pixels is the same.
-    cells_per_source_cell : float
-        See :func:`~viewadapt.detect.templates.choose_cell_sizes`.
+    cells_per_source_cell : float or None
+        See :func:`~viewadapt.detect.templates.choose_cell_sizes`; None (default): each
+        kind's own (:attr:`DetectorKind.cells_per_source_cell`).
     upsample_below : float or None
         Windows of a smaller scale read the frame upsampled
         (:func:`~viewadapt.detect.layers.build_multiresolution_operator`); None (default):
         each kind's own (:attr:`DetectorKind.upsample_below`: 0.5 for ``hog`` and ``acf``,
-        1 for ``opencv``, 0.75 for ``daimler``).
+        0.75 for ``opencv`` and ``daimler``).
     thresholds : dict kind -> float
         Score threshold of each kind's detections (before non-maximum suppression;
         default :data:`DEFAULT_THRESHOLD`).
@@ -109,7 +110,7 @@ class FrameDetector:
                  person_heights=(PERSON_HEIGHT_M,), cache_dir=None,
                  cache_limit_gb: float | None = DEFAULT_CACHE_LIMIT_GB,
                  tolerance: float = HOG_TOLERANCE,
-                 cells_per_source_cell: float = CELLS_PER_SOURCE_CELL,
+                 cells_per_source_cell: float | None = None,
                  upsample_below: float | None = None, thresholds=None,
                  rule: str = "covariant", object_model: str = "plane", lens=None,
                  grid_phase=(0.0, 0.0), kinds=None, stage: bool = True):
@@ -120,7 +121,8 @@ class FrameDetector:
         self.size = tuple(camera.image_size)
         self.params = dict(person_heights=tuple(float(h) for h in person_heights),
                            tolerance=float(tolerance),
-                           cells_per_source_cell=float(cells_per_source_cell),
+                           cells_per_source_cell=None if cells_per_source_cell is None
+                           else float(cells_per_source_cell),
                            upsample_below=check_upsample_below(upsample_below),
                            rule=str(rule))
         if rule not in ANGLE_RULES:
@@ -183,17 +185,25 @@ class FrameDetector:
     def cache_key(self, kind) -> dict:
         """What :class:`~viewadapt.io.cache.OperatorCache` keys ``kind``'s operator by: the
         camera, the kind, its model's fingerprint and this detector's parameters (the
-        upsampling threshold the kind's operator uses)."""
+        upsampling threshold and the cells per source cell the kind's operator uses)."""
         kind = detector_kind(kind).name
         return dict(camera=self.camera.to_dict(), kind=kind,
                     model=self.kind(kind).model_fingerprint(self.models),
-                    **(self.params | dict(upsample_below=self.upsample_below(kind))))
+                    **(self.params | dict(upsample_below=self.upsample_below(kind),
+                                          cells_per_source_cell=self.cells_per_source_cell(kind))))
 
     def upsample_below(self, kind) -> float:
         """The upsampling threshold of ``kind``'s operator: the one this detector was given,
         else the kind's own."""
         given = self.params["upsample_below"]
         return float(self.kind(kind).upsample_below) if given is None else given
+
+    def cells_per_source_cell(self, kind) -> float:
+        """The frame cells per source cell ``kind``'s operator chooses its cell sizes by
+        (:func:`~viewadapt.detect.templates.choose_cell_sizes`): the value this detector
+        was given, else the kind's own."""
+        given = self.params["cells_per_source_cell"]
+        return float(self.kind(kind).cells_per_source_cell) if given is None else given
 
     def _build(self, name):
         kind = self.kind(name)
@@ -202,7 +212,7 @@ class FrameDetector:
 
         def build(w):
             return kind.build_operator(w, self.models, tolerance=tol, rule=self.params["rule"],
-                                       cells_per_source_cell=self.params["cells_per_source_cell"],
+                                       cells_per_source_cell=self.cells_per_source_cell(name),
                                        object_model=self.params.get("object_model", "plane"))
 
         return build_multiresolution_operator(self.windows, build,

@@ -19,20 +19,41 @@ import numpy as np
 from ..geometry import WINDOW_HEIGHT, WINDOW_WIDTH
 from .features import ACF_FEATURES, DAIMLER_FEATURES, HOG_FEATURES, OPENCV_FEATURES
 from .layers import UPSAMPLE_BELOW
-from .linear import AdaptedLinearOperator, build_adapted_linear_operator, \
-    build_adapted_opencv_operator
+from .linear import (
+    OPENCV_FOLD_CELL_SIZES, AdaptedLinearOperator, build_adapted_linear_operator,
+    build_adapted_opencv_operator,
+)
 from .opencv_cells import (
     DAIMLER_WINDOW, opencv_cell_weights, opencv_daimler_people_detector,
     opencv_default_people_detector,
 )
 from .renorm import (
-    HOG_VERIFY_THRESHOLD, RENORM_CELLS_PER_SOURCE_CELL, STAGE_CELL_TOLERANCE, VERIFY_THRESHOLD,
+    HOG_VERIFY_THRESHOLD, OPENCV_STAGE_CELL_SIZES, RENORM_CELLS_PER_SOURCE_CELL,
+    STAGE_CELL_TOLERANCE, VERIFY_THRESHOLD,
 )
-from .templates import ACF_TOLERANCE, HOG_TOLERANCE
+from .templates import ACF_TOLERANCE, CELLS_PER_SOURCE_CELL, HOG_TOLERANCE
 from .trees import AdaptedTreesOperator, build_adapted_trees_operator
 
-__all__ = ["DetectorKind", "HOG_DETECTOR", "ACF_DETECTOR", "OPENCV_DETECTOR", "DAIMLER_DETECTOR",
-           "DETECTOR_KINDS", "PRETRAINED_KINDS", "hog_kind", "opencv_kind", "detector_kind"]
+__all__ = ["PRETRAINED_UPSAMPLE_BELOW", "OPENCV_FOLD_CELLS_PER_SOURCE_CELL", "DetectorKind",
+           "HOG_DETECTOR", "ACF_DETECTOR", "OPENCV_DETECTOR", "DAIMLER_DETECTOR", "DETECTOR_KINDS",
+           "PRETRAINED_KINDS", "hog_kind", "opencv_kind", "detector_kind"]
+
+
+#: The scale below which OpenCV's detectors, trained on their windows alone, read persons
+#: from the 2x-upsampled frame: persons under 96 px, Daimler's 48x96 window's own size. For
+#: the 64x128 INRIA detector, persons of 96-128 px read at the frame's own resolution gave
+#: the same LAMR as read upsampled on the 104 rendered frames and the PETS 2009 clip, about
+#: 1.3 times as fast (a smaller upsampled band; docs/real_footage.md).
+PRETRAINED_UPSAMPLE_BELOW = 0.75
+#: ``rho`` of the cell sizes the fold of OpenCV's INRIA detector reads when its stage
+#: rescores what the fold keeps (:data:`~viewadapt.detect.linear.OPENCV_FOLD_CELL_SIZES`,
+#: an octave apart): each window reads the coarser size whenever it is at most twice its
+#: source cells' image, so the fold is a coarse first stage of the cascade and its templates
+#: small. Measured on the 104 rendered frames and the PETS 2009 clip: the same LAMR as
+#: :data:`~viewadapt.detect.templates.CELLS_PER_SOURCE_CELL`, the fold about half the time
+#: (docs/real_footage.md). Daimler's detector keeps the default: its stage, not its fold,
+#: is its cost, and a coarser fold passes it more windows.
+OPENCV_FOLD_CELLS_PER_SOURCE_CELL = 0.5
 
 
 class DetectorKind:
@@ -49,13 +70,17 @@ class DetectorKind:
     window : (width, height)
         The detector's window, px: the canonical 64x128, or that window scaled
         (:func:`~viewadapt.detect.windows.detector_window_homography`; Daimler's 48x96).
+    cells_per_source_cell : float
+        ``rho`` of the frame cell sizes its operator chooses
+        (:func:`~viewadapt.detect.templates.choose_cell_sizes`), unless the detector is given
+        another: :data:`~viewadapt.detect.templates.CELLS_PER_SOURCE_CELL`, or for OpenCV's
+        INRIA detector with its stage :data:`OPENCV_FOLD_CELLS_PER_SOURCE_CELL`.
     upsample_below : float
         Windows of a smaller scale (frame px per canonical px) read the frame upsampled
         (:func:`~viewadapt.detect.layers.build_multiresolution_operator`), unless the
         detector is given another threshold: the project's detectors, trained with
         frame-view copies of small persons, from :data:`UPSAMPLE_BELOW`; a pretrained
-        detector, trained on its window alone, wherever its window would be smaller than
-        it is (see :class:`_OpenCVDetector`).
+        detector, trained on its window alone, from :data:`PRETRAINED_UPSAMPLE_BELOW`.
     """
 
     name: str
@@ -63,6 +88,7 @@ class DetectorKind:
     tolerance: float
     operator_class: type
     window: tuple = (WINDOW_WIDTH, WINDOW_HEIGHT)
+    cells_per_source_cell: float = CELLS_PER_SOURCE_CELL
     upsample_below: float = UPSAMPLE_BELOW
 
     @property
@@ -195,12 +221,17 @@ class _OpenCVDetector(DetectorKind):
     gamma = True
     _default = staticmethod(_opencv_people)
 
+    #: trained on windows alone, it reads small persons from the upsampled frame, as
+    #: ``detectMultiScale`` users upsample frames (:data:`PRETRAINED_UPSAMPLE_BELOW`)
+    upsample_below = PRETRAINED_UPSAMPLE_BELOW
+    #: its fold's ``rho`` when the stage runs
+    fold_cells_per_source_cell = OPENCV_FOLD_CELLS_PER_SOURCE_CELL
+
     @property
-    def upsample_below(self) -> float:
-        """The scale at which its window is its own size in the frame (1 for a 64x128
-        detector, 3/4 for Daimler's 48x96): trained on windows alone, it reads smaller
-        persons from the upsampled frame, as ``detectMultiScale`` users upsample frames."""
-        return self.window[1] / WINDOW_HEIGHT
+    def cells_per_source_cell(self) -> float:
+        """``rho`` of its fold's cell sizes: :attr:`fold_cells_per_source_cell` with the
+        stage, :data:`~viewadapt.detect.templates.CELLS_PER_SOURCE_CELL` for the fold alone."""
+        return self.fold_cells_per_source_cell if self.renorm else CELLS_PER_SOURCE_CELL
 
     def __init__(self, weights=None, bias: float = 0.0, *, renorm: bool = True):
         self._own = None
@@ -224,6 +255,9 @@ class _OpenCVDetector(DetectorKind):
             h.update(f"window {self.window} gamma {self.gamma}".encode())
         if not self.renorm:
             h.update(b"fold alone")
+        else:
+            h.update(f"fold cells {OPENCV_FOLD_CELL_SIZES} stage cells "
+                     f"{OPENCV_STAGE_CELL_SIZES}".encode())
         return h.hexdigest()
 
     def build_operator(self, windows, models, **kw):
@@ -244,6 +278,7 @@ class _DaimlerDetector(_OpenCVDetector):
     :func:`~viewadapt.detect.windows.detector_window_homography`."""
 
     name, features, window, gamma = "daimler", DAIMLER_FEATURES, DAIMLER_WINDOW, False
+    fold_cells_per_source_cell = CELLS_PER_SOURCE_CELL
     _default = staticmethod(_daimler_people)
 
 

@@ -36,15 +36,24 @@ from .frame_remap import (
 from .opencv_cells import (
     OPENCV_CHANNELS, opencv_descriptor_weights, opencv_frame_features,
 )
-from .renorm import HOG_VERIFY_THRESHOLD, VERIFY_THRESHOLD, RenormStage, stage_cell_sizes
+from .renorm import (
+    HOG_VERIFY_THRESHOLD, OPENCV_STAGE_CELL_SIZES, VERIFY_THRESHOLD, RenormStage, stage_cell_sizes,
+)
 from .templates import (
     CELLS_PER_SOURCE_CELL, FRAME_CELL_SIZES, HOG_TOLERANCE, TemplateOperator, build_template_groups,
     check_windows, choose_cell_sizes, required_padding,
 )
 from .windows import CandidateWindows, detector_window_homography
 
-__all__ = ["AdaptedLinearOperator", "build_adapted_linear_operator",
+__all__ = ["AdaptedLinearOperator", "OPENCV_FOLD_CELL_SIZES", "build_adapted_linear_operator",
            "build_adapted_opencv_operator"]
+
+#: The frame cell sizes the folded operator of OpenCV's detectors reads when their stage
+#: rescores every window it keeps (:func:`build_adapted_opencv_operator`): one size and its
+#: double, as each size costs a pass of block normalisation over the frame. Chosen on the
+#: 104 rendered frames and the PETS 2009 clip (docs/real_footage.md): the same LAMR as the
+#: full :data:`FRAME_CELL_SIZES` on both.
+OPENCV_FOLD_CELL_SIZES = (6, 12)
 
 
 class AdaptedLinearOperator(TemplateOperator):
@@ -462,10 +471,11 @@ def _operator(windows, cell, groups, bias, tolerance, maker, channels, **feature
 def build_adapted_opencv_operator(windows: CandidateWindows, weights, bias: float = 0.0, *,
                                   tolerance: float = HOG_TOLERANCE,
                                   cells_per_source_cell: float = CELLS_PER_SOURCE_CELL,
-                                  allowed_cell_sizes=FRAME_CELL_SIZES,
+                                  allowed_cell_sizes=None,
                                   rule: str = "covariant",
                                   object_model="plane", renorm: bool = True,
                                   verify_threshold: float = VERIFY_THRESHOLD,
+                                  stage_cell_sizes_allowed=OPENCV_STAGE_CELL_SIZES,
                                   window=(WINDOW_WIDTH, WINDOW_HEIGHT), gamma: bool = True
                                   ) -> AdaptedLinearOperator:
     """The adapted detector of every candidate window for an OpenCV HOG/SVM (eq. (7)).
@@ -479,8 +489,12 @@ def build_adapted_opencv_operator(windows: CandidateWindows, weights, bias: floa
     With ``renorm`` (the paper's plane only) the windows whose folded score reaches
     ``verify_threshold`` are rescored by :class:`~viewadapt.detect.renorm.RenormStage`
     (raw cells remapped by each window's own ``G``, blocks normalised in the window); the
-    operator's boxes are then the windows' exact ones. The other parameters are
-    :func:`build_adapted_linear_operator`'s.
+    operator's boxes are then the windows' exact ones, and the raw cells it reads are the
+    ``stage_cell_sizes_allowed`` (:data:`~viewadapt.detect.renorm.OPENCV_STAGE_CELL_SIZES`).
+    ``allowed_cell_sizes`` are the folded operator's (default:
+    :data:`OPENCV_FOLD_CELL_SIZES` with a stage, which rescores every window the fold
+    keeps, so that the fold only ranks candidates; :data:`FRAME_CELL_SIZES` without). The
+    other parameters are :func:`build_adapted_linear_operator`'s.
 
     ``window`` is the detector's, (width, height) px: the canonical 64x128 or that window
     scaled (Daimler's 48x96; :func:`~viewadapt.detect.windows.detector_window_homography`),
@@ -495,12 +509,15 @@ def build_adapted_opencv_operator(windows: CandidateWindows, weights, bias: floa
         raise ValueError(f"weights must be {int(np.prod(shape))} finite values "
                          f"over {shape} cells (opencv_cell_weights), got {w.size}")
     k = float(T[0, 0])                     # canonical px per detector px
+    model = resolve_object_model(object_model)
+    staged = bool(renorm) and isinstance(model, PlaneModel)
+    if allowed_cell_sizes is None:
+        allowed_cell_sizes = OPENCV_FOLD_CELL_SIZES if staged else FRAME_CELL_SIZES
     cell, groups = _template_groups(windows, tolerance, cells_per_source_cell,
                                     allowed_cell_sizes, k)
     # one 9-bin weight vector per normalised copy q (channels 9 q ... 9 q + 8)
     wq = w.reshape(shape[:2] + (OPENCV_CHANNELS // N_HOG_BINS, N_HOG_BINS))
     wq = [wq[:, :, q].ravel() for q in range(wq.shape[2])]
-    model = resolve_object_model(object_model)
     for g in groups:
         mapping = from_detector_window(window_mapping(windows, g.prototype, model), T)
         G9 = cell_hog_remap(mapping, g, rule, window=window).T.tocsr()
@@ -508,9 +525,9 @@ def build_adapted_opencv_operator(windows: CandidateWindows, weights, bias: floa
             [np.asarray(G9 @ v, np.float32).reshape(g.shape[0], g.shape[1], N_HOG_BINS)
              for v in wq], axis=2)
     stage = None
-    if renorm and isinstance(model, PlaneModel):
+    if staged:
         stage = RenormStage(windows.homographies,
-                            stage_cell_sizes(windows.scale * k, allowed_cell_sizes),
+                            stage_cell_sizes(windows.scale * k, stage_cell_sizes_allowed),
                             opencv_descriptor_weights(w.reshape(shape)), bias,
                             threshold=verify_threshold, rule=rule, window=window)
     extra = {} if gamma else {"gamma": False}  # (the stored keys of before when on)

@@ -29,6 +29,7 @@ References
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cache
 
 import numpy as np
 
@@ -121,17 +122,21 @@ def opencv_daimler_people_detector() -> tuple[np.ndarray, float]:
     return opencv_cell_weights(v[:-1], window=DAIMLER_WINDOW), float(v[-1])
 
 
+@cache
 def block_axis_weights(c: int) -> np.ndarray:
     """(2c, 2) per-pixel weight along one axis of a 2c-px block for its two cells: OpenCV's
     Gaussian block window (sigma = block / 4, centred at ``block / 2``) times the bilinear
-    tent of each cell (centres at ``c / 2`` and ``3 c / 2``)."""
+    tent of each cell (centres at ``c / 2`` and ``3 c / 2``). Read-only (computed once per
+    ``c``)."""
     b = 2 * c
     i = np.arange(b)
     sigma = b / 4.0
     gauss = np.exp(-((i - b / 2.0) ** 2) / (2 * sigma * sigma))
     coord = (i + 0.5) / c - 0.5
     tent = np.maximum(0.0, 1.0 - np.abs(coord[:, None] - np.arange(2)[None, :]))
-    return gauss[:, None] * tent
+    w = gauss[:, None] * tent
+    w.setflags(write=False)
+    return w
 
 
 #: Square roots of the 8-bit values (the gamma of :func:`opencv_gradients`), and the

@@ -34,8 +34,8 @@ from .templates import choose_cell_sizes
 from .windows import detector_window_homography
 
 __all__ = ["RENORM_CELLS_PER_SOURCE_CELL", "STAGE_CELL_TOLERANCE", "VERIFY_THRESHOLD",
-           "HOG_VERIFY_THRESHOLD", "OPENCV_DESCRIPTOR_SIZE", "BINNINGS", "stage_cell_sizes",
-           "RenormStage"]
+           "OPENCV_STAGE_CELL_SIZES", "HOG_VERIFY_THRESHOLD", "OPENCV_DESCRIPTOR_SIZE",
+           "BINNINGS", "stage_cell_sizes", "RenormStage"]
 
 #: Frame cells per source cell of the raw cells the stage reads
 #: (:func:`~viewadapt.detect.templates.choose_cell_sizes`' ``cells_per_source_cell``).
@@ -45,15 +45,22 @@ RENORM_CELLS_PER_SOURCE_CELL = 1.0
 #: neighbours do, instead of a size a handful of windows would need a whole frame's raw
 #: cells for (windows mapped through a lens straggle across the boundaries).
 STAGE_CELL_TOLERANCE = 0.02
-#: Folded score from which a window is rescored: one SVM margin below the lowest detection
-#: threshold the DET curves use (``DEFAULT_THRESHOLD``, -1), so that a window the stage would
-#: score above -1 is rarely dropped before it.
-VERIFY_THRESHOLD = -2.0
+#: Folded score from which a window of OpenCV's detectors is rescored: half an SVM margin
+#: below the lowest detection threshold the DET curves use (``DEFAULT_THRESHOLD``, -1).
+#: Chosen on the 104 rendered frames and the PETS 2009 clip (docs/real_footage.md): -2 and
+#: -1.5 gave the same LAMR on both, and -1.5 rescores about a quarter as many windows.
+VERIFY_THRESHOLD = -1.5
+#: The raw cell sizes the stage of OpenCV's detectors reads: one base size and its
+#: doublings, so that one pass over the frame's pixels makes them all (the larger are sums
+#: of the base's cells, :func:`~viewadapt.detect.opencv_cells.raw_cell_maps`). A window
+#: reads the largest of them at most its source cells' image: on the rendered frames and
+#: the PETS clip the same LAMR as the full ladder (docs/real_footage.md).
+OPENCV_STAGE_CELL_SIZES = (3, 6, 12)
 #: The project's HOG/SVM's stage threshold: a window is rescored when the fold scores it a
 #: person (the SVM's own boundary). Chosen on rendered frames (the paper preset's 104,
 #: docs/real_footage.md): folded thresholds -1.5 to 1 gave the same LAMR within 0.005, and
-#: the HOG scores spread too narrowly for OpenCV's -2 to be affordable (20,000 windows per
-#: 768x576 frame).
+#: the HOG scores spread too narrowly for a threshold as low as OpenCV's to be affordable
+#: (20,000 windows per 768x576 frame at -2).
 HOG_VERIFY_THRESHOLD = 0.0
 #: Length of OpenCV's 64x128 descriptor (7 x 15 blocks of 36).
 OPENCV_DESCRIPTOR_SIZE = 7 * 15 * OPENCV_CHANNELS

@@ -442,7 +442,8 @@ def test_each_kind_upsamples_below_its_own_scale_unless_told(tmp_path, camera):
     """The project's detectors read persons under 48 px upsampled; OpenCV's, trained on
     64x128 windows alone, every person smaller than its window (scale 1), Daimler's 48x96
     below 3/4; a given threshold holds for every kind, and is part of the cache key."""
-    from viewadapt.detect import FrameDetector
+    from viewadapt.detect import CELLS_PER_SOURCE_CELL, FrameDetector
+    from viewadapt.detect.kinds import OPENCV_FOLD_CELLS_PER_SOURCE_CELL
 
     class Models:  # the minimal model interface FrameDetector needs for hog
         hog_weights = np.random.default_rng(1).normal(size=(16, 8, HOG_CHANNELS))
@@ -453,10 +454,21 @@ def test_each_kind_upsamples_below_its_own_scale_unless_told(tmp_path, camera):
 
     det = FrameDetector(camera, Models(), cache_dir=tmp_path)
     assert (det.upsample_below("hog"), det.upsample_below("acf"), det.upsample_below("opencv"),
-            det.upsample_below("daimler")) == (0.5, 0.5, 1.0, 0.75)
+            det.upsample_below("daimler")) == (0.5, 0.5, 0.75, 0.75)
+    # OpenCV's INRIA detector's fold, which its stage rescores, reads coarser cells; the
+    # fold alone and the other kinds the default, unless the detector is given a value
+    assert [det.cells_per_source_cell(k) for k in ("hog", "acf", "opencv", "daimler")] == [
+        CELLS_PER_SOURCE_CELL, CELLS_PER_SOURCE_CELL, OPENCV_FOLD_CELLS_PER_SOURCE_CELL,
+        CELLS_PER_SOURCE_CELL] and OPENCV_FOLD_CELLS_PER_SOURCE_CELL < CELLS_PER_SOURCE_CELL
+    assert FrameDetector(camera, None, stage=False).cells_per_source_cell("opencv") \
+        == CELLS_PER_SOURCE_CELL
+    given = FrameDetector(camera, None, cells_per_source_cell=0.9)
+    assert given.cells_per_source_cell("opencv") == 0.9
+    assert given.cache_key("opencv")["cells_per_source_cell"] == 0.9
+    assert det.cache_key("opencv")["cells_per_source_cell"] == OPENCV_FOLD_CELLS_PER_SOURCE_CELL
     scale = det.windows.scale
-    assert scale.max() < 1.0 and (scale < 0.5).any() and (scale >= 0.5).any()
-    # every person on this small camera is smaller than OpenCV's window: all upsampled
+    assert scale.max() < 0.75 and (scale < 0.5).any() and (scale >= 0.5).any()
+    # every person on this small camera is under 96 px: all upsampled for OpenCV's detector
     assert [layer.factor for layer in det.operator("opencv").layers] == [2]
     assert [layer.factor for layer in det.operator("hog").layers] == [1, 2]
     told = FrameDetector(camera, None, cache_dir=tmp_path, upsample_below=0.5)

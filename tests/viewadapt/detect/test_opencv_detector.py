@@ -10,7 +10,8 @@ from tests.images import bars_scene
 from tests.tolerances import FLOAT32
 from tests.viewadapt.detect.unread_rows import scramble_unread_rows
 from viewadapt.detect import (
-    HOG_CELL, OPENCV_CHANNELS, OPENCV_WEIGHT_SHAPE, FrameDetector, build_adapted_opencv_operator,
+    FRAME_CELL_SIZES, HOG_CELL, OPENCV_CHANNELS, OPENCV_FOLD_CELL_SIZES, OPENCV_STAGE_CELL_SIZES,
+    OPENCV_WEIGHT_SHAPE, FrameDetector, build_adapted_opencv_operator,
     detector_kind, opencv_block_cells, opencv_cell_weights, opencv_default_people_detector,
     opencv_frame_features, opencv_frame_remap, opencv_window_features, select_candidate_windows,
     TemplateGroup,
@@ -190,8 +191,15 @@ def test_the_cascade_rescores_what_the_fold_keeps(camera):
     frame = _scene((SIZE[1], SIZE[0]), 12)
     windows = select_candidate_windows(camera)
     W, b = opencv_default_people_detector()
-    fold = build_adapted_opencv_operator(windows, W, b, renorm=False)
     op = build_adapted_opencv_operator(windows, W, b, verify_threshold=-3.0)
+    # with a stage the fold reads its own few cell sizes, the stage one base size's ladder;
+    # without, the fold reads every frame cell size
+    assert set(op.cell_sizes) <= set(OPENCV_FOLD_CELL_SIZES)
+    assert set(op.stage.cell_sizes) <= set(OPENCV_STAGE_CELL_SIZES)
+    alone = build_adapted_opencv_operator(windows, W, b, renorm=False)
+    assert alone.stage is None and len(alone.cell_sizes) > len(op.cell_sizes)
+    fold = build_adapted_opencv_operator(windows, W, b, renorm=False,
+                                         allowed_cell_sizes=OPENCV_FOLD_CELL_SIZES)
     s1 = fold.scores(fold.frame_features(frame))
     feats = op.frame_features(frame)
     s = op.scores(feats)
@@ -274,11 +282,13 @@ def test_a_frame_detector_with_its_own_opencv_weights(camera, tmp_path):
 def test_the_operator_reads_only_the_cell_rows_it_computes(camera):
     """Every map row outside :meth:`read_rows` can hold anything: the scores -- the fold's
     and the normalisation stage's, every window rescored -- do not change; and the rows left
-    out are a real part of the maps on this camera."""
+    out are a real part of the maps on this camera (with every frame cell size, each of which
+    only some windows read)."""
     frame = _scene((SIZE[1], SIZE[0]), 13)
     W, b = opencv_default_people_detector()
     op = build_adapted_opencv_operator(select_candidate_windows(camera), W, b,
-                                       verify_threshold=-1e9)
+                                       verify_threshold=-1e9, allowed_cell_sizes=FRAME_CELL_SIZES,
+                                       stage_cell_sizes_allowed=FRAME_CELL_SIZES)
     whole = op.features(frame)
     want = op.scores(whole)
     assert np.isfinite(want).all()
