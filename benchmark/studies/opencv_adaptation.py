@@ -42,7 +42,8 @@ import numpy as np
 
 from benchmark.footage.run import open_clip
 from viewadapt.detect import (
-    CELLS_PER_SOURCE_CELL, FrameDetector, HOG_CELL, choose_cell_sizes, opencv_default_people_detector, person_boxes,
+    CELLS_PER_SOURCE_CELL, FrameDetector, HOG_CELL, choose_cell_sizes,
+    opencv_default_people_detector, person_boxes,
 )
 from viewadapt.detect.evaluation import in_regions
 from viewadapt.detect.kinds import detector_kind
