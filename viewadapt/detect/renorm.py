@@ -48,7 +48,7 @@ STAGE_CELL_TOLERANCE = 0.02
 #: Folded score from which a window of OpenCV's detectors is rescored: half an SVM margin
 #: below the lowest detection threshold the DET curves use (``DEFAULT_THRESHOLD``, -1).
 #: Chosen on the 104 rendered frames and the PETS 2009 clip (docs/real_footage.md): -2 and
-#: -1.5 gave the same LAMR on both, and -1.5 rescores about a quarter as many windows.
+#: -1.5 gave the same LAMR on both, and -1.5 rescores about a third as many windows.
 VERIFY_THRESHOLD = -1.5
 #: The raw cell sizes the stage of OpenCV's detectors reads: one base size and its
 #: doublings, so that one pass over the frame's pixels makes them all (the larger are sums
