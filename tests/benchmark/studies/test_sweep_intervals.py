@@ -1,0 +1,79 @@
+"""``benchmark.studies.sweep_intervals``: a sweep's best estimate and crossing with
+intervals over test persons, on synthetic scores whose answer is known."""
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from benchmark.crops.report import sweep_table
+from benchmark.studies.sweep_intervals import main, sweep_intervals
+
+ESTIMATES = np.round(np.arange(0.0, 1.3, 0.1), 1)
+TRUE = 0.6
+
+
+def _scores(n_persons=40, per_person=20, n_neg=2000, seed=0):
+    """Negatives N(0, 1) for every row; positives N(mu, 1) with mu peaking at the truth
+    (3.5) and falling 4 per rad away; the unadapted detector's positives at mu 2."""
+    rng = np.random.default_rng(seed)
+    rows = []
+
+    def add(method, est, mu):
+        persons = np.repeat([f"p{i:02d}" for i in range(n_persons)], per_person)
+        rows.append(pd.DataFrame({"method": method, "estimate": est, "label": 1,
+                                  "score": rng.normal(mu, 1, len(persons)),
+                                  "person_id": persons}))
+        rows.append(pd.DataFrame({"method": method, "estimate": est, "label": 0,
+                                  "score": rng.normal(0, 1, n_neg), "person_id": "bg"}))
+
+    add("unadapted", np.nan, 2.0)
+    for e in ESTIMATES:
+        add("adapted", e, 3.5 - 4 * abs(e - TRUE))
+    return pd.concat(rows, ignore_index=True)
+
+
+def test_the_intervals_hold_the_known_answer_and_the_point_is_the_sweeps():
+    scores = _scores()
+    tab = sweep_intervals(scores, true_elevation=TRUE, n_boot=200, seed=1)
+    row = tab.set_index("method").loc["adapted"]
+    assert row["best_estimate"] == pytest.approx(TRUE)
+    assert row["best_estimate_low"] <= TRUE <= row["best_estimate_high"]
+    # better than unadapted while 3.5 - 4 |e - 0.6| > 2: up to e < 0.975, so 0.9
+    assert row["crossing"] == pytest.approx(0.9)
+    assert row["crossing_low"] <= 0.9 <= row["crossing_high"] and row["crossing_defined"] == 1
+    assert row["best_mr_low"] <= row["best_mr"] <= row["best_mr_high"]
+    assert row["n_persons"] == 40
+    # the point estimates are sweep_table's on the pooled miss rates
+    from benchmark.crops.sweep import sweep_summary
+
+    summary = sweep_summary(scores.assign(fold="f0"))
+    want = sweep_table(summary, TRUE).set_index("method").loc["adapted"]
+    for col in ("best_estimate", "best_mr", "mr_at_true", "crossing"):
+        assert row[col] == pytest.approx(want[col])
+    # reproducible with its seed
+    again = sweep_intervals(scores, true_elevation=TRUE, n_boot=200, seed=1)
+    pd.testing.assert_frame_equal(tab, again)
+
+
+def test_a_flat_sweep_has_wide_intervals_and_bad_input_is_one_line(tmp_path, capsys):
+    scores = _scores()
+    flat = scores.copy()
+    adapted = flat["method"] == "adapted"
+    pos = adapted & (flat["label"] == 1)
+    flat.loc[pos, "score"] = np.random.default_rng(3).normal(2.6, 1, int(pos.sum()))
+    row = sweep_intervals(flat, true_elevation=TRUE, n_boot=200).set_index("method").loc[
+        "adapted"]
+    assert row["best_estimate_high"] - row["best_estimate_low"] >= 0.3
+    with pytest.raises(ValueError, match="no unadapted rows"):
+        sweep_intervals(scores[scores["method"] != "unadapted"])
+    with pytest.raises(ValueError, match="lack the columns \\['person_id'\\]"):
+        sweep_intervals(scores.drop(columns="person_id"))
+    assert main([str(tmp_path)]) == 2
+    assert "holds no sweep_scores.parquet" in capsys.readouterr().out
+    run = tmp_path / "run"
+    run.mkdir()
+    scores.to_parquet(run / "sweep_scores.parquet")
+    assert main([str(run), "--boot", "50", "--target", str(TRUE)]) == 0
+    text = (run / "sweep_intervals.md").read_text()
+    assert "| adapted | 0.60 (" in text and "40 test persons, 50 resamples" in text
+    assert (run / "sweep_intervals.csv").is_file()
