@@ -8,9 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmark.footage.errors import (
-    ERROR_FPPIS, error_breakdown, error_lines, error_map, map_grid,
-)
+from benchmark.footage.errors import ERROR_FPPIS, clip_errors, error_lines, map_grid
 from benchmark.footage.report import evaluate_run, paired_differences, summary_lines, summary_rows
 from benchmark.footage.run import FOOTAGE_METHODS, open_clip, run_footage
 from benchmark.frames.spec import expand_adapted, method_arg
@@ -73,13 +71,13 @@ def cmd_bench_footage(args) -> int:
             + {None: "", "windows": "; the lens: candidate windows through it",
                "undistort": "; the lens: frames undistorted first (not timed), boxes "
                             "mapped back"}[clip.correction] + ".", ""]
-    errors = {m.name: {f: error_breakdown(run.detections[m], run.truth, size,
-                                          regions=clip.regions, fppi=f) for f in ERROR_FPPIS}
-              for m in methods}
     first = next(iter(clip.stream)).image
-    maps = [error_map(first, run.detections[m], run.truth, size, regions=clip.regions,
-                      fppi=ERROR_FPPIS[-1], title=f"{m.name} @ {ERROR_FPPIS[-1]:g} FPPI")
-            for m in methods]
+    errors, maps = {}, []
+    for m in methods:
+        errors[m.name], view = clip_errors(first, run.detections[m], run.truth, size,
+                                           regions=clip.regions, fppis=ERROR_FPPIS,
+                                           title=f"{m.name} @ {ERROR_FPPIS[-1]:g} FPPI")
+        maps.append(view)
     with atomic_output_dir(args.out) as tmp:
         (tmp / "footage_summary.md").write_text("\n".join(head + lines) + "\n")
         (tmp / "errors.md").write_text("\n".join(

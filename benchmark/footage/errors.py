@@ -24,7 +24,7 @@ import numpy as np
 from viewadapt.boxes import box_iou
 
 __all__ = ["ERROR_FPPIS", "HEIGHT_BANDS", "neighbours", "error_breakdown", "error_map",
-           "error_lines", "map_grid"]
+           "clip_errors", "error_lines", "map_grid"]
 
 #: The operating points ``bench footage`` reports the errors at, false positives per image.
 ERROR_FPPIS = (0.1, 1.0)
@@ -44,19 +44,28 @@ def neighbours(boxes) -> np.ndarray:
     return near.any(axis=1)
 
 
-def _frame_errors(detections, truth, image_size, regions, fppi):
-    """Per frame at the threshold of ``fppi``: (standardised detections kept, their labels,
-    the ground-truth rows, found flags, neighbour flags) and the threshold."""
-    from viewadapt.detect.evaluation import evaluation_rows, frame_matches, threshold_at_fppi
+def _error_rows(detections, truth, image_size, regions):
+    """The protocol's rows and matches of every frame (once per method, whatever the
+    operating points) and each frame's neighbour flags."""
+    from viewadapt.detect.evaluation import evaluation_rows, frame_matches
 
     gt = [(t.boxes, t.occlusion, image_size, t.ignore) for t in truth]
     dts, gts = evaluation_rows(detections, gt, regions=regions)
-    thr = threshold_at_fppi(dts, gts, fppi)
+    nbs = [neighbours(t.boxes) if len(t.boxes) else np.zeros(0, bool) for t in truth]
+    return dts, gts, frame_matches(dts, gts), nbs
+
+
+def _frames_at(rows, fppi):
+    """Per frame at the threshold of ``fppi``: (standardised detections kept, their labels,
+    the ground-truth rows, found flags, neighbour flags) and the threshold."""
+    from viewadapt.detect.evaluation import frame_matches, matches_threshold_at_fppi
+
+    dts, gts, matches, nbs = rows
+    thr = matches_threshold_at_fppi(matches, fppi)
     frames = []
-    for d, g, t in zip(dts, gts, truth):
+    for d, g, nb in zip(dts, gts, nbs):
         d = d[d[:, 4] >= thr]
         m = frame_matches([d], [g])[0]
-        nb = neighbours(t.boxes) if len(t.boxes) else np.zeros(0, bool)
         frames.append((d, np.asarray(m.dt_labels), g, np.asarray(m.gt_matched, bool), nb))
     return frames, thr
 
@@ -86,7 +95,11 @@ def error_breakdown(detections, truth, image_size, *, regions=None, fppi: float 
         ``background``; ``log_height_ratio_mean`` and ``_sd`` of ``log(h_det / h_gt)``
         over the hits.
     """
-    frames, thr = _frame_errors(detections, truth, image_size, regions, fppi)
+    return _breakdown(*_frames_at(_error_rows(detections, truth, image_size, regions), fppi))
+
+
+def _breakdown(frames, thr) -> dict:
+    """:func:`error_breakdown` of :func:`_frames_at`'s frames."""
     out = dict(threshold=thr, counted=0, missed=0, with_neighbour=0, missed_with_neighbour=0,
                false_positives=0, localisation=0, localisation_on_missed=0, duplicates=0,
                background=0)
@@ -130,9 +143,14 @@ def error_map(image, detections, truth, image_size, *, regions=None, fppi: float
     """``image`` (an RGB frame of the clip) dimmed, with every counted person's foot point
     over all frames (green found, red missed at ``fppi``) and the false positives' foot
     points (cyan crosses): a (H, W, 3) uint8 image."""
+    frames, _ = _frames_at(_error_rows(detections, truth, image_size, regions), fppi)
+    return _draw(image, frames, truth, title)
+
+
+def _draw(image, frames, truth, title) -> np.ndarray:
+    """:func:`error_map` of :func:`_frames_at`'s frames."""
     import cv2
 
-    frames, _ = _frame_errors(detections, truth, image_size, regions, fppi)
     img = (np.asarray(image, np.uint8) // 2 + 60).astype(np.uint8)
     img = np.ascontiguousarray(img)
     for (d, labels, g, found, _), t in zip(frames, truth):
@@ -146,6 +164,16 @@ def error_map(image, detections, truth, image_size, *, regions=None, fppi: float
     if title:
         cv2.putText(img, title, (10, 25), cv2.FONT_HERSHEY_SIMPLEX, 0.7, (255, 255, 255), 2)
     return img
+
+
+def clip_errors(image, detections, truth, image_size, *, regions=None, fppis=ERROR_FPPIS,
+                title: str = "") -> tuple[dict, np.ndarray]:
+    """``({fppi: error_breakdown(...)}, error_map(...) at the last fppi)`` of one method,
+    the protocol's rows and matches computed once for all the operating points."""
+    rows = _error_rows(detections, truth, image_size, regions)
+    at = {f: _frames_at(rows, f) for f in fppis}
+    return ({f: _breakdown(*at[f]) for f in fppis},
+            _draw(image, at[fppis[-1]][0], truth, title))
 
 
 def _rate(missed, counted) -> str:

@@ -21,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmark.footage.errors import error_breakdown, error_lines, error_map, map_grid
+from benchmark.footage.errors import clip_errors, error_lines, map_grid
 
 __all__ = ["main"]
 
@@ -62,14 +62,13 @@ def main(argv=None) -> int:
     keys = list(stored[methods[0]])                 # the run's frames, in its order
     video = clip.stream.paths is None               # a video's frames are keyed by index
     truth = [clip.truth.get(int(k) if video else k, FrameBoxes.empty()) for k in keys]
+    first = next(iter(clip.stream)).image
     results, maps = {}, []
     for m in methods:
         dets = [np.asarray(stored[m].get(k, []), float).reshape(-1, 5) for k in keys]
-        results[m] = {f: error_breakdown(dets, truth, size, regions=clip.regions, fppi=f)
-                      for f in args.fppi}
-        first = next(iter(clip.stream))
-        maps.append(error_map(first.image, dets, truth, size, regions=clip.regions,
-                              fppi=args.fppi[-1], title=f"{m} @ {args.fppi[-1]:g} FPPI"))
+        results[m], view = clip_errors(first, dets, truth, size, regions=clip.regions,
+                                       fppis=args.fppi, title=f"{m} @ {args.fppi[-1]:g} FPPI")
+        maps.append(view)
     lines = error_lines(results, args.fppi)
     rows = [dict(method=m, fppi=f, **{k: v for k, v in r.items() if k != "height_bands"})
             for m, per in results.items() for f, r in per.items()]

@@ -8,7 +8,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from benchmark.footage.errors import error_breakdown, error_map, neighbours
+from benchmark.footage.errors import clip_errors, error_breakdown, error_map, neighbours
 from benchmark.studies.footage_errors import main
 from viewadapt.geometry import camera_from_pose
 from viewadapt.io import FrameBoxes
@@ -69,6 +69,13 @@ def test_the_map_marks_found_missed_and_false():
     assert tuple(out[foot(_box(20, 30))]) == (0, 200, 0)          # A found
     assert tuple(out[foot(_box(100, 40))]) == (230, 0, 0)         # B missed
     assert (out[foot(_box(160, 10))] != 110).any()                # a cross on the FP
+
+
+def test_clip_errors_are_the_breakdowns_and_the_map_of_one_matching():
+    img = np.full((SIZE[1], SIZE[0], 3), 100, np.uint8)
+    per, view = clip_errors(img, DETS, TRUTH, SIZE, fppis=(0.5, 5.0), title="t")
+    assert per == {f: error_breakdown(DETS, TRUTH, SIZE, fppi=f) for f in (0.5, 5.0)}
+    np.testing.assert_array_equal(view, error_map(img, DETS, TRUTH, SIZE, fppi=5.0, title="t"))
 
 
 def test_main_reads_a_footage_folder_and_says_what_is_wrong(tmp_path):
