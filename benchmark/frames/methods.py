@@ -56,7 +56,8 @@ from viewadapt.geometry import WINDOW_HEIGHT, Camera
 from viewadapt.io import SourceDetectors
 from viewadapt.nms import detections_from_scores
 
-__all__ = ["FrameRecord", "load_frames", "train_source_detectors", "dataset_provenance",
+__all__ = ["FrameRecord", "load_frames", "train_source_detectors", "training_windows",
+           "dataset_provenance",
            "FrameMethods",
            "evaluate_method", "PAPER_FPS", "warp_scores", "pyramid_scales", "hog_pyramid_detect",
            "acf_pyramid_detect", "acf_pyramid_fast_detect", "ACF_PYRAMID_LAMBDAS", "opencv_detect",
@@ -168,7 +169,8 @@ def load_frames(root) -> list:
 def train_source_detectors(ds, *, seed: int = 0, quick: bool = False, source_index: int = 0,
                            progress: bool = False,
                            frame_view: str = DEFAULT_FRAME_VIEW,
-                           recipe=DEFAULT_RECIPE, extra_negatives=()) -> SourceDetectors:
+                           recipe=DEFAULT_RECIPE, extra_negatives=(),
+                           svm_params=None) -> SourceDetectors:
     """Linear SVM on :func:`viewadapt.detect.hog_window_features` and ACF boosted trees
     (:func:`viewadapt.detect.train_on_windows`), trained on the dataset's crops of one
     elevation (default the first, 0) and its background windows.
@@ -188,29 +190,45 @@ def train_source_detectors(ds, *, seed: int = 0, quick: bool = False, source_ind
     ``extra_negatives``: further :class:`~benchmark.crops.features.WindowSet` s of
     negatives (e.g. rectified windows of rendered frames), read from the dataset's root
     and added as they are (no recipe treatment); the training record counts them by key.
+
+    ``svm_params``: the HOG/SVM's parameters instead of the defaults
+    (:func:`viewadapt.detect.training.hog_svm`), e.g. ``{"C": 0.001}``.
     """
-    from benchmark.crops.features import background_windows, person_windows
     from benchmark.recipes import get_recipe
 
     check_frame_view(frame_view)
     recipe = get_recipe(recipe)
-    pos, neg = [], []
-    for kind, _, ws in recipe.training_sets(person_windows(ds, source_index),
-                                            background_windows(ds, source_index, stride=16)):
-        (pos if kind == "person" else neg).extend(ws.images(ds.root))
+    pos, neg = training_windows(ds, recipe, source_index)
     n_background = len(neg)
     extra = {}
     for ws in extra_negatives:
         neg.extend(ws.images(ds.root))
         extra[ws.key] = len(ws)
-    models = train_on_windows(pos, neg, seed=seed, quick=quick, frame_view=frame_view)
+    models = train_on_windows(pos, neg, seed=seed, quick=quick, frame_view=frame_view,
+                              svm_params=svm_params)
     training = dict(
         seed=seed, frame_view=frame_view, quick=quick, source_index=source_index,
         recipe=recipe.to_dict(), crops=len(pos), background_windows=n_background,
         dataset=dataset_provenance(ds))
     if extra:
         training["extra_negatives"] = extra
+    if svm_params:
+        training["svm_params"] = dict(svm_params)
     return replace(models, training=training)
+
+
+def training_windows(ds, recipe=DEFAULT_RECIPE, source_index: int = 0) -> tuple[list, list]:
+    """``(positives, negatives)``: the 64x128 windows :func:`train_source_detectors` trains
+    on -- the dataset's crops of elevation ``source_index`` and its background windows
+    (stride 16), as the recipe (:class:`benchmark.recipes.Recipe` or its name) gives them."""
+    from benchmark.crops.features import background_windows, person_windows
+    from benchmark.recipes import get_recipe
+
+    pos, neg = [], []
+    for kind, _, ws in get_recipe(recipe).training_sets(
+            person_windows(ds, source_index), background_windows(ds, source_index, stride=16)):
+        (pos if kind == "person" else neg).extend(ws.images(ds.root))
+    return pos, neg
 
 
 def dataset_provenance(ds) -> dict:

@@ -19,6 +19,7 @@ from viewadapt.detect.evaluation import (
 from viewadapt.detect.kinds import DETECTOR_KINDS, PRETRAINED_KINDS, PRETRAINED_UPSAMPLE_BELOW
 from viewadapt.detect.layers import UPSAMPLE_BELOW
 from viewadapt.detect.stream import DetectorSpec, detect_stream, pretrained_kinds
+from viewadapt.detect.windows import MIN_PERSON_HEIGHT_PX
 from viewadapt.geometry import PERSON_HEIGHT_M
 from viewadapt.io.boxes import FrameBoxes, read_boxes, read_ignore_regions
 from viewadapt.io.cache import DEFAULT_CACHE_LIMIT_GB, check_cache_limit
@@ -74,6 +75,18 @@ def person_heights(text):
     if not vals or any(not np.isfinite(v) or v <= 0 for v in vals):
         raise argparse.ArgumentTypeError("person heights must be positive metres")
     return vals
+
+
+def min_height(text):
+    """argparse type: a person height in pixels (>= 0)."""
+    try:
+        v = float(text)
+    except ValueError:
+        v = float("nan")
+    if not (0 <= v < 1e4):
+        raise argparse.ArgumentTypeError(f"the minimum person height must be >= 0 px, got "
+                                         f"{text!r}")
+    return v
 
 
 def cache_limit(text):
@@ -147,7 +160,8 @@ def _metadata(args, det, stream, writer, dist, correction, annotate, *, imported
         object_model=args.object_model, threshold=args.threshold,
         stage=any(getattr(L.operator, "stage", None) is not None
                   for L in det.operator(args.detector).layers),
-        person_heights=list(det.params["person_heights"]), windows=len(det.windows),
+        person_heights=list(det.params["person_heights"]), min_person_height=args.min_height,
+        windows=len(det.windows),
         upsample_below=det.upsample_below(args.detector),
         input=stream.describe(), frames=writer.n_frames, detections=writer.n_detections,
         annotate=annotate, annotate_threshold=args.annotate_threshold,
@@ -268,7 +282,8 @@ def cmd_detect(args) -> int:
                                            threshold=out["threshold"], regions=regions)
             out.update(labels=labels, truth=t.boxes, status=status)
         return out
-    options = dict(person_heights=args.heights, cache_dir=args.cache or (args.out / "cache"),
+    options = dict(person_heights=args.heights, min_person_height=args.min_height,
+                   cache_dir=args.cache or (args.out / "cache"),
                    cache_limit_gb=args.cache_limit,
                    upsample_below=args.upsample_below,
                    thresholds={args.detector: args.threshold}, rule=args.rule,
@@ -424,6 +439,9 @@ def register(sub, common) -> None:
                         "read a second time")
     p.add_argument("--heights", type=person_heights, default=(PERSON_HEIGHT_M,),
                    help="assumed person heights, metres, comma-separated (default 1.75)")
+    p.add_argument("--min-height", type=min_height, default=MIN_PERSON_HEIGHT_PX, metavar="PX",
+                   help="persons shorter than this in the frame get no candidate window "
+                        f"(default {MIN_PERSON_HEIGHT_PX:g} px; 0 = down to the horizon)")
     add_cache_options(p)
     p.add_argument("--upsample-below", type=float, default=None,
                    help="windows of persons smaller than 96 x this many px read the frame "

@@ -23,7 +23,7 @@ from .channels import check_frame
 from .kinds import DETECTOR_KINDS, HOG_DETECTOR, PRETRAINED_KINDS, detector_kind
 from .layers import build_multiresolution_operator, check_upsample_below
 from .templates import HOG_TOLERANCE
-from .windows import select_candidate_windows, windows_through_lens
+from .windows import MIN_PERSON_HEIGHT_PX, select_candidate_windows, windows_through_lens
 
 __all__ = ["DEFAULT_THRESHOLD", "FrameDetections", "FrameDetector"]
 #: Score threshold of the detections kept for non-maximum suppression: low, so that a DET
@@ -97,6 +97,9 @@ class FrameDetector:
     grid_phase : (2,) float
         Offset of the ground grid of candidate windows, in strides (forward, left), each in
         ``[0, 1)`` (:func:`~viewadapt.detect.windows.select_candidate_windows`).
+    min_person_height : float
+        Persons shorter than this in the frame, px, get no candidate window (default
+        :data:`~viewadapt.detect.windows.MIN_PERSON_HEIGHT_PX`).
     kinds : dict name -> DetectorKind, optional
         Detector kinds of this detector instead of the registry's of the same name, e.g.
         ``{"opencv": opencv_kind(w, b)}`` for another OpenCV HOG/SVM.
@@ -113,7 +116,8 @@ class FrameDetector:
                  cells_per_source_cell: float | None = None,
                  upsample_below: float | None = None, thresholds=None,
                  rule: str = "covariant", object_model: str = "plane", lens=None,
-                 grid_phase=(0.0, 0.0), kinds=None, stage: bool = True):
+                 grid_phase=(0.0, 0.0), min_person_height: float = MIN_PERSON_HEIGHT_PX,
+                 kinds=None, stage: bool = True):
         if not isinstance(camera, Camera) or camera.image_size is None:
             raise ValueError("camera must be a Camera with its image_size (width, height)")
         self.camera = camera
@@ -143,11 +147,17 @@ class FrameDetector:
             detector_kind(k)
         self.cache_dir = cache_dir
         self.cache_limit_gb = cache_limit_gb
+        if not (isinstance(min_person_height, (int, float)) and 0 <= min_person_height < 1e4):
+            raise ValueError(f"min_person_height must be a number of pixels >= 0, got "
+                             f"{min_person_height!r}")
         self.windows = select_candidate_windows(camera, self.size,
                                                 person_heights=self.params["person_heights"],
-                                                grid_phase=grid_phase)
+                                                grid_phase=grid_phase,
+                                                min_person_height_px=min_person_height)
         if any(grid_phase):                # the default grid's cache keys stay those of before
             self.params["grid_phase"] = [float(v) for v in grid_phase]
+        if float(min_person_height) != 16.0:   # so do those of the former 16-px default
+            self.params["min_person_height"] = float(min_person_height)
         if lens is not None:
             lens = check_distortion(lens)
             self.params["lens"] = [float(v) for v in lens]

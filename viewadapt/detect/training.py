@@ -19,7 +19,8 @@ from .frameview import frame_view_copies
 from .kinds import ACF_DETECTOR, HOG_DETECTOR
 from .layers import UPSAMPLE_BELOW
 
-__all__ = ["FRAME_VIEW_CHOICES", "DEFAULT_FRAME_VIEW", "check_frame_view", "train_on_windows"]
+__all__ = ["FRAME_VIEW_CHOICES", "DEFAULT_FRAME_VIEW", "check_frame_view", "train_on_windows",
+           "window_training_set", "hog_svm", "acf_trees"]
 
 #: ``frame_view`` choices of :func:`train_on_windows`: which detectors also train on
 #: frame-view copies of the windows.
@@ -36,7 +37,8 @@ def check_frame_view(frame_view: str) -> str:
 
 
 def train_on_windows(positives, negatives, *, seed: int = 0, quick: bool = False,
-                     frame_view: str = DEFAULT_FRAME_VIEW) -> SourceDetectors:
+                     frame_view: str = DEFAULT_FRAME_VIEW,
+                     svm_params=None) -> SourceDetectors:
     """HOG/SVM and ACF boosted trees trained on canonical windows.
 
     Parameters
@@ -50,6 +52,9 @@ def train_on_windows(positives, negatives, *, seed: int = 0, quick: bool = False
         Fewer initial negatives (2000, not 5000), trees (64, not 256) and histogram bins.
     frame_view : {"hog", "acf", "both", "none"}
         Which detectors also train on one frame-view copy of every window.
+    svm_params : dict, optional
+        :class:`~viewadapt.classifiers.LinearSVMDetector` parameters instead of
+        :func:`hog_svm`'s (e.g. ``{"C": 0.001}``); recorded in ``training``.
 
     Returns
     -------
@@ -57,30 +62,55 @@ def train_on_windows(positives, negatives, *, seed: int = 0, quick: bool = False
         With ``training = {seed, frame_view, quick, crops, background_windows}``.
     """
     check_frame_view(frame_view)
-    n_crops, neg = len(positives), list(negatives)
-    pos = list(positives) + [np.ascontiguousarray(w[:, ::-1]) for w in positives]
-
-    def training_set(kind, copy_seed):
-        feats = kind.features
-        Xp = np.stack([feats.window_features(w).ravel() for w in pos])
-        Xn = np.stack([feats.window_features(w).ravel() for w in neg])
-        if frame_view in (kind.name, "both"):
-            kw = dict(upsample_below=UPSAMPLE_BELOW)
-            Xp = np.vstack([Xp, frame_view_copies(pos, feats, seed=copy_seed, **kw)])
-            Xn = np.vstack([Xn, frame_view_copies(neg, feats, seed=copy_seed + 1, **kw)])
-        return np.vstack([Xp, Xn]), np.r_[np.ones(len(Xp), int), np.zeros(len(Xn), int)]
-
-    X, y = training_set(HOG_DETECTOR, seed)
-    # C = 0.01 as Dalal & Triggs (block-normalised, clipped cells as their descriptor)
-    svm = LinearSVMDetector(C=0.01, initial_negatives=2000 if quick else 5000,
-                            mining_rounds=1, random_state=seed).fit(X, y)
+    X, y = window_training_set(HOG_DETECTOR, positives, negatives, frame_view=frame_view,
+                               seed=seed)
+    svm = hog_svm(seed=seed, quick=quick, **dict(svm_params or {})).fit(X, y)
     # the channels the full-frame operator reads (float32 OpenCV path)
-    X, y = training_set(ACF_DETECTOR, seed + 2)
-    n_trees = 64 if quick else 256
-    trees = AdaBoostTrees(n_estimators=n_trees, stages=None, max_bins=32 if quick else 64,
-                          max_features=0.25 if quick else 0.125, random_state=seed)
-    trees.fit(X, y)
+    X, y = window_training_set(ACF_DETECTOR, positives, negatives, frame_view=frame_view,
+                               seed=seed + 2)
+    trees = acf_trees(seed=seed, quick=quick).fit(X, y)
     return SourceDetectors(svm.coef_[0].reshape(HOG_WEIGHT_SHAPE).astype(np.float64),
                            float(svm.intercept_[0]), trees,
                            training=dict(seed=seed, frame_view=frame_view, quick=quick,
-                                         crops=n_crops, background_windows=len(neg)))
+                                         crops=len(positives),
+                                         background_windows=len(negatives),
+                                         **({"svm_params": dict(svm_params)} if svm_params
+                                            else {})))
+
+
+def window_training_set(kind, positives, negatives, *, frame_view: str = DEFAULT_FRAME_VIEW,
+                        seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """``(X, y)`` a detector ``kind`` (:data:`HOG_DETECTOR`, :data:`ACF_DETECTOR`) trains
+    on in :func:`train_on_windows`: the features of every positive and its mirror image,
+    then of every negative (label 1, then 0); with ``frame_view`` naming ``kind`` (or
+    ``"both"``) also one frame-view copy of each (seeded ``seed`` for the positives,
+    ``seed + 1`` for the negatives)."""
+    check_frame_view(frame_view)
+    pos = list(positives) + [np.ascontiguousarray(w[:, ::-1]) for w in positives]
+    feats = kind.features
+    Xp = np.stack([feats.window_features(w).ravel() for w in pos])
+    Xn = np.stack([feats.window_features(w).ravel() for w in negatives])
+    if frame_view in (kind.name, "both"):
+        kw = dict(upsample_below=UPSAMPLE_BELOW)
+        Xp = np.vstack([Xp, frame_view_copies(pos, feats, seed=seed, **kw)])
+        Xn = np.vstack([Xn, frame_view_copies(list(negatives), feats, seed=seed + 1, **kw)])
+    return np.vstack([Xp, Xn]), np.r_[np.ones(len(Xp), int), np.zeros(len(Xn), int)]
+
+
+def hog_svm(*, seed: int = 0, quick: bool = False, **params) -> LinearSVMDetector:
+    """The (untrained) HOG/SVM of :func:`train_on_windows`: ``C = 0.01`` as Dalal & Triggs
+    (block-normalised, clipped cells as their descriptor), 5000 initial negatives (``quick``:
+    2000) and one round of hard negatives; ``params`` override any
+    :class:`~viewadapt.classifiers.LinearSVMDetector` parameter."""
+    base = dict(C=0.01, initial_negatives=2000 if quick else 5000, mining_rounds=1,
+                random_state=seed)
+    return LinearSVMDetector(**(base | params))
+
+
+def acf_trees(*, seed: int = 0, quick: bool = False, **params) -> AdaBoostTrees:
+    """The (untrained) boosted trees of :func:`train_on_windows`: 256 depth-2 trees on 64
+    bins, an eighth of the features per tree (``quick``: 64 trees, 32 bins, a quarter);
+    ``params`` override any :class:`~viewadapt.boosting.AdaBoostTrees` parameter."""
+    base = dict(n_estimators=64 if quick else 256, stages=None, max_bins=32 if quick else 64,
+                max_features=0.25 if quick else 0.125, random_state=seed)
+    return AdaBoostTrees(**(base | params))

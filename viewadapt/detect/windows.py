@@ -27,9 +27,10 @@ Departures and choices, all parameters:
   person height (the paper's "no closer than 1 pixel apart").
 * The whole canonical window (64x128, its 16-px margins included) must lie inside the
   frame, as for any sliding-window detector.
-* ``min_person_height_px`` (default 16) drops persons smaller than that in the image: a
-  64x128-window detector with 8-px cells cannot see them, and the 1-px rule alone would
-  keep windows a few pixels tall just below the horizon. Set 0 to keep them.
+* ``min_person_height_px`` (default :data:`MIN_PERSON_HEIGHT_PX`) drops persons smaller
+  than that in the image: a 64x128-window detector with 8-px cells cannot see them, and
+  the 1-px rule alone would keep windows a few pixels tall just below the horizon. Set 0
+  to keep them.
 """
 
 from __future__ import annotations
@@ -46,6 +47,7 @@ from ..geometry import (
 
 __all__ = [
     "GROUND_STRIDE_M",
+    "MIN_PERSON_HEIGHT_PX",
     "PERSON_BOX_WINDOW",
     "CandidateWindows",
     "check_ground_visible",
@@ -61,6 +63,12 @@ __all__ = [
 
 #: The paper's real-world stride, ``8 * 1.75 / 96`` metres (Sec. 5.1).
 GROUND_STRIDE_M = 8.0 * PERSON_HEIGHT_M / WINDOW_PERSON_HEIGHT_PX
+#: Persons shorter than this in the image, px, get no candidate window: the smallest person
+#: the evaluation protocol counts (:func:`~viewadapt.detect.evaluation.ground_truth_rows`'
+#: ``min_height``; shorter ones are ignored, so a window of one can only be a false
+#: positive or find an ignored person) and OpenCV's 64x128 detector upsampled 4x sees
+#: (96 / 4). (Before 2026-12-05: 16 px; measured effect in docs/real_footage.md.)
+MIN_PERSON_HEIGHT_PX = 24.0
 
 #: The person's box inside the canonical window, ``(x0, y0, x1, y1)`` in continuous pixel
 #: coordinates (pixel centres at integers): 96 px from head (y = 15.5) to feet
@@ -305,7 +313,8 @@ def window_homographies(camera: Camera, ground_xy, person_height=PERSON_HEIGHT_M
 
 def select_candidate_windows(camera: Camera, image_size=None, *,
                              person_heights=(PERSON_HEIGHT_M,), stride: float = GROUND_STRIDE_M,
-                             min_separation: float = 1.0, min_person_height_px: float = 16.0,
+                             min_separation: float = 1.0,
+                             min_person_height_px: float = MIN_PERSON_HEIGHT_PX,
                              max_distance: float = 200.0,
                              grid_phase=(0.0, 0.0)) -> CandidateWindows:
     """World-space candidate windows of a calibrated camera (Wang et al. 2017, Sec. 5.1).

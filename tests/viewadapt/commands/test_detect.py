@@ -477,3 +477,22 @@ def test_the_stage_can_be_left_out(toy, detect):
     assert (on / "detections.csv").read_bytes() != (off / "detections.csv").read_bytes()
     two = detect("fold_jobs2", "--stage", "off", "--jobs", 2, toy.folder)
     assert (two / "detections.csv").read_bytes() == (off / "detections.csv").read_bytes()
+
+
+def test_min_height_drops_windows_of_shorter_persons(toy, detect, tmp_path, capfd):
+    meta = json.loads((detect("folder", toy.folder) / "metadata.json").read_text())
+    from viewadapt.detect import FrameDetector
+
+    tall = np.median(96 * FrameDetector(toy.cam, None).windows.scale)  # a person's px
+    fewer = json.loads((detect("min_height", toy.folder, "--min-height", f"{tall:.0f}")
+                        / "metadata.json").read_text())
+    assert fewer["min_person_height"] == float(f"{tall:.0f}")
+    assert 0 < fewer["windows"] < meta["windows"]
+    for bad in ("-3", "nan", "tall"):
+        capfd.readouterr()
+        with pytest.raises(SystemExit) as exc:
+            main(["detect", "--calibration", str(toy.calibration), "--model", str(toy.model),
+                  "--out", str(tmp_path / "o"), "--min-height", bad, str(toy.folder)])
+        err = capfd.readouterr().err.strip().splitlines()[-1]
+        assert exc.value.code == 2 and "minimum person height must be >= 0 px" in err, err
+        assert not (tmp_path / "o").exists()

@@ -12,7 +12,8 @@ from viewadapt.detect import (
     hog_frame_features, build_multiresolution_operator, patch_grid, upsampled_windows, upsampled_band,
 )
 from viewadapt.geometry import (
-    Camera, camera_from_pose, look_at_rotation, window_to_image_homography,
+    WINDOW_HEAD, Camera, camera_from_pose, look_at_rotation, map_points,
+    window_to_image_homography,
 )
 from viewadapt.remap import CellGrid, feature_remap_matrix
 from viewadapt.detect import (
@@ -105,6 +106,26 @@ def test_vectorised_homographies_match_geometry(camera, windows):
     assert np.allclose(H2[2], window_to_image_homography(camera, windows.ground_xy[2], 1.9)
                        / window_to_image_homography(camera, windows.ground_xy[2], 1.9)[2, 2],
                        **EXACT)
+
+
+def test_min_person_height_drops_only_the_shorter_persons(camera, windows):
+    from viewadapt.detect import FrameDetector
+
+    def tall(W):
+        return np.linalg.norm(W.feet - map_points(W.homographies, WINDOW_HEAD), axis=1)
+
+    short = np.percentile(tall(windows), 30)
+    kept = select_candidate_windows(camera, min_person_height_px=short)
+    assert 0 < len(kept) < len(windows) and tall(kept).min() >= short
+    # the windows kept are those of the default set that are tall enough, the same ones
+    # (the 1-px thinning runs near to far, so dropping far rows changes no nearer window)
+    mine = tall(windows) >= short
+    assert np.array_equal(kept.ground_xy, windows.ground_xy[mine])
+    assert np.array_equal(FrameDetector(camera, None, min_person_height=short).windows.ground_xy,
+                          kept.ground_xy)
+    for bad in (-1.0, float("nan"), "24"):
+        with pytest.raises(ValueError, match="min_person_height"):
+            FrameDetector(camera, None, min_person_height=bad)
 
 
 def test_several_heights(camera):
@@ -240,6 +261,10 @@ def test_operator_cache_invalidates_on_calibration_change(tmp_path, frame):
     d5 = FrameDetector(cam, Models(), cache_dir=tmp_path, grid_phase=(0.0, 0.0))
     d5.operator("hog")
     assert d5.cache_hit["hog"] is True
+    # so is another minimum person height (fewer windows, its own operator)
+    d6 = FrameDetector(cam, Models(), cache_dir=tmp_path, min_person_height=48)
+    d6.operator("hog")
+    assert d6.cache_hit["hog"] is False and len(d6.windows) < len(d1.windows)
 
 
 def test_operator_cache_keeps_to_its_size_limit(tmp_path, windows):

@@ -1,0 +1,52 @@
+import json
+
+import numpy as np
+import pytest
+
+from benchmark.data import load_dataset
+from benchmark.frames.methods import train_source_detectors
+from benchmark.studies.acf_budget import main, truncated_trees
+from tests.toy_frames import small_toy_frames
+from viewadapt.io import SourceDetectors
+
+
+@pytest.fixture(scope="module")
+def toy(tmp_path_factory):
+    return small_toy_frames(tmp_path_factory.mktemp("acfb") / "data")
+
+
+def test_budgets_are_truncations_and_the_smallest_is_bench_frames_own(toy, tmp_path):
+    out = tmp_path / "out"
+    assert main(["--data", str(toy), "--out", str(out), "--trees", "16,64,8", "--quick"]) == 0
+    rec = json.loads((out / "acf_budget.json").read_text())
+    assert rec["budgets"] == [8, 16, 64] and rec["saved"][:2] == [8, 16]
+    models = {n: SourceDetectors.load(out / f"trees_{n}" / "source_detectors.npz")
+              for n in rec["saved"]}
+    assert all(m.acf.n_estimators_ == n for n, m in models.items())
+    longest = models[rec["saved"][-1]]
+    for n, m in models.items():           # each budget is the first n trees of one run
+        assert np.array_equal(m.acf.feature_, longest.acf.feature_[:n])
+        assert np.array_equal(m.acf.value_, longest.acf.value_[:n])
+        assert m.training["acf_trees"] == n and not m.training["acf_budget"]["no_colour"]
+    # 64 trees (bench frames' quick budget) are bench frames' own trees, and its SVM
+    ref = train_source_detectors(load_dataset(toy), quick=True)
+    if 64 in models:
+        assert np.array_equal(models[64].acf.feature_, ref.acf.feature_)
+        assert np.allclose(models[64].acf.value_, ref.acf.value_)
+    assert np.array_equal(longest.hog_weights, ref.hog_weights)
+    with pytest.raises(ValueError, match="cannot keep"):
+        truncated_trees(longest.acf, longest.acf.n_estimators_ + 1)
+
+
+def test_without_colour_no_tree_reads_a_colour_channel(toy, tmp_path):
+    out = tmp_path / "nc"
+    assert main(["--data", str(toy), "--out", str(out), "--trees", "32", "--no-colour",
+                 "--quick"]) == 0
+    rec = json.loads((out / "acf_budget.json").read_text())
+    m = SourceDetectors.load(out / f"trees_{rec['saved'][-1]}" / "source_detectors.npz")
+    per_channel = 32 * 16
+    used = np.asarray(m.acf.feature_)
+    assert rec["no_colour"] and used.size and used[used >= 0].min() >= 3 * per_channel
+    for bad in ("0", "8,x"):
+        with pytest.raises(SystemExit):
+            main(["--data", str(toy), "--out", str(tmp_path / "bad"), "--trees", bad])
