@@ -107,6 +107,7 @@ class CrossvalConfig:
     #: the exact-geometry rows (HOG detectors; needs the dataset's depth maps)
     upper_bound: bool = True
     target_cell_size: int = 4
+    #: the SVMs' regularisation, unless the recipe sets its own (``Recipe.svm_c``)
     C: float = 0.01
     mining_rounds: int = 1
     initial_negatives: int = 5000

@@ -198,6 +198,8 @@ def train_source_detectors(ds, *, seed: int = 0, quick: bool = False, source_ind
 
     check_frame_view(frame_view)
     recipe = get_recipe(recipe)
+    if recipe.svm_c is not None:
+        svm_params = {"C": recipe.svm_c} | dict(svm_params or {})
     pos, neg = training_windows(ds, recipe, source_index)
     n_background = len(neg)
     extra = {}

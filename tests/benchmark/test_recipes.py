@@ -163,3 +163,32 @@ def test_the_camera_recipe_trains_on_every_window_through_the_camera(toy):
     assert recipe_from_record(camera.training["recipe"]) is r
     assert camera.training["background_windows"] == rotated.training["background_windows"]
     assert not np.allclose(camera.hog_weights, rotated.hog_weights)
+
+
+def test_the_regularised_recipe_sets_the_c_of_every_svm(toy):
+    from benchmark.crops.crossval import CrossvalConfig
+    from benchmark.crops.detectors import HogDescriptorDetector
+    from benchmark.frames.methods import train_source_detectors
+    from benchmark.data import load_dataset
+
+    reg = RECIPES["regularised"]
+    assert reg.svm_C(0.01) == 0.001 and RECIPES["elevation0"].svm_C(0.01) == 0.01
+    # recipes without a C keep the records they wrote before
+    assert "svm_c" not in RECIPES["elevation0"].to_dict() and reg.to_dict()["svm_c"] == 0.001
+    for bad in (0, -1.0, float("inf"), "0.1"):
+        with pytest.raises(ValueError, match="svm_c"):
+            Recipe("x", "y", svm_c=bad)
+    # the crops' SVMs (crossval, sweep)
+    rng = np.random.default_rng(0)
+    X_pos, X_neg = rng.random((20, 16 * 8 * 9)) + 0.5, rng.random((40, 16 * 8 * 9))
+    for recipe, C in ((reg, 0.001), (RECIPES["elevation0"], 0.01)):
+        cfg = CrossvalConfig(recipe=recipe)
+        model = HogDescriptorDetector().fit(X_pos, X_neg, seed=0, config=cfg)
+        assert model.C == C
+    # the frames' source detectors: the same SVM as asking for its C
+    ds = load_dataset(toy)
+    a = train_source_detectors(ds, quick=True, recipe="regularised")
+    b = train_source_detectors(ds, quick=True, svm_params={"C": 0.001})
+    assert np.array_equal(a.hog_weights, b.hog_weights)
+    assert a.training["recipe"]["svm_c"] == 0.001 and a.training["svm_params"] == {"C": 0.001}
+    assert not np.array_equal(a.hog_weights, train_source_detectors(ds, quick=True).hog_weights)
