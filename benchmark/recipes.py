@@ -72,13 +72,15 @@ class Recipe:
 
     def __post_init__(self):
         import math
+        import numbers
 
         rot = tuple(float(a) for a in self.rotations_deg)
         if not all(math.isfinite(a) and a % 360 != 0 for a in rot) or len(set(rot)) != len(rot):
             raise ValueError(f"recipe {self.name!r}: rotations must be distinct finite angles, "
                              f"not multiples of 360, got {self.rotations_deg!r}")
         object.__setattr__(self, "rotations_deg", rot)
-        if self.svm_c is not None and not (isinstance(self.svm_c, (int, float))
+        if self.svm_c is not None and not (isinstance(self.svm_c, numbers.Real)
+                                           and not isinstance(self.svm_c, bool)
                                            and 0 < self.svm_c < math.inf):
             raise ValueError(f"recipe {self.name!r}: svm_c must be a positive number or None, "
                              f"got {self.svm_c!r}")

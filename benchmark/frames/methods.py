@@ -56,7 +56,7 @@ from viewadapt.geometry import WINDOW_HEIGHT, Camera
 from viewadapt.io import SourceDetectors
 from viewadapt.nms import detections_from_scores
 
-__all__ = ["FrameRecord", "load_frames", "train_source_detectors", "training_windows",
+__all__ = ["FrameRecord", "load_frames", "train_source_detectors", "source_training_windows",
            "dataset_provenance",
            "FrameMethods",
            "evaluate_method", "PAPER_FPS", "warp_scores", "pyramid_scales", "hog_pyramid_detect",
@@ -200,7 +200,7 @@ def train_source_detectors(ds, *, seed: int = 0, quick: bool = False, source_ind
     recipe = get_recipe(recipe)
     if recipe.svm_c is not None:
         svm_params = {"C": recipe.svm_c} | dict(svm_params or {})
-    pos, neg = training_windows(ds, recipe, source_index)
+    pos, neg = source_training_windows(ds, recipe, source_index)
     n_background = len(neg)
     extra = {}
     for ws in extra_negatives:
@@ -219,7 +219,8 @@ def train_source_detectors(ds, *, seed: int = 0, quick: bool = False, source_ind
     return replace(models, training=training)
 
 
-def training_windows(ds, recipe=DEFAULT_RECIPE, source_index: int = 0) -> tuple[list, list]:
+def source_training_windows(ds, recipe=DEFAULT_RECIPE,
+                            source_index: int = 0) -> tuple[list, list]:
     """``(positives, negatives)``: the 64x128 windows :func:`train_source_detectors` trains
     on -- the dataset's crops of elevation ``source_index`` and its background windows
     (stride 16), as the recipe (:class:`benchmark.recipes.Recipe` or its name) gives them."""

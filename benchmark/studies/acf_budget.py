@@ -3,13 +3,15 @@
 Two hypotheses for why the ACF source detector trained on renders transfers worse to real
 footage than the HOG/SVM trained on the same windows:
 
-* its budget: ``bench frames`` trains 256 depth-2 trees (:func:`viewadapt.detect.acf_trees`),
-  the toolbox's INRIA detector 2048 (``nWeak``, Dollár et al. 2014);
+* its budget: ``bench frames`` trains 256 depth-2 trees
+  (:func:`viewadapt.detect.training.acf_trees`), the toolbox's INRIA detector 2048
+  (``nWeak``, Dollár et al. 2014);
 * its colour channels: the LUV channels of rendered clothing and skin are not those of
   real people, and the trees may rely on them.
 
-On the windows ``bench frames`` trains on (:func:`benchmark.frames.methods.training_windows`,
-:func:`viewadapt.detect.window_training_set`, the same seeds), the trees are trained once
+On the windows ``bench frames`` trains on
+(:func:`benchmark.frames.methods.source_training_windows`,
+:func:`viewadapt.detect.training.window_training_set`, the same seeds), the trees are trained once
 with ``max(--trees)`` trees (fewer if the training loss reaches zero first, as
 :class:`~viewadapt.boosting.AdaBoostTrees` stops) and saved truncated to each of
 ``--trees``: the first ``n`` trees of a longer run are the trees a run of ``n`` trains, so
@@ -54,7 +56,7 @@ def truncated_trees(trees, n: int):
 
 def main(argv=None) -> int:
     from benchmark.data import load_dataset
-    from benchmark.frames.methods import dataset_provenance, training_windows
+    from benchmark.frames.methods import dataset_provenance, source_training_windows
     from benchmark.recipes import DEFAULT_RECIPE, get_recipe
     from viewadapt.detect import ACF_DETECTOR, train_on_windows
     from viewadapt.detect.training import acf_trees, window_training_set
@@ -79,7 +81,7 @@ def main(argv=None) -> int:
         ap.error(f"every tree budget must be at least 1, got {args.trees!r}")
     check_output_dir(args.out)
     ds = load_dataset(args.data)
-    pos, neg = training_windows(ds)
+    pos, neg = source_training_windows(ds)
     base = train_on_windows(pos, neg, seed=args.seed, quick=args.quick)
     X, y = window_training_set(ACF_DETECTOR, pos, neg, seed=args.seed + 2)
     if args.no_colour:

@@ -8,6 +8,7 @@ Wang et al. (2017, Sec. 5.1) -- and then detects on any number of frames of that
 
 from __future__ import annotations
 
+import numbers
 import time
 from typing import NamedTuple
 
@@ -147,7 +148,8 @@ class FrameDetector:
             detector_kind(k)
         self.cache_dir = cache_dir
         self.cache_limit_gb = cache_limit_gb
-        if not (isinstance(min_person_height, (int, float)) and 0 <= min_person_height < 1e4):
+        if not (isinstance(min_person_height, numbers.Real)
+                and not isinstance(min_person_height, bool) and 0 <= min_person_height < 1e4):
             raise ValueError(f"min_person_height must be a number of pixels >= 0, got "
                              f"{min_person_height!r}")
         self.windows = select_candidate_windows(camera, self.size,

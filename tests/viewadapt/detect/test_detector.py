@@ -505,3 +505,13 @@ def test_each_kind_upsamples_below_its_own_scale_unless_told(tmp_path, camera):
     for bad in (-1, float("nan"), "half"):
         with pytest.raises(ValueError, match="upsample_below must be a number >= 0"):
             FrameDetector(camera, None, upsample_below=bad)
+
+
+def test_min_person_height_takes_any_real_number(camera):
+    from viewadapt.detect import FrameDetector
+
+    a = FrameDetector(camera, None, min_person_height=np.float32(44))
+    b = FrameDetector(camera, None, min_person_height=np.int64(44))
+    assert np.array_equal(a.windows.ground_xy, b.windows.ground_xy)
+    with pytest.raises(ValueError, match="min_person_height"):
+        FrameDetector(camera, None, min_person_height=True)
