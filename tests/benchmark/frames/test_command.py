@@ -299,6 +299,8 @@ def test_runtime_table_end_to_end(toy, tmp_path):
             "opencv_warp", "hog_pyramid", "acf_pyramid", "opencv", "opencv_2x",
             "opencv_native"} <= methods
     assert all(r["seconds_per_frame"] > 0 for r in rows)
+    assert all(r["how"].startswith("measured (median of ") for r in rows
+               if r["method"].endswith("_adapted"))            # end to end, several passes
     assert info["candidate_windows"] > 15000                  # the CAVIAR-like camera
     assert 0 < info["hog_scored_positions"] <= info["candidate_windows"]
     assert set(info["hog_scoring_forms_ms"]) >= {
