@@ -94,8 +94,7 @@ class CropDetector:
 def _svm(config, seed):
     from viewadapt.classifiers import LinearSVMDetector
 
-    recipe = getattr(config, "recipe", None)     # (a config without one: its own C)
-    return LinearSVMDetector(C=config.C if recipe is None else recipe.svm_C(config.C),
+    return LinearSVMDetector(C=config.recipe.svm_C(config.C),
                              initial_negatives=config.initial_negatives,
                              mining_rounds=config.mining_rounds,
                              max_hard_negatives=config.max_hard_negatives, random_state=seed)

@@ -27,6 +27,9 @@ from .templates import HOG_TOLERANCE
 from .windows import MIN_PERSON_HEIGHT_PX, select_candidate_windows, windows_through_lens
 
 __all__ = ["DEFAULT_THRESHOLD", "FrameDetections", "FrameDetector"]
+#: ``MIN_PERSON_HEIGHT_PX`` before 2026-12-05: detectors built with it keep the cache keys of
+#: before (their parameters do not name it).
+_FORMER_MIN_PERSON_HEIGHT_PX = 16.0
 #: Score threshold of the detections kept for non-maximum suppression: low, so that a DET
 #: curve reaches high false-positive rates.
 DEFAULT_THRESHOLD = -1.0
@@ -158,8 +161,8 @@ class FrameDetector:
                                                 min_person_height_px=min_person_height)
         if any(grid_phase):                # the default grid's cache keys stay those of before
             self.params["grid_phase"] = [float(v) for v in grid_phase]
-        if float(min_person_height) != 16.0:   # so do those of the former 16-px default
-            self.params["min_person_height"] = float(min_person_height)
+        if float(min_person_height) != _FORMER_MIN_PERSON_HEIGHT_PX:   # so do those of
+            self.params["min_person_height"] = float(min_person_height)  # the former default
         if lens is not None:
             lens = check_distortion(lens)
             self.params["lens"] = [float(v) for v in lens]

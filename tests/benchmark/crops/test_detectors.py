@@ -78,9 +78,11 @@ def test_builtin_specs_fold_G_as_the_explicit_remap():
 
     from viewadapt.geometry import elevation_homography
 
+    from benchmark.recipes import RECIPES
+
     cfg = SimpleNamespace(target_cell_size=4, C=0.01, initial_negatives=200, mining_rounds=0,
                           max_hard_negatives=100, acf_estimators=8, acf_stages=None,
-                          acf_max_bins=16, acf_max_features=0.5)
+                          acf_max_bins=16, acf_max_features=0.5, recipe=RECIPES["elevation0"])
     rng = np.random.default_rng(0)
     H = elevation_homography(0.0, np.pi / 4)
     for name in ("hog", "hog_local", "opencv"):
