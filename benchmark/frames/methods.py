@@ -236,12 +236,17 @@ def source_training_windows(ds, recipe=DEFAULT_RECIPE,
 
 def dataset_provenance(ds) -> dict:
     """What a model was trained on: the dataset's preset, seed, renderer, elevations and
-    content hash (from its ``dataset.json``), and its fingerprint."""
+    content hash (from its ``dataset.json``), its fingerprint, and the generator's camera
+    effects setting (``camera_effects``, only for a dataset rendered through one)."""
     cfg = ds.config
-    return {"preset": cfg.get("preset"), "seed": cfg.get("seed"),
-            "renderer": cfg.get("renderer"), "elevations": cfg.get("elevations"),
-            "content_hash": (cfg.get("content_hash") or {}).get("sha256"),
-            "fingerprint": ds.fingerprint}
+    out = {"preset": cfg.get("preset"), "seed": cfg.get("seed"),
+           "renderer": cfg.get("renderer"), "elevations": cfg.get("elevations"),
+           "content_hash": (cfg.get("content_hash") or {}).get("sha256"),
+           "fingerprint": ds.fingerprint}
+    effects = cfg.get("camera_effects")
+    if isinstance(effects, dict) and effects.get("name"):
+        out["camera_effects"] = effects["name"]
+    return out
 
 
 # ------------------------------------------------------------------------------ methods

@@ -31,11 +31,12 @@ _SHIPPED = "source_detectors.npz"
 def shipped_model_path() -> Path:
     """Path of the source detectors shipped with the package.
 
-    They are ``bench frames``' models (HOG/SVM and ACF boosted trees, default training:
-    elevation-0 crops and their frame-view copies, seed 0) trained on the ``paper``
-    preset's elevation-0 crops; the file's training record names the dataset (preset,
-    seed, renderer, content hash) and the version that wrote it. ``viewadapt detect``
-    uses them when no ``--model`` is given.
+    They are ``bench frames``' models (HOG/SVM and ACF boosted trees: elevation-0 crops
+    and their frame-view copies, seed 0, recipe ``regularised``) trained on the ``paper``
+    preset rendered through the generator's ``surveillance`` camera effects; the file's
+    training record names the recipe and the dataset (preset, seed, renderer, camera
+    effects, content hash) and the version that wrote it. ``viewadapt detect`` uses them
+    when no ``--model`` is given.
     """
     return packaged_path(_SHIPPED)
 

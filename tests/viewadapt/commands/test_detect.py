@@ -446,12 +446,15 @@ def test_a_model_and_calibration_load_as_the_command_does(toy):
 
 def test_the_shipped_model_runs_with_no_model_option(toy, tmp_path):
     """`viewadapt detect --calibration cam INPUT` uses the models shipped in the package:
-    bench frames' training on the paper preset's elevation-0 crops, recorded in the file."""
+    bench frames' training on the elevation-0 crops of the paper preset rendered through the
+    surveillance camera effects, under the regularised recipe, recorded in the file."""
     path = shipped_model_path()
     assert path.is_file() and path.stat().st_size < 200_000
     shipped = SourceDetectors.load(path)
-    assert shipped.training["dataset"]["preset"] == "paper"
-    assert shipped.training["dataset"]["elevations"] == [0.0]
+    data = shipped.training["dataset"]
+    assert data["preset"] == "paper" and data["camera_effects"] == "surveillance"
+    assert data["elevations"][shipped.training["source_index"]] == 0.0
+    assert shipped.training["recipe"]["name"] == "regularised"
     assert shipped.training["frame_view"] == "both" and not shipped.training["quick"]
     assert shipped.acf is not None and np.abs(shipped.hog_weights).sum() > 0
     out = tmp_path / "out"
