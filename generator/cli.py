@@ -78,12 +78,13 @@ def cmd_generate(args) -> int:
         over["framing"] = args.framing
     if getattr(args, "camera_effects", None) is not None:
         over["camera_effects"] = args.camera_effects
-    for name in ("samples", "instances", "persons", "scenes", "frames"):
+    for name in ("samples", "instances", "persons", "scenes", "frames", "backgrounds"):
         v = getattr(args, name, None)
         if v is not None:
             if v < 1:
                 raise ValueError(f"--{name} must be at least 1")
-            over[{"persons": "n_persons", "scenes": "n_scenes"}.get(name, name)] = v
+            over[{"persons": "n_persons", "scenes": "n_scenes",
+                  "backgrounds": "backgrounds_per_scene"}.get(name, name)] = v
     config = preset_config(args.preset, **over)
     shard = parse_shard(args.shard) if args.shard else None
     if args.jobs == 0 or args.jobs < -1:
@@ -139,9 +140,9 @@ def register(subparsers, common_parser: argparse.ArgumentParser) -> None:
                     "calibrated surveillance frames; write images, manifest.parquet/.csv, "
                     "frames_coco.json and dataset.json into --out. Rerunning with the same "
                     "--out finishes an interrupted run (every kept file is checked and a "
-                    "truncated or corrupt one rendered again) or, with a larger --frames, "
-                    "extends a finished one; dataset.json records the content hash of a "
-                    "complete set (the same for the same seed and settings).")
+                    "truncated or corrupt one rendered again) or, with a larger --frames "
+                    "or --backgrounds, extends a finished one; dataset.json records the "
+                    "content hash of a complete set (the same for the same seed and settings).")
     p.add_argument("--preset", choices=PRESET_NAMES, default="tiny",
                    help="dataset size (tiny: 6 persons x 3 scenes, ~1 min; demo: 18 x 9 at "
                         "elevations 0 and pi/4 only, for `viewadapt demo`; small: 24 x 9 x 2 "
@@ -163,6 +164,11 @@ def register(subparsers, common_parser: argparse.ArgumentParser) -> None:
                    help="calibrated surveillance frames in total, spread over the scenes "
                         "(presets: tiny 1, demo 1, small 9, paper 26); frame k of a scene is the "
                         "same whatever the total, so a larger --frames extends a set")
+    p.add_argument("--backgrounds", type=int,
+                   help="person-free background views per scene, each rendered at every "
+                        "elevation (presets: tiny 1, demo 3, small 3, paper 7); view k of a "
+                        "scene is the same whatever the number, so a larger --backgrounds "
+                        "extends a set")
     p.add_argument("--camera-effects", choices=CAMERA_EFFECT_NAMES,
                    help="camera effects every image passes through before it is written, "
                         "each image its own draw, recorded in the manifest's camera_effects "

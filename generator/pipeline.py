@@ -15,9 +15,10 @@ manifest always covers every finished unit of the whole plan, so the last shard 
 Resuming (:mod:`generator.resume`): a unit whose part file exists and whose files all pass
 a full check (:func:`generator.png.png_problem`; depth maps read back) is skipped, a bad
 file is removed and rendered again; inside an unfinished unit every sound image already on
-disk is kept and only the rest is rendered; a larger ``frames`` extends a finished set. Person
-crops also get a depth map of the posed body (``depth/``, numpy, no rendering): a dataset
-rendered before depth maps existed gets them from a rerun, without re-rendering.
+disk is kept and only the rest is rendered; a larger ``frames`` or
+``backgrounds_per_scene`` extends a finished set. Person crops also get a depth map of the
+posed body (``depth/``, numpy, no rendering): a dataset rendered before depth maps existed
+gets them from a rerun, without re-rendering.
 
 Camera effects (``config.camera_effects``, :mod:`generator.camera_effects`): with them on,
 every image is rendered to a hidden raw file, passed through its own draw of the effects
@@ -360,7 +361,8 @@ def generate(config: GeneratorConfig, seed: int, out, *, jobs: int = 1, shard=No
              scheduler: str | None = None, progress: bool = True, scene_dir=None,
              roster=None, threads: int | None = None, log=None,
              overwrite: bool = False) -> GenerateResult:
-    """Generate (or finish, or extend by more frames) a dataset in ``out``.
+    """Generate (or finish, or extend by more frames or background views) a dataset in
+    ``out``.
 
     Parameters
     ----------

@@ -1,10 +1,11 @@
 """Resuming a dataset: which settings may change, which kept files are sound, what is kept.
 
 ``viewadapt generate`` into a directory that already holds a dataset finishes it (or
-extends it by more frames): :func:`check_resumable` names every setting that differs;
-:func:`check_finished_unit` checks each file a finished work unit kept (a full PNG check,
-:func:`generator.png.png_problem`; depth maps read back) and removes the bad ones so they
-are rendered again; :func:`count_kept_images` says what an interrupted run leaves.
+extends it by more frames or background views): :func:`check_resumable` names every
+setting that differs; :func:`check_finished_unit` checks each file a finished work unit
+kept (a full PNG check, :func:`generator.png.png_problem`; depth maps read back) and
+removes the bad ones so they are rendered again; :func:`count_kept_images` says what an
+interrupted run leaves.
 """
 
 from __future__ import annotations
@@ -20,7 +21,7 @@ from .camera_effects import NO_EFFECTS
 from .png import normalize_png, png_problem
 from .sampling import GeneratorConfig
 
-__all__ = ["OPTION_NAMES", "config_differences", "check_resumable", "image_size",
+__all__ = ["OPTION_NAMES", "EXTENSIBLE", "config_differences", "check_resumable", "image_size",
            "check_image", "check_depth", "check_finished_unit", "count_kept_images",
            "pending_units", "remove_if_nothing_kept", "interrupted"]
 
@@ -28,7 +29,13 @@ __all__ = ["OPTION_NAMES", "config_differences", "check_resumable", "image_size"
 OPTION_NAMES = {"preset": "--preset", "n_persons": "--persons", "n_scenes": "--scenes",
                 "instances": "--instances", "elevations": "--elevations",
                 "framing": "--framing", "renderer": "--renderer", "samples": "--samples",
-                "frames": "--frames", "camera_effects": "--camera-effects"}
+                "frames": "--frames", "backgrounds_per_scene": "--backgrounds",
+                "camera_effects": "--camera-effects"}
+
+#: settings a finished dataset can be extended by (item k of a scene is the same whatever
+#: their number: frames and background views are seeded per scene and index)
+EXTENSIBLE = {"frames": ("frames", "frames"),
+              "backgrounds_per_scene": ("background views per scene", "background views")}
 
 
 def _normalised(config: dict) -> dict:
@@ -63,19 +70,20 @@ def config_differences(old: dict, new: dict) -> list[tuple[str, object, object]]
 
 def check_resumable(old: dict, new: dict, out) -> bool:
     """Raise ``ValueError`` naming each setting that differs between the dataset in
-    ``out`` (``old``) and this run (``new``), unless only ``frames`` grew (frame k of a
-    scene is the same whatever the total, so more frames extend the set). Returns True
-    when the run extends the set."""
+    ``out`` (``old``) and this run (``new``), unless only settings of :data:`EXTENSIBLE`
+    grew (frame k and background view k of a scene are the same whatever their number, so
+    more of them extend the set). Returns True when the run extends the set."""
     diffs = config_differences(old, new)
     if not diffs:
         return False
-    if [d[0] for d in diffs] == ["frames"]:
-        _, have, want = diffs[0]
-        if isinstance(have, int) and isinstance(want, int) and want > have:
-            return True
-        raise ValueError(f"{out} holds a dataset of {have} frames; --frames {want} would "
-                         f"leave frames out (frames can only be added): pass --frames {have} "
-                         "or more, or choose another --out")
+    if all(k in EXTENSIBLE for k, _, _ in diffs):
+        for k, have, want in diffs:
+            if not (isinstance(have, int) and isinstance(want, int) and want > have):
+                opt, (counted, noun) = OPTION_NAMES[k], EXTENSIBLE[k]
+                raise ValueError(f"{out} holds a dataset of {have} {counted}; {opt} {want} "
+                                 f"would leave {noun} out ({noun} can only be added): pass "
+                                 f"{opt} {have} or more, or choose another --out")
+        return True
     shown = []
     for k, have, want in diffs:
         opt = "--seed" if k == "seed" else OPTION_NAMES.get(k, f"config field {k!r}")

@@ -487,6 +487,27 @@ def test_a_larger_frames_extends_a_set_and_other_changes_are_named(micro, tmp_pa
 
 @pytest.mark.blender
 @pytest.mark.filterwarnings("ignore:tostring.. is deprecated:DeprecationWarning")
+def test_more_background_views_extend_a_set_as_if_rendered_at_once(micro, tmp_path):
+    from generator.pipeline import generate
+
+    grown, direct = tmp_path / "grown", tmp_path / "direct"
+    shutil.copytree(micro, grown)
+    res = generate(_micro_config(backgrounds_per_scene=2), 3, grown, jobs=0, progress=False)
+    assert res.complete and res.n_rendered == 3            # the new view, every elevation
+    assert generate(_micro_config(backgrounds_per_scene=2), 3, direct, jobs=0,
+                    progress=False).complete
+    files = lambda root: {p.relative_to(root).as_posix(): p.read_bytes()
+                          for p in sorted(root.rglob("*")) if p.is_file()}
+    want, got = files(direct), files(grown)
+    assert want.keys() == got.keys()
+    assert [k for k in want if want[k] != got[k]] == []
+    assert all(got[k] == v for k, v in files(micro).items() if k.endswith(".png"))
+    with pytest.raises(ValueError, match="background views can only be added"):
+        generate(_micro_config(), 3, grown, jobs=0, progress=False)
+
+
+@pytest.mark.blender
+@pytest.mark.filterwarnings("ignore:tostring.. is deprecated:DeprecationWarning")
 def test_a_config_field_of_the_wrong_type_is_named(micro, tmp_path, capsys):
     from generator.sampling import GeneratorConfig
 

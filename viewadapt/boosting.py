@@ -96,6 +96,11 @@ class AdaBoostTrees(ClassifierMixin, BaseEstimator):
         demo, draws per node).
     random_state : int, numpy.random.Generator, RandomState or None
         Seeds the feature subsets; unused when all features are considered.
+    learning_rate : float
+        Shrinkage :math:`\\nu \\in (0, 1]` (Friedman 2001, "Greedy function approximation",
+        Sec. 5): each tree's leaf outputs are multiplied by :math:`\\nu` before they enter
+        :math:`H`, so the sample weights move more slowly from tree to tree. 1 (the
+        default) is plain AdaBoost, as the toolbox trains.
 
     Attributes
     ----------
@@ -150,7 +155,7 @@ class AdaBoostTrees(ClassifierMixin, BaseEstimator):
 
     def __init__(self, *, n_estimators=2048, max_depth=2, stages=(32, 128, 512, 2048),
                  cascade_threshold=-1.0, algorithm="real", max_bins=256,
-                 max_features=1.0, random_state=None):
+                 max_features=1.0, random_state=None, learning_rate=1.0):
         self.n_estimators = n_estimators
         self.max_depth = max_depth
         self.stages = stages
@@ -159,6 +164,7 @@ class AdaBoostTrees(ClassifierMixin, BaseEstimator):
         self.max_bins = max_bins
         self.max_features = max_features
         self.random_state = random_state
+        self.learning_rate = learning_rate
 
     def __sklearn_tags__(self):
         tags = super().__sklearn_tags__()
@@ -197,6 +203,9 @@ class AdaBoostTrees(ClassifierMixin, BaseEstimator):
         elif not (0.0 < mf <= 1.0):
             raise ValueError(f"max_features must be a fraction in (0, 1] or a positive "
                              f"integer, got {mf!r}")
+        lr = self.learning_rate
+        if isinstance(lr, bool) or not isinstance(lr, numbers.Real) or not 0.0 < lr <= 1.0:
+            raise ValueError(f"learning_rate must be a number in (0, 1], got {lr!r}")
         return T, depth, stages, n_bins
 
     # ------------------------------------------------------------------ training
@@ -266,6 +275,8 @@ class AdaBoostTrees(ClassifierMixin, BaseEstimator):
                 if alpha <= 0:
                     break
                 v_t = v_t * alpha
+            if self.learning_rate != 1.0:
+                v_t = v_t * float(self.learning_rate)
             feature[t] = f_t
             internal = f_t >= 0
             threshold[t, internal] = edges[f_t[internal], b_t[internal] - 1]

@@ -70,6 +70,9 @@ def main(argv=None) -> int:
                     help="comma-separated tree budgets (default 256,512,1024,2048)")
     ap.add_argument("--no-colour", action="store_true",
                     help="zero the LUV channels of every training window")
+    ap.add_argument("--learning-rate", type=float, default=1.0, metavar="NU",
+                    help="shrinkage of every tree's outputs, in (0, 1] (default 1: plain "
+                    "AdaBoost, as bench frames trains)")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--quick", action="store_true", help="smaller detectors (tests)")
     args = ap.parse_args(argv)
@@ -79,6 +82,8 @@ def main(argv=None) -> int:
         ap.error(f"--trees must be comma-separated integers, got {args.trees!r}")
     if budgets[0] < 1:
         ap.error(f"every tree budget must be at least 1, got {args.trees!r}")
+    if not 0.0 < args.learning_rate <= 1.0:
+        ap.error(f"--learning-rate must be in (0, 1], got {args.learning_rate!r}")
     check_output_dir(args.out)
     ds = load_dataset(args.data)
     pos, neg = source_training_windows(ds)
@@ -87,13 +92,15 @@ def main(argv=None) -> int:
     if args.no_colour:
         per_channel = X.shape[1] // ACF_DETECTOR.features.shape[0]   # channel-major
         X[:, :COLOUR_CHANNELS * per_channel] = 0
-    trees = acf_trees(seed=args.seed, quick=args.quick, n_estimators=budgets[-1]).fit(X, y)
+    trees = acf_trees(seed=args.seed, quick=args.quick, n_estimators=budgets[-1],
+                      learning_rate=args.learning_rate).fit(X, y)
     kept = [b for b in budgets if b <= trees.n_estimators_]
     if trees.n_estimators_ not in kept:
         kept.append(trees.n_estimators_)
     training = dict(base.training, recipe=get_recipe(DEFAULT_RECIPE).to_dict(),
                     dataset=dataset_provenance(ds),
-                    acf_budget=dict(no_colour=args.no_colour, trained=trees.n_estimators_))
+                    acf_budget=dict(no_colour=args.no_colour, trained=trees.n_estimators_,
+                                   learning_rate=args.learning_rate))
     with atomic_output_dir(args.out) as tmp:
         for n in kept:
             model = replace(base, acf=truncated_trees(trees, n),
@@ -103,7 +110,7 @@ def main(argv=None) -> int:
         (tmp / "acf_budget.json").write_text(json.dumps(dict(
             budgets=budgets, saved=kept, trained=int(trees.n_estimators_),
             final_train_loss=float(np.asarray(trees.train_loss_)[-1]),
-            no_colour=args.no_colour, seed=args.seed, positives=int(y.sum()),
+            no_colour=args.no_colour, learning_rate=args.learning_rate, seed=args.seed, positives=int(y.sum()),
             negatives=int((y == 0).sum())), indent=1) + "\n")
     print(f"trained {trees.n_estimators_} trees (asked {budgets[-1]}); wrote "
           f"{', '.join(f'trees_{n}' for n in kept)} into {args.out}")

@@ -277,6 +277,10 @@ def test_rejects_multiclass_one_class_and_continuous_targets():
     (dict(n_estimators=8, stages=None, max_features=0.0), "max_features"),
     (dict(n_estimators=8, stages=None, max_features=1.5), "max_features"),
     (dict(n_estimators=8, stages=None, max_depth=0), "max_depth"),
+    (dict(n_estimators=8, stages=None, learning_rate=0.0), "learning_rate"),
+    (dict(n_estimators=8, stages=None, learning_rate=1.5), "learning_rate"),
+    (dict(n_estimators=8, stages=None, learning_rate=float("nan")), "learning_rate"),
+    (dict(n_estimators=8, stages=None, learning_rate=True), "learning_rate"),
 ])
 def test_rejects_bad_parameters_at_fit(params, match):
     X, y = _blobs(40, np.random.default_rng(12))
@@ -313,3 +317,21 @@ def test_training_stops_when_the_loss_vanishes():
     assert clf.train_loss_[-1] < 1e-40 <= clf.train_loss_[-2]
     assert clf.feature_.shape[0] == clf.n_estimators_
     assert len(list(clf.staged_decision_function(X))) == 2
+
+
+def test_shrinkage_scales_the_first_tree_and_slows_the_reweighting():
+    X, y = _blobs(200, np.random.default_rng(15), sep=1.0)
+    full = AdaBoostTrees(n_estimators=20, stages=None, random_state=0).fit(X, y)
+    slow = AdaBoostTrees(n_estimators=20, stages=None, random_state=0,
+                         learning_rate=0.25).fit(X, y)
+    # the first tree sees the same weights: the same splits, its outputs times nu
+    np.testing.assert_array_equal(slow.feature_[0], full.feature_[0])
+    np.testing.assert_allclose(slow.value_[0], 0.25 * full.value_[0], **EXACT)
+    # after it the weights differ, and the training loss falls more slowly
+    assert slow.train_loss_[0] > full.train_loss_[0]
+    assert slow.train_loss_[-1] > full.train_loss_[-1]
+    # shrinkage is kept in the model's parameters and survives a save
+    params, arrays = slow.to_arrays()
+    assert params["learning_rate"] == 0.25
+    back = AdaBoostTrees.from_arrays(params, arrays)
+    np.testing.assert_array_equal(back.decision_function(X), slow.decision_function(X))

@@ -50,3 +50,19 @@ def test_without_colour_no_tree_reads_a_colour_channel(toy, tmp_path):
     for bad in ("0", "8,x"):
         with pytest.raises(SystemExit):
             main(["--data", str(toy), "--out", str(tmp_path / "bad"), "--trees", bad])
+
+
+def test_learning_rate_shrinks_every_tree_and_is_recorded(toy, tmp_path):
+    plain, slow = tmp_path / "plain", tmp_path / "slow"
+    assert main(["--data", str(toy), "--out", str(plain), "--trees", "8", "--quick"]) == 0
+    assert main(["--data", str(toy), "--out", str(slow), "--trees", "8", "--quick",
+                 "--learning-rate", "0.5"]) == 0
+    rec = json.loads((slow / "acf_budget.json").read_text())
+    a = SourceDetectors.load(plain / "trees_8" / "source_detectors.npz").acf
+    b = SourceDetectors.load(slow / "trees_8" / "source_detectors.npz").acf
+    assert rec["learning_rate"] == 0.5 and b.learning_rate == 0.5 and a.learning_rate == 1.0
+    # the same first split, its outputs halved; the training record names the rate
+    assert np.array_equal(a.feature_[0], b.feature_[0])
+    assert np.allclose(b.value_[0], 0.5 * a.value_[0])
+    with pytest.raises(SystemExit):
+        main(["--data", str(toy), "--out", str(tmp_path / "bad"), "--learning-rate", "0"])
