@@ -73,6 +73,8 @@ def main(argv=None) -> int:
     ap.add_argument("--learning-rate", type=float, default=1.0, metavar="NU",
                     help="shrinkage of every tree's outputs, in (0, 1] (default 1: plain "
                     "AdaBoost, as bench frames trains)")
+    ap.add_argument("--depth", type=int, default=2,
+                    help="depth of every tree (default 2, as bench frames and the toolbox)")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--quick", action="store_true", help="smaller detectors (tests)")
     args = ap.parse_args(argv)
@@ -82,6 +84,8 @@ def main(argv=None) -> int:
         ap.error(f"--trees must be comma-separated integers, got {args.trees!r}")
     if budgets[0] < 1:
         ap.error(f"every tree budget must be at least 1, got {args.trees!r}")
+    if not 1 <= args.depth <= 8:
+        ap.error(f"--depth must be 1 to 8, got {args.depth!r}")
     if not 0.0 < args.learning_rate <= 1.0:
         ap.error(f"--learning-rate must be in (0, 1], got {args.learning_rate!r}")
     check_output_dir(args.out)
@@ -93,14 +97,14 @@ def main(argv=None) -> int:
         per_channel = X.shape[1] // ACF_DETECTOR.features.shape[0]   # channel-major
         X[:, :COLOUR_CHANNELS * per_channel] = 0
     trees = acf_trees(seed=args.seed, quick=args.quick, n_estimators=budgets[-1],
-                      learning_rate=args.learning_rate).fit(X, y)
+                      learning_rate=args.learning_rate, max_depth=args.depth).fit(X, y)
     kept = [b for b in budgets if b <= trees.n_estimators_]
     if trees.n_estimators_ not in kept:
         kept.append(trees.n_estimators_)
     training = dict(base.training, recipe=get_recipe(DEFAULT_RECIPE).to_dict(),
                     dataset=dataset_provenance(ds),
                     acf_budget=dict(no_colour=args.no_colour, trained=trees.n_estimators_,
-                                   learning_rate=args.learning_rate))
+                                   learning_rate=args.learning_rate, depth=args.depth))
     with atomic_output_dir(args.out) as tmp:
         for n in kept:
             model = replace(base, acf=truncated_trees(trees, n),
@@ -110,7 +114,8 @@ def main(argv=None) -> int:
         (tmp / "acf_budget.json").write_text(json.dumps(dict(
             budgets=budgets, saved=kept, trained=int(trees.n_estimators_),
             final_train_loss=float(np.asarray(trees.train_loss_)[-1]),
-            no_colour=args.no_colour, learning_rate=args.learning_rate, seed=args.seed, positives=int(y.sum()),
+            no_colour=args.no_colour, learning_rate=args.learning_rate, depth=args.depth,
+            seed=args.seed, positives=int(y.sum()),
             negatives=int((y == 0).sum())), indent=1) + "\n")
     print(f"trained {trees.n_estimators_} trees (asked {budgets[-1]}); wrote "
           f"{', '.join(f'trees_{n}' for n in kept)} into {args.out}")

@@ -8,22 +8,13 @@ from generator.sampling import plan_dataset, preset_config
 from generator.specs import load_roster, load_scenes
 
 
-@pytest.fixture(scope="module")
-def scenes():
-    return load_scenes()
-
-
-@pytest.fixture(scope="module")
-def roster():
-    return load_roster()
-
-
 def _meta(seed=0, **config):
     return {"format": "viewadapt-dataset", "seed": seed,
             "config": preset_config("tiny", **config).to_dict()}
 
 
-def test_more_background_views_extend_the_plan_and_keep_the_first(scenes, roster):
+def test_more_background_views_extend_the_plan_and_keep_the_first():
+    scenes, roster = load_scenes(), load_roster()
     few = plan_dataset(preset_config("tiny"), 0, scenes=scenes, persons=roster)
     more = plan_dataset(preset_config("tiny", backgrounds_per_scene=4), 0, scenes=scenes,
                         persons=roster)

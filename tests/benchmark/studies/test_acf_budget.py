@@ -66,3 +66,15 @@ def test_learning_rate_shrinks_every_tree_and_is_recorded(toy, tmp_path):
     assert np.allclose(b.value_[0], 0.5 * a.value_[0])
     with pytest.raises(SystemExit):
         main(["--data", str(toy), "--out", str(tmp_path / "bad"), "--learning-rate", "0"])
+
+
+def test_depth_one_trains_stumps(toy, tmp_path):
+    out = tmp_path / "stumps"
+    assert main(["--data", str(toy), "--out", str(out), "--trees", "8", "--quick",
+                 "--depth", "1"]) == 0
+    rec = json.loads((out / "acf_budget.json").read_text())
+    m = SourceDetectors.load(out / "trees_8" / "source_detectors.npz").acf
+    assert rec["depth"] == 1 and m.max_depth == 1 and m.feature_.shape[1] == 3
+    assert (m.feature_[:, 0] >= 0).all() and (m.feature_[:, 1:] == -1).all()
+    with pytest.raises(SystemExit):
+        main(["--data", str(toy), "--out", str(tmp_path / "bad"), "--depth", "0"])
