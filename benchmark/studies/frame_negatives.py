@@ -20,6 +20,13 @@ person-free windows it draws, per person, up to ``--per-person`` candidate windo
 IoU with that person lies in ``--iou`` and with no person above it
 (:func:`misframed_windows`), rectified the same way.
 
+``--hard-from MODEL`` tests a third, the toolbox's bootstrapping (Dalal & Triggs 2005;
+Dollar et al. 2014 train ACF in rounds, each adding the negatives the detector of the round
+before scores highest): instead of a random draw, the ``--per-frame`` person-free windows
+of each frame that ``MODEL``'s adapted ``--hard-kind`` detector scores highest
+(:func:`hard_negative_windows`), rectified the same way; the models are then trained
+again from scratch with them.
+
 Writes ``source_detectors.npz`` (the models, their training record naming the added set)
 and ``frame_negatives.json`` (per frame: candidates, kept, drawn) into ``--out``; compare
 the models with ``bench frames --model`` or on a real clip with
@@ -37,7 +44,7 @@ import pandas as pd
 
 from viewadapt.boxes import box_iou
 
-__all__ = ["frame_negative_windows", "misframed_windows", "main"]
+__all__ = ["frame_negative_windows", "hard_negative_windows", "misframed_windows", "main"]
 
 
 def _candidates_inside(frame):
@@ -82,6 +89,46 @@ def frame_negative_windows(frames, *, per_frame: int, max_iou: float = 0.1,
                        "person_free": int(free.sum()), "drawn": int(len(drawn))})
     meta = pd.DataFrame(meta, columns=["path", "person_id", "scene_id", "instance", "x", "y"])
     key = f"frame_negatives|n{per_frame}|iou{max_iou:g}|h{min_height:g}|s{seed}"
+    return WindowSet(key, items, meta.assign(label=0)), report
+
+
+def hard_negative_windows(frames, models, *, kind: str = "acf", per_frame: int,
+                          max_iou: float = 0.1):
+    """A :class:`~benchmark.crops.features.WindowSet` of the person-free candidate windows
+    of rendered frames that the adapted detector ``kind`` of ``models``
+    (:class:`~viewadapt.io.SourceDetectors`) scores highest: per frame, of the windows
+    inside the frame whose person box overlaps every person below ``max_iou``, the
+    ``per_frame`` of highest score (ties: the earlier window), each rectified to the
+    canonical window by its homography; and one row per frame of what was kept (with the
+    lowest score kept)."""
+    from benchmark.crops.features import WindowSet
+    from viewadapt.detect import FrameDetector
+
+    items, meta, report = [], [], []
+    for f in frames:
+        det = FrameDetector(f.camera, models)
+        op = det.operator(kind)
+        scores = np.asarray(op.scores(op.frame_features(f.image())), float)
+        cw = det.windows
+        corners = cw.window_corners()
+        w, h = f.camera.image_size
+        boxes = cw.person_boxes()
+        free = ((corners[..., 0] >= 0) & (corners[..., 0] <= w - 1)
+                & (corners[..., 1] >= 0) & (corners[..., 1] <= h - 1)).all(axis=1)
+        if len(f.gt):
+            free &= box_iou(boxes, f.gt).max(axis=1) < max_iou
+        idx = np.flatnonzero(free)
+        top = idx[np.argsort(-scores[idx], kind="stable")[:per_frame]]
+        for j in np.sort(top):
+            items.append((Path(f.path), np.asarray(cw.homographies[j], float)))
+            meta.append((str(f.path), "", f.scene_id, int(f.image_id),
+                         float(boxes[j, 0]), float(boxes[j, 1])))
+        report.append({"frame": Path(f.path).name, "scene_id": f.scene_id,
+                       "candidates": len(cw), "person_free": int(free.sum()),
+                       "drawn": int(len(top)),
+                       "lowest_score": float(scores[top].min()) if len(top) else None})
+    meta = pd.DataFrame(meta, columns=["path", "person_id", "scene_id", "instance", "x", "y"])
+    key = f"hard_negatives|{kind}|{models.fingerprint()}|n{per_frame}|iou{max_iou:g}"
     return WindowSet(key, items, meta.assign(label=0)), report
 
 
@@ -147,6 +194,11 @@ def main(argv=None) -> int:
                     help="with --misframed: the IoU band (default 0.15 0.4)")
     ap.add_argument("--per-person", type=int, default=40,
                     help="with --misframed: windows drawn per person (default 40)")
+    ap.add_argument("--hard-from", type=Path, metavar="MODEL",
+                    help="instead, each frame's --per-frame person-free windows that this "
+                         "source-detector file's adapted --hard-kind detector scores highest")
+    ap.add_argument("--hard-kind", choices=("hog", "acf"), default="acf",
+                    help="with --hard-from: the detector that scores them (default acf)")
     ap.add_argument("--recipe", default=DEFAULT_RECIPE)
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--quick", action="store_true", help="smaller detectors (tests)")
@@ -157,7 +209,18 @@ def main(argv=None) -> int:
     check_output_dir(args.out)
     ds = load_dataset(args.data)
     frames = load_frames(args.data)
-    if args.misframed:
+    if args.misframed and args.hard_from:
+        ap.error("--misframed and --hard-from are two different tests: give one")
+    if args.hard_from:
+        from viewadapt.io import SourceDetectors
+
+        negs, report = hard_negative_windows(frames, SourceDetectors.load(args.hard_from),
+                                             kind=args.hard_kind, per_frame=args.per_frame,
+                                             max_iou=args.max_iou)
+        min_height = 0.0
+        settings = {"hard_from": str(args.hard_from), "hard_kind": args.hard_kind,
+                    "per_frame": args.per_frame, "max_iou": args.max_iou}
+    elif args.misframed:
         min_height = 40.0 if args.min_height is None else args.min_height
         try:
             negs, report = misframed_windows(frames, iou=args.iou, per_person=args.per_person,

@@ -88,3 +88,45 @@ def test_main_trains_with_the_added_negatives(toy, tmp_path):
     with pytest.raises(SystemExit):
         main(["--data", str(toy), "--out", str(tmp_path / "o3"), "--misframed", "--iou",
               "0.4", "0.2"])
+
+
+def test_hard_negatives_are_the_highest_scored_person_free_windows(toy, tmp_path):
+    from benchmark.frames.methods import train_source_detectors
+    from benchmark.data import load_dataset
+    from benchmark.studies.frame_negatives import hard_negative_windows
+    from viewadapt.detect import FrameDetector
+
+    frames = load_frames(toy)
+    models = train_source_detectors(load_dataset(toy), quick=True)
+    ws, report = hard_negative_windows(frames, models, kind="acf", per_frame=15)
+    assert len(ws) == sum(r["drawn"] for r in report) > 0
+    by_path = {str(f.path): f for f in frames}
+    for path in {str(p) for p, _ in ws.items}:
+        f = by_path[path]
+        det = FrameDetector(f.camera, models)
+        op = det.operator("acf")
+        s = np.asarray(op.scores(op.frame_features(f.image())), float)
+        kept = [H for p, H in ws.items if str(p) == path]
+        j = [int(np.flatnonzero(np.all(np.isclose(det.windows.homographies, H),
+                                       axis=(1, 2)))[0]) for H in kept]
+        boxes = det.windows.person_boxes()
+        free = np.ones(len(s), bool)
+        if len(f.gt):
+            free = box_iou(boxes, f.gt).max(axis=1) < 0.1
+            assert free[j].all()
+        # no person-free window inside the frame outscores the lowest one kept
+        w, h = f.camera.image_size
+        c = det.windows.window_corners()
+        inside = ((c[..., 0] >= 0) & (c[..., 0] <= w - 1) & (c[..., 1] >= 0)
+                  & (c[..., 1] <= h - 1)).all(axis=1)
+        others = np.setdiff1d(np.flatnonzero(free & inside), j)
+        assert len(j) == 15 and (s[others] <= s[j].min()).all()
+    out = tmp_path / "hard"
+    models.save(tmp_path / "m.npz")
+    assert main(["--data", str(toy), "--out", str(out), "--hard-from", str(tmp_path / "m.npz"),
+                 "--per-frame", "10", "--quick"]) == 0
+    rec = json.loads((out / "frame_negatives.json").read_text())
+    assert rec["hard_kind"] == "acf" and rec["negatives"] > 0
+    with pytest.raises(SystemExit):
+        main(["--data", str(toy), "--out", str(tmp_path / "o4"), "--hard-from",
+              str(tmp_path / "m.npz"), "--misframed"])
