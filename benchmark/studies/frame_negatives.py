@@ -211,6 +211,9 @@ def main(argv=None) -> int:
     frames = load_frames(args.data)
     if args.misframed and args.hard_from:
         ap.error("--misframed and --hard-from are two different tests: give one")
+    if args.hard_from and args.min_height is not None:
+        ap.error("--min-height applies to the random and --misframed draws, not to "
+                 "--hard-from")
     if args.hard_from:
         from viewadapt.io import SourceDetectors
 

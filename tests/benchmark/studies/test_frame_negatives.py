@@ -130,3 +130,6 @@ def test_hard_negatives_are_the_highest_scored_person_free_windows(toy, tmp_path
     with pytest.raises(SystemExit):
         main(["--data", str(toy), "--out", str(tmp_path / "o4"), "--hard-from",
               str(tmp_path / "m.npz"), "--misframed"])
+    with pytest.raises(SystemExit):
+        main(["--data", str(toy), "--out", str(tmp_path / "o5"), "--hard-from",
+              str(tmp_path / "m.npz"), "--min-height", "40"])
