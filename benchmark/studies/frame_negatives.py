@@ -93,14 +93,15 @@ def frame_negative_windows(frames, *, per_frame: int, max_iou: float = 0.1,
 
 
 def hard_negative_windows(frames, models, *, kind: str = "acf", per_frame: int,
-                          max_iou: float = 0.1):
+                          max_iou: float = 0.1, min_height: float = 0.0):
     """A :class:`~benchmark.crops.features.WindowSet` of the person-free candidate windows
     of rendered frames that the adapted detector ``kind`` of ``models``
     (:class:`~viewadapt.io.SourceDetectors`) scores highest: per frame, of the windows
     inside the frame whose person box overlaps every person below ``max_iou``, the
     ``per_frame`` of highest score (ties: the earlier window), each rectified to the
     canonical window by its homography; and one row per frame of what was kept (with the
-    lowest score kept)."""
+    lowest score kept). ``min_height``: only windows whose person box is at least this tall
+    (frame px), as in :func:`frame_negative_windows`."""
     from benchmark.crops.features import WindowSet
     from viewadapt.detect import FrameDetector
 
@@ -115,6 +116,7 @@ def hard_negative_windows(frames, models, *, kind: str = "acf", per_frame: int,
         boxes = cw.person_boxes()
         free = ((corners[..., 0] >= 0) & (corners[..., 0] <= w - 1)
                 & (corners[..., 1] >= 0) & (corners[..., 1] <= h - 1)).all(axis=1)
+        free &= boxes[:, 3] >= min_height
         if len(f.gt):
             free &= box_iou(boxes, f.gt).max(axis=1) < max_iou
         idx = np.flatnonzero(free)
@@ -128,7 +130,8 @@ def hard_negative_windows(frames, models, *, kind: str = "acf", per_frame: int,
                        "drawn": int(len(top)),
                        "lowest_score": float(scores[top].min()) if len(top) else None})
     meta = pd.DataFrame(meta, columns=["path", "person_id", "scene_id", "instance", "x", "y"])
-    key = f"hard_negatives|{kind}|{models.fingerprint()}|n{per_frame}|iou{max_iou:g}"
+    key = (f"hard_negatives|{kind}|{models.fingerprint()}|n{per_frame}|iou{max_iou:g}"
+           f"|h{min_height:g}")
     return WindowSet(key, items, meta.assign(label=0)), report
 
 
@@ -211,16 +214,13 @@ def main(argv=None) -> int:
     frames = load_frames(args.data)
     if args.misframed and args.hard_from:
         ap.error("--misframed and --hard-from are two different tests: give one")
-    if args.hard_from and args.min_height is not None:
-        ap.error("--min-height applies to the random and --misframed draws, not to "
-                 "--hard-from")
     if args.hard_from:
         from viewadapt.io import SourceDetectors
 
+        min_height = 0.0 if args.min_height is None else args.min_height
         negs, report = hard_negative_windows(frames, SourceDetectors.load(args.hard_from),
                                              kind=args.hard_kind, per_frame=args.per_frame,
-                                             max_iou=args.max_iou)
-        min_height = 0.0
+                                             max_iou=args.max_iou, min_height=min_height)
         settings = {"hard_from": str(args.hard_from), "hard_kind": args.hard_kind,
                     "per_frame": args.per_frame, "max_iou": args.max_iou}
     elif args.misframed:

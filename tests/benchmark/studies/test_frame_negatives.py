@@ -130,6 +130,7 @@ def test_hard_negatives_are_the_highest_scored_person_free_windows(toy, tmp_path
     with pytest.raises(SystemExit):
         main(["--data", str(toy), "--out", str(tmp_path / "o4"), "--hard-from",
               str(tmp_path / "m.npz"), "--misframed"])
-    with pytest.raises(SystemExit):
-        main(["--data", str(toy), "--out", str(tmp_path / "o5"), "--hard-from",
-              str(tmp_path / "m.npz"), "--min-height", "40"])
+    tall, rep = hard_negative_windows(frames, models, kind="acf", per_frame=15,
+                                      min_height=60)
+    assert 0 < len(tall) <= len(ws)
+    assert (person_boxes(np.stack([H for _, H in tall.items]))[:, 3] >= 60).all()
