@@ -275,8 +275,7 @@ class AdaBoostTrees(ClassifierMixin, BaseEstimator):
                 if alpha <= 0:
                     break
                 v_t = v_t * alpha
-            if self.learning_rate != 1.0:
-                v_t = v_t * float(self.learning_rate)
+            v_t = v_t * float(self.learning_rate)          # x 1.0 is exact: plain AdaBoost
             feature[t] = f_t
             internal = f_t >= 0
             threshold[t, internal] = edges[f_t[internal], b_t[internal] - 1]

@@ -47,17 +47,30 @@ from viewadapt.boxes import box_iou
 __all__ = ["frame_negative_windows", "hard_negative_windows", "misframed_windows", "main"]
 
 
+def _inside(cw, image_size) -> np.ndarray:
+    """Which of the candidate windows ``cw`` have all four corners inside a frame of
+    ``image_size`` (width, height)."""
+    w, h = image_size
+    corners = cw.window_corners()
+    return ((corners[..., 0] >= 0) & (corners[..., 0] <= w - 1)
+            & (corners[..., 1] >= 0) & (corners[..., 1] <= h - 1)).all(axis=1)
+
+
 def _candidates_inside(frame):
     """A rendered frame's candidate windows (those the adapted detector scores), which of
     them lie inside the frame, and their person boxes."""
     from viewadapt.detect import select_candidate_windows
 
-    w, h = frame.camera.image_size
-    cw = select_candidate_windows(frame.camera, (w, h))
-    corners = cw.window_corners()
-    inside = ((corners[..., 0] >= 0) & (corners[..., 0] <= w - 1)
-              & (corners[..., 1] >= 0) & (corners[..., 1] <= h - 1)).all(axis=1)
-    return cw, inside, cw.person_boxes()
+    cw = select_candidate_windows(frame.camera, frame.camera.image_size)
+    return cw, _inside(cw, frame.camera.image_size), cw.person_boxes()
+
+
+def _add_rectified(items, meta, frame, cw, boxes, j) -> None:
+    """Append candidate window ``j`` of ``frame`` (its homography: the rectification) to a
+    window set's ``items`` and ``meta`` rows."""
+    items.append((Path(frame.path), np.asarray(cw.homographies[j], float)))
+    meta.append((str(frame.path), "", frame.scene_id, int(frame.image_id),
+                 float(boxes[j, 0]), float(boxes[j, 1])))
 
 
 def frame_negative_windows(frames, *, per_frame: int, max_iou: float = 0.1,
@@ -80,9 +93,7 @@ def frame_negative_windows(frames, *, per_frame: int, max_iou: float = 0.1,
         rng = np.random.default_rng([int(seed), i])
         drawn = np.sort(rng.choice(idx, size=min(per_frame, len(idx)), replace=False))
         for j in drawn:
-            items.append((Path(f.path), np.asarray(cw.homographies[j], float)))
-            meta.append((str(f.path), "", f.scene_id, int(f.image_id),
-                         float(boxes[j, 0]), float(boxes[j, 1])))
+            _add_rectified(items, meta, f, cw, boxes, j)
         report.append({"frame": Path(f.path).name, "scene_id": f.scene_id,
                        "candidates": len(cw), "inside": int(inside.sum()),
                        "tall_enough": int((inside & (boxes[:, 3] >= min_height)).sum()),
@@ -101,30 +112,32 @@ def hard_negative_windows(frames, models, *, kind: str = "acf", per_frame: int,
     ``per_frame`` of highest score (ties: the earlier window), each rectified to the
     canonical window by its homography; and one row per frame of what was kept (with the
     lowest score kept). ``min_height``: only windows whose person box is at least this tall
-    (frame px), as in :func:`frame_negative_windows`."""
+    (frame px), as in :func:`frame_negative_windows`. Frames seen by the same camera (a
+    scene's frames) share one detector and its operator."""
+    import json
+
     from benchmark.crops.features import WindowSet
     from viewadapt.detect import FrameDetector
 
     items, meta, report = [], [], []
+    detectors = {}
     for f in frames:
-        det = FrameDetector(f.camera, models)
-        op = det.operator(kind)
+        key = json.dumps(f.camera.to_dict(), sort_keys=True)
+        if key not in detectors:
+            det = FrameDetector(f.camera, models)
+            cw = det.windows
+            boxes = cw.person_boxes()
+            detectors[key] = (det.operator(kind), cw, boxes,
+                              _inside(cw, f.camera.image_size) & (boxes[:, 3] >= min_height))
+        op, cw, boxes, eligible = detectors[key]
         scores = np.asarray(op.scores(op.frame_features(f.image())), float)
-        cw = det.windows
-        corners = cw.window_corners()
-        w, h = f.camera.image_size
-        boxes = cw.person_boxes()
-        free = ((corners[..., 0] >= 0) & (corners[..., 0] <= w - 1)
-                & (corners[..., 1] >= 0) & (corners[..., 1] <= h - 1)).all(axis=1)
-        free &= boxes[:, 3] >= min_height
+        free = eligible.copy()
         if len(f.gt):
             free &= box_iou(boxes, f.gt).max(axis=1) < max_iou
         idx = np.flatnonzero(free)
         top = idx[np.argsort(-scores[idx], kind="stable")[:per_frame]]
         for j in np.sort(top):
-            items.append((Path(f.path), np.asarray(cw.homographies[j], float)))
-            meta.append((str(f.path), "", f.scene_id, int(f.image_id),
-                         float(boxes[j, 0]), float(boxes[j, 1])))
+            _add_rectified(items, meta, f, cw, boxes, j)
         report.append({"frame": Path(f.path).name, "scene_id": f.scene_id,
                        "candidates": len(cw), "person_free": int(free.sum()),
                        "drawn": int(len(top)),
@@ -162,9 +175,7 @@ def misframed_windows(frames, *, iou=(0.15, 0.4), per_person: int = 40,
                 & (overlap[:, g] <= hi) & (best <= hi)
             idx = np.flatnonzero(ok)
             for j in np.sort(rng.choice(idx, size=min(per_person, len(idx)), replace=False)):
-                items.append((Path(f.path), np.asarray(cw.homographies[j], float)))
-                meta.append((str(f.path), "", f.scene_id, int(f.image_id),
-                             float(boxes[j, 0]), float(boxes[j, 1])))
+                _add_rectified(items, meta, f, cw, boxes, j)
                 n += 1
         report.append({"frame": Path(f.path).name, "scene_id": f.scene_id,
                        "persons": len(f.gt), "drawn": n})
@@ -209,11 +220,11 @@ def main(argv=None) -> int:
     if args.per_frame < 1 or args.per_person < 1:
         ap.error(f"--per-frame and --per-person must be at least 1, got {args.per_frame} "
                  f"and {args.per_person}")
+    if args.misframed and args.hard_from:
+        ap.error("--misframed and --hard-from are two different tests: give one")
     check_output_dir(args.out)
     ds = load_dataset(args.data)
     frames = load_frames(args.data)
-    if args.misframed and args.hard_from:
-        ap.error("--misframed and --hard-from are two different tests: give one")
     if args.hard_from:
         from viewadapt.io import SourceDetectors
 
