@@ -8,7 +8,6 @@ Cycles ``tiny`` kill-and-resume byte-identity test is ``slow``.
 
 from __future__ import annotations
 
-import hashlib
 import json
 import os
 import shutil
@@ -24,6 +23,7 @@ import pandas as pd
 import pytest
 
 from benchmark.toydata import make_toy_dataset
+from tests.folders import MICRO_ARGV, file_bytes, file_hashes, micro_config
 from viewadapt.cli import build_parser, main
 from viewadapt.io.files import (
     MARKER, UserError, atomic_output_dir, atomic_write_text, check_output_dir, read_marker,
@@ -32,21 +32,7 @@ from viewadapt.io.files import (
 REPO = Path(__file__).resolve().parent.parent
 #: the micro set: ``generate --preset tiny --renderer pyrender --persons 2 --scenes 1
 #: --seed 3``: 1 background x 3 elevations, 2 persons x 3 elevations, 1 frame (carpark)
-MICRO_ARGV = ["generate", "--preset", "tiny", "--renderer", "pyrender", "--persons", "2",
-              "--scenes", "1", "--seed", "3", "--quiet"]
 MICRO_IMAGES = 10
-
-
-def _tree_hashes(root: Path) -> dict:
-    """sha256 of every file under ``root`` (hidden ones included), by relative path."""
-    return {p.relative_to(root).as_posix(): hashlib.sha256(p.read_bytes()).hexdigest()
-            for p in sorted(root.rglob("*")) if p.is_file()}
-
-
-def _micro_config(**kw):
-    from generator.sampling import preset_config
-
-    return preset_config("tiny", renderer="pyrender", n_persons=2, n_scenes=1, **kw)
 
 
 @pytest.fixture(scope="module")
@@ -57,7 +43,7 @@ def micro(tmp_path_factory):
 
     out = tmp_path_factory.mktemp("micro") / "ds"
     try:
-        res = generate(_micro_config(), 3, out, jobs=0, progress=False)
+        res = generate(micro_config(), 3, out, jobs=0, progress=False)
     except Exception as exc:  # noqa: BLE001 - no GL context on this machine
         pytest.skip(f"pyrender cannot render here: {exc}")
     assert res.complete and res.n_images == MICRO_IMAGES
@@ -165,7 +151,7 @@ def test_a_rerun_renders_a_truncated_png_again(micro, tmp_path, capsys):
     data = (ds / rel).read_bytes()
     (ds / rel).write_bytes(data[: len(data) - 40])                 # IEND and more cut off
     assert not verify_dataset(ds).ok
-    res = generate(_micro_config(), 3, ds, jobs=0, progress=False)
+    res = generate(micro_config(), 3, ds, jobs=0, progress=False)
     assert res.complete and res.n_rendered == 1 and res.n_repaired == 1
     assert "1 kept file(s) are truncated or corrupt" in capsys.readouterr().err
     assert "replacing truncated or corrupt" in res.summary()
@@ -319,9 +305,9 @@ def test_a_killed_worker_is_a_one_line_error_and_the_resume_is_byte_identical(mi
     assert len(last) == 1 and "worker process died" in last[0] and "resume" in last[0]
     assert "Traceback" not in err and "BrokenProcessPool" not in err
     assert not (out / "manifest.parquet").exists()            # no partial manifest
-    res = generate(_micro_config(), 3, out, jobs=0, progress=False)
+    res = generate(micro_config(), 3, out, jobs=0, progress=False)
     assert res.complete and res.n_kept >= 1
-    a, b = _tree_hashes(micro), _tree_hashes(out)              # micro: uninterrupted
+    a, b = file_hashes(micro), file_hashes(out)              # micro: uninterrupted
     assert a.keys() == b.keys()
     assert [k for k in a if a[k] != b[k]] == []
     meta = json.loads((out / "dataset.json").read_text())
@@ -405,9 +391,9 @@ def test_ctrl_c_of_generate_says_what_it_kept(micro, tmp_path, capsys, monkeypat
     assert f"kept {n_png} of {MICRO_IMAGES} images" in err and "resume" in err
     assert not (out / "manifest.parquet").exists()
     monkeypatch.setattr(pipeline, "generate", real)
-    res = real(_micro_config(), 3, out, jobs=0, progress=False)
+    res = real(micro_config(), 3, out, jobs=0, progress=False)
     assert res.complete and res.n_kept == 6
-    assert _tree_hashes(out) == _tree_hashes(micro)
+    assert file_hashes(out) == file_hashes(micro)
 
 
 # ---------------------------------------------------------- (9) byte-identical datasets
@@ -439,7 +425,7 @@ def test_tiny_preset_killed_and_resumed_is_byte_identical(tmp_path):
         proc.wait()
     res = generate(preset_config("tiny"), 0, out, jobs=1, progress=False)
     assert res.complete and res.n_kept >= 10
-    a, b = _tree_hashes(ref), _tree_hashes(out)
+    a, b = file_hashes(ref), file_hashes(out)
     assert a.keys() == b.keys() and [k for k in a if a[k] != b[k]] == []
 
 
@@ -475,14 +461,14 @@ def test_a_larger_frames_extends_a_set_and_other_changes_are_named(micro, tmp_pa
     ds = tmp_path / "ds"
     shutil.copytree(micro, ds)
     with pytest.raises(ValueError, match=r"--samples 8 \(this run: 4\)"):
-        generate(_micro_config(samples=4), 3, ds, jobs=0, progress=False)
-    res = generate(_micro_config(frames=2), 3, ds, jobs=0, progress=False)
+        generate(micro_config(samples=4), 3, ds, jobs=0, progress=False)
+    res = generate(micro_config(frames=2), 3, ds, jobs=0, progress=False)
     assert res.complete and res.n_rendered == 1 and res.n_images == MICRO_IMAGES + 1
     assert verify_dataset(ds, check_hash=True).ok
     for rel in ("person/carpark/p001_i0_e0.png", "frames/carpark/frame_0.png"):
         assert (ds / rel).read_bytes() == (micro / rel).read_bytes()
     with pytest.raises(ValueError, match="frames can only be added"):
-        generate(_micro_config(frames=1), 3, ds, jobs=0, progress=False)
+        generate(micro_config(frames=1), 3, ds, jobs=0, progress=False)
 
 
 @pytest.mark.blender
@@ -492,18 +478,16 @@ def test_more_background_views_extend_a_set_as_if_rendered_at_once(micro, tmp_pa
 
     grown, direct = tmp_path / "grown", tmp_path / "direct"
     shutil.copytree(micro, grown)
-    res = generate(_micro_config(backgrounds_per_scene=2), 3, grown, jobs=0, progress=False)
+    res = generate(micro_config(backgrounds_per_scene=2), 3, grown, jobs=0, progress=False)
     assert res.complete and res.n_rendered == 3            # the new view, every elevation
-    assert generate(_micro_config(backgrounds_per_scene=2), 3, direct, jobs=0,
+    assert generate(micro_config(backgrounds_per_scene=2), 3, direct, jobs=0,
                     progress=False).complete
-    files = lambda root: {p.relative_to(root).as_posix(): p.read_bytes()
-                          for p in sorted(root.rglob("*")) if p.is_file()}
-    want, got = files(direct), files(grown)
+    want, got = file_bytes(direct), file_bytes(grown)
     assert want.keys() == got.keys()
     assert [k for k in want if want[k] != got[k]] == []
-    assert all(got[k] == v for k, v in files(micro).items() if k.endswith(".png"))
+    assert all(got[k] == v for k, v in file_bytes(micro).items() if k.endswith(".png"))
     with pytest.raises(ValueError, match="background views can only be added"):
-        generate(_micro_config(), 3, grown, jobs=0, progress=False)
+        generate(micro_config(), 3, grown, jobs=0, progress=False)
 
 
 @pytest.mark.blender

@@ -22,6 +22,7 @@ from generator.camera_effects import (
 )
 from generator.manifest import MANIFEST_COLUMNS, OPTIONAL_COLUMNS, manifest_columns
 from generator.sampling import PRESETS, GeneratorConfig, preset_config
+from tests.folders import file_bytes
 from viewadapt.camera.effects import EFFECT_KEYS, apply_camera_effects
 
 
@@ -152,12 +153,6 @@ def _micro(effects=NO_EFFECTS):
                            camera_effects=effects).validate()
 
 
-def _files(out: Path) -> dict:
-    """Relative path -> bytes of every file in a dataset folder (hidden ones included)."""
-    return {p.relative_to(out).as_posix(): p.read_bytes()
-            for p in sorted(out.rglob("*")) if p.is_file()}
-
-
 @pytest.fixture(scope="module")
 def rendered(tmp_path_factory):
     pytest.importorskip("pyrender", reason="optional: pip install pyrender")
@@ -233,14 +228,14 @@ def test_effects_on_change_every_image_and_record_what_reproduces_it(rendered):
 @pytest.mark.blender
 @pytest.mark.filterwarnings("ignore:tostring.. is deprecated:DeprecationWarning")
 def test_effects_on_are_byte_identical_across_runs(rendered):
-    a, b = _files(rendered["on"]), _files(rendered["again"])
+    a, b = file_bytes(rendered["on"]), file_bytes(rendered["again"])
     assert a.keys() == b.keys()
     assert [k for k in a if a[k] != b[k]] == []
 
 
 @pytest.mark.blender
 @pytest.mark.filterwarnings("ignore:tostring.. is deprecated:DeprecationWarning")
-def test_a_resumed_run_with_effects_gives_the_same_files(rendered, tmp_path):
+def test_a_resumed_run_with_effects_gives_the_samefile_bytes(rendered, tmp_path):
     from generator import pipeline
     from generator.manifest import part_path
 
@@ -260,7 +255,7 @@ def test_a_resumed_run_with_effects_gives_the_same_files(rendered, tmp_path):
     res = pipeline.generate(_micro("surveillance"), 4, out, jobs=0, progress=False)
     assert res.complete and res.n_rendered == 2
     assert not any(p.exists() for p in stale)
-    want, got = _files(rendered["on"]), _files(out)
+    want, got = file_bytes(rendered["on"]), file_bytes(out)
     assert want.keys() == got.keys()
     assert [k for k in want if want[k] != got[k]] == []
 

@@ -4,25 +4,14 @@ re-plan and resume."""
 
 from __future__ import annotations
 
-import hashlib
 import json
 import shutil
 
 import pytest
 
 from generator import specs
+from tests.folders import file_hashes, micro_config
 from tests.paths import REPO
-
-
-def _tree_hashes(root):
-    return {p.relative_to(root).as_posix(): hashlib.sha256(p.read_bytes()).hexdigest()
-            for p in sorted(root.rglob("*")) if p.is_file()}
-
-
-def _micro_config():
-    from generator.sampling import preset_config
-
-    return preset_config("tiny", renderer="pyrender", n_persons=2, n_scenes=1)
 
 
 def test_dataset_json_names_the_project_assets_relatively():
@@ -75,14 +64,14 @@ def test_two_checkouts_render_byte_identical_datasets(tmp_path, monkeypatch):
         monkeypatch.setattr(specs, "ASSETS_DIR", assets)
         out = tmp_path / name / "ds"
         try:
-            res = generate(_micro_config(), 3, out, jobs=0, progress=False)
+            res = generate(micro_config(), 3, out, jobs=0, progress=False)
         except Exception as exc:  # noqa: BLE001 - no GL context on this machine
             pytest.skip(f"pyrender cannot render here: {exc}")
         assert res.complete
         text = (out / "dataset.json").read_text()
         assert str(tmp_path) not in text and str(REPO) not in text
         assert verify_dataset(out, check_hash=True).ok
-        trees.append(_tree_hashes(out))
+        trees.append(file_hashes(out))
     a, b = trees
     assert a.keys() == b.keys() and [k for k in a if a[k] != b[k]] == []
     # a dataset of an older version (absolute paths of a checkout since moved) resumes,
@@ -93,6 +82,6 @@ def test_two_checkouts_render_byte_identical_datasets(tmp_path, monkeypatch):
                          roster="/old/checkout/assets/persons.json")
     meta_p.write_text(json.dumps(meta, indent=2))
     assert verify_dataset(meta_p.parent).ok
-    res = generate(_micro_config(), 3, meta_p.parent, jobs=0, progress=False)
+    res = generate(micro_config(), 3, meta_p.parent, jobs=0, progress=False)
     assert res.complete and res.n_rendered == 0
-    assert _tree_hashes(meta_p.parent) == a
+    assert file_hashes(meta_p.parent) == a

@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 
 from benchmark.toydata import make_toy_dataset
+from tests.folders import MICRO_ARGV, micro_config, tree
 from tests.paths import REPO
 from viewadapt.cli import main
 from viewadapt.io.files import (
@@ -24,19 +25,6 @@ from viewadapt.io.files import (
 )
 
 #: ``generate --preset tiny --renderer pyrender --persons 2 --scenes 1 --seed 3``: 10 images
-MICRO_ARGV = ["generate", "--preset", "tiny", "--renderer", "pyrender", "--persons", "2",
-              "--scenes", "1", "--seed", "3", "--quiet"]
-
-
-def _tree(root):
-    return sorted((p.relative_to(root).as_posix(), p.read_bytes() if p.is_file() else None)
-                  for p in root.rglob("*"))
-
-
-def _micro_config():
-    from generator.sampling import preset_config
-
-    return preset_config("tiny", renderer="pyrender", n_persons=2, n_scenes=1)
 
 
 @pytest.fixture(scope="module")
@@ -53,7 +41,7 @@ def micro(tmp_path_factory):
 
     out = tmp_path_factory.mktemp("micro") / "ds"
     try:
-        res = generate(_micro_config(), 3, out, jobs=0, progress=False)
+        res = generate(micro_config(), 3, out, jobs=0, progress=False)
     except Exception as exc:  # noqa: BLE001 - no GL context on this machine
         pytest.skip(f"pyrender cannot render here: {exc}")
     assert res.complete
@@ -71,7 +59,7 @@ def _one_line_error(capsys, cmd: str) -> str:
 
 
 def test_an_out_folder_overlapping_the_data_is_refused(toy, tmp_path, capsys):
-    before = _tree(toy)
+    before = tree(toy)
     crossval = ["bench", "crossval", "--data", str(toy), "--quick"]
     for extra, what in [(["--out", str(toy)], "is the --data folder"),
                         (["--out", str(toy), "--overwrite"], "is the --data folder"),
@@ -83,7 +71,7 @@ def test_an_out_folder_overlapping_the_data_is_refused(toy, tmp_path, capsys):
     for cmd in (["bench", "sweep"], ["bench", "frames"]):
         assert main(cmd + ["--data", str(toy), "--out", str(toy / "x")]) == 2
         _one_line_error(capsys, " ".join(cmd))
-    assert _tree(toy) == before and not (tmp_path / "r").exists()
+    assert tree(toy) == before and not (tmp_path / "r").exists()
     outer = tmp_path / "outer"
     shutil.copytree(toy, outer / "data")
     assert main(["bench", "crossval", "--data", str(outer / "data"), "--out", str(outer),
@@ -101,12 +89,12 @@ def test_detect_and_the_dataset_commands_keep_out_of_their_inputs(toy, tmp_path,
                      *map(str, inputs)]) == 2
         assert "INPUT" in _one_line_error(capsys, "detect")
     assert sorted(p.name for p in frames.iterdir()) == []
-    before = _tree(toy)
+    before = tree(toy)
     assert main(["dataset", "preview", str(toy), "--out", str(toy / "sheet.png")]) == 2
     _one_line_error(capsys, "dataset preview")
     assert main(["dataset", "verify", str(toy), "--fast", "--json", str(toy / "r.json")]) == 2
     _one_line_error(capsys, "dataset verify")
-    assert _tree(toy) == before
+    assert tree(toy) == before
 
 
 # ------------------------------------------------------- a folder another command wrote
@@ -118,12 +106,12 @@ def test_a_folder_is_reused_only_by_the_command_that_wrote_it(tmp_path, capsys):
         (tmp / "summary.csv").write_text("a,b\n")
     with running_command("detect"), pytest.raises(UserError, match="bench crossval"):
         check_output_dir(res)
-    before = _tree(res)
+    before = tree(res)
     assert main(["generate", "--preset", "tiny", "--renderer", "cycles", "--quiet",
                  "--out", str(res)]) == 2
     err = _one_line_error(capsys, "generate")
     assert "written by viewadapt bench crossval" in err and "--overwrite" in err
-    assert _tree(res) == before
+    assert tree(res) == before
     with running_command("bench sweep"):              # crossval and sweep share results
         check_output_dir(res)
     with running_command("bench crossval"):
@@ -198,7 +186,7 @@ def test_a_second_generate_into_a_folder_being_written_is_refused(micro, tmp_pat
     assert not (out / LOCK).exists()
     rep = verify_dataset(out, check_hash=True)
     assert rep.ok and rep.hash_ok, rep.summary()
-    assert _tree(out) == _tree(micro)
+    assert tree(out) == tree(micro)
 
 
 # ------------------------------------------------------------- files a dataset lacks
@@ -224,7 +212,7 @@ def test_verify_names_every_foreign_file_and_the_hash_leaves_them_out(micro, tmp
     assert "leftover temporary file" in found["person/carpark/.p001_i0_e0.png.abc.tmp"]
     assert "not part of the dataset" in found["evil.pkl"]
     assert rep.hash_ok and not rep.ok                  # the data is intact; the strays fail it
-    res = generate(_micro_config(), 3, ds, jobs=0, progress=False)      # a rerun ("repair")
+    res = generate(micro_config(), 3, ds, jobs=0, progress=False)      # a rerun ("repair")
     assert res.complete and res.n_rendered == 0
     meta = json.loads((ds / "dataset.json").read_text())
     assert meta["content_hash"] == recorded             # the foreign files are not hashed

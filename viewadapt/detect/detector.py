@@ -27,9 +27,6 @@ from .templates import HOG_TOLERANCE
 from .windows import MIN_PERSON_HEIGHT_PX, select_candidate_windows, windows_through_lens
 
 __all__ = ["DEFAULT_THRESHOLD", "FrameDetections", "FrameDetector"]
-#: ``MIN_PERSON_HEIGHT_PX`` before 2026-12-05: detectors built with it keep the cache keys of
-#: before (their parameters do not name it).
-_FORMER_MIN_PERSON_HEIGHT_PX = 16.0
 #: Score threshold of the detections kept for non-maximum suppression: low, so that a DET
 #: curve reaches high false-positive rates.
 DEFAULT_THRESHOLD = -1.0
@@ -137,8 +134,7 @@ class FrameDetector:
             raise ValueError(f"rule must be one of {ANGLE_RULES}, got {rule!r}")
         if object_model not in OBJECT_MODELS:
             raise ValueError(f"object_model must be one of {OBJECT_MODELS}, got {object_model!r}")
-        if object_model != "plane":        # the plane's cache keys stay those of before
-            self.params["object_model"] = str(object_model)
+        self.params["object_model"] = str(object_model)
         self.kinds = {}
         for name, k in dict(kinds or {}).items():
             if detector_kind(name).name != getattr(k, "name", None):
@@ -159,10 +155,8 @@ class FrameDetector:
                                                 person_heights=self.params["person_heights"],
                                                 grid_phase=grid_phase,
                                                 min_person_height_px=min_person_height)
-        if any(grid_phase):                # the default grid's cache keys stay those of before
-            self.params["grid_phase"] = [float(v) for v in grid_phase]
-        if float(min_person_height) != _FORMER_MIN_PERSON_HEIGHT_PX:   # so do those of
-            self.params["min_person_height"] = float(min_person_height)  # the former default
+        self.params["grid_phase"] = [float(v) for v in grid_phase]
+        self.params["min_person_height"] = float(min_person_height)
         if lens is not None:
             lens = check_distortion(lens)
             self.params["lens"] = [float(v) for v in lens]
@@ -228,7 +222,7 @@ class FrameDetector:
         def build(w):
             return kind.build_operator(w, self.models, tolerance=tol, rule=self.params["rule"],
                                        cells_per_source_cell=self.cells_per_source_cell(name),
-                                       object_model=self.params.get("object_model", "plane"))
+                                       object_model=self.params["object_model"])
 
         return build_multiresolution_operator(self.windows, build,
                                               upsample_below=self.upsample_below(name))

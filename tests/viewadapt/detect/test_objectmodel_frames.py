@@ -82,6 +82,6 @@ def test_frame_detector_options(camera):
         FrameDetector(camera, models, object_model="cube")
     with pytest.raises(ValueError, match="rule"):
         FrameDetector(camera, models, rule="literal")
-    # the plane keeps its cache key; the body has its own
-    assert "object_model" not in FrameDetector(camera, models).params
+    # each object model has its own cache key
+    assert FrameDetector(camera, models).params["object_model"] == "plane"
     assert FrameDetector(camera, models, object_model="body").params["object_model"] == "body"

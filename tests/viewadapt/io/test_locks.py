@@ -19,6 +19,7 @@ import textwrap
 import pytest
 
 from benchmark.toydata import make_toy_dataset
+from tests.folders import tree
 from tests.paths import REPO
 from viewadapt.cli import main
 from viewadapt.io.files import LOCK, UserError
@@ -67,11 +68,6 @@ def taken_elsewhere(out, command="generate", shard=None) -> bool:
         return False
 
 
-def _tree(root):
-    return sorted((p.relative_to(root).as_posix(), p.read_bytes() if p.is_file() else None)
-                  for p in root.rglob("*"))
-
-
 @pytest.fixture(scope="module")
 def toy(tmp_path_factory):
     return make_toy_dataset(tmp_path_factory.mktemp("toy") / "data", n_persons=3, n_scenes=3,
@@ -81,11 +77,11 @@ def toy(tmp_path_factory):
 def test_a_second_writer_is_refused_in_one_line_naming_the_holder(tmp_path):
     out = tmp_path / "D"
     with held_elsewhere(out, "generate") as proc:
-        before = _tree(out)
+        before = tree(out)
         with pytest.raises(UserError) as e:
             with hold_output_dir(out, "bench crossval"):
                 pytest.fail("the lock was taken twice")
-        assert _tree(out) == before                       # nothing written
+        assert tree(out) == before                       # nothing written
     msg = str(e.value)
     assert "\n" not in msg
     assert re.fullmatch(rf"{re.escape(str(out))} is in use by viewadapt generate \(pid "
@@ -171,7 +167,7 @@ def test_shards_share_a_folder_but_not_a_shard(tmp_path):
 def test_a_command_into_a_held_folder_is_one_line_and_writes_nothing(tmp_path, toy, capsys):
     out = tmp_path / "D"
     with held_elsewhere(out, "generate") as proc:
-        before = _tree(out)
+        before = tree(out)
         assert main(["bench", "crossval", "--data", str(toy), "--out", str(out),
                      "--quick"]) == 2
         err = capsys.readouterr().err
@@ -184,7 +180,7 @@ def test_a_command_into_a_held_folder_is_one_line_and_writes_nothing(tmp_path, t
         assert len(err.strip().splitlines()) == 1
         assert err.startswith(f"viewadapt generate: error: {out} is in use by viewadapt "
                               f"generate (pid {proc.pid}")
-        assert _tree(out) == before
+        assert tree(out) == before
 
 
 def test_a_failed_command_leaves_no_lock_and_a_stage_writes_its_own_folder(
