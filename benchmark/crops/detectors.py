@@ -49,6 +49,7 @@ import re
 import numpy as np
 
 from viewadapt.adapt import acf_remap_matrix, cells_to_descriptor, hog_remap_matrix, remap_features
+from viewadapt.ensembles import average_trees
 
 __all__ = ["CropDetector", "HogDescriptorDetector", "LinearCellsDetector", "AcfTreesDetector",
            "OpenCVPeopleDetector", "BUILTIN_DETECTORS", "detector_spec", "feature_key"]
@@ -181,6 +182,12 @@ class AcfTreesDetector(CropDetector):
                              random_state=seed)
 
     def fit(self, X_pos, X_neg, *, seed, config):
+        # the recipe's members (Recipe.acf_members): member k trained as seed + k would be
+        k = config.recipe.acf_members
+        members = [self._fit_one(X_pos, X_neg, seed=seed + i, config=config) for i in range(k)]
+        return members[0] if k == 1 else average_trees(members)
+
+    def _fit_one(self, X_pos, X_neg, *, seed, config):
         # the ACF toolbox bootstraps hard negatives between stages; we mine once with a
         # first model on a random subset, as the SVM does
         rng = np.random.default_rng(seed)

@@ -207,7 +207,7 @@ def train_source_detectors(ds, *, seed: int = 0, quick: bool = False, source_ind
         neg.extend(ws.images(ds.root))
         extra[ws.key] = len(ws)
     models = train_on_windows(pos, neg, seed=seed, quick=quick, frame_view=frame_view,
-                              svm_params=svm_params)
+                              svm_params=svm_params, acf_members=recipe.acf_members)
     training = dict(
         seed=seed, frame_view=frame_view, quick=quick, source_index=source_index,
         recipe=recipe.to_dict(), crops=len(pos), background_windows=n_background,
@@ -216,6 +216,8 @@ def train_source_detectors(ds, *, seed: int = 0, quick: bool = False, source_ind
         training["extra_negatives"] = extra
     if svm_params:
         training["svm_params"] = dict(svm_params)
+    if recipe.acf_members > 1:
+        training["acf_members"] = recipe.acf_members
     return replace(models, training=training)
 
 

@@ -9,6 +9,7 @@ import pytest
 from benchmark.crops.features import WindowSet, rotation_about_centre
 from benchmark.recipes import DEFAULT_RECIPE, RECIPES, Recipe, get_recipe, recipe_from_record
 from benchmark.toydata import make_toy_dataset
+from viewadapt.boosting import AdaBoostTrees
 from viewadapt.cli import main
 from viewadapt.geometry import elevation_homography
 from viewadapt.warp import translation, warp_to_source_view
@@ -192,3 +193,43 @@ def test_the_regularised_recipe_sets_the_c_of_every_svm(toy):
     assert np.array_equal(a.hog_weights, b.hog_weights)
     assert a.training["recipe"]["svm_c"] == 0.001 and a.training["svm_params"] == {"C": 0.001}
     assert not np.array_equal(a.hog_weights, train_source_detectors(ds, quick=True).hog_weights)
+
+
+def test_acf_members_average_that_many_seeds_of_every_acf_model(toy):
+    from benchmark.crops.crossval import CrossvalConfig
+    from benchmark.crops.detectors import AcfTreesDetector
+    from benchmark.data import load_dataset
+    from benchmark.frames.methods import train_source_detectors
+
+    two = Recipe("two", "two ACF members", svm_c=0.001, acf_members=2)
+    assert two.to_dict()["acf_members"] == 2
+    assert "acf_members" not in RECIPES["elevation0"].to_dict()
+    for bad in (0, True, 1.5, "2"):
+        with pytest.raises(ValueError, match="acf_members"):
+            Recipe("x", "y", acf_members=bad)
+    # the frames' source detectors: member k is the single model of seed k; the SVM as before
+    ds = load_dataset(toy)
+    avg = train_source_detectors(ds, quick=True, recipe=two, seed=3)
+    one = [train_source_detectors(ds, quick=True, recipe="regularised", seed=s) for s in (3, 4)]
+    assert np.array_equal(avg.hog_weights, one[0].hog_weights)
+    n = one[0].acf.n_estimators_
+    assert avg.acf.n_estimators_ == n + one[1].acf.n_estimators_
+    assert np.array_equal(avg.acf.feature_[0:2 * n:2], one[0].acf.feature_)
+    assert np.array_equal(avg.acf.feature_[1:2 * n:2], one[1].acf.feature_[:n])
+    assert np.allclose(avg.acf.value_[0:2 * n:2], one[0].acf.value_ / 2)
+    assert avg.training["acf_members"] == 2 and avg.training["recipe"]["acf_members"] == 2
+    assert "acf_members" not in one[0].training
+    # the crops' ACF models (crossval, sweep)
+    rng = np.random.default_rng(0)
+    X_pos, X_neg = rng.random((30, 40)) + 0.3, rng.random((60, 40))
+    single = [AcfTreesDetector().fit(X_pos, X_neg, seed=s, config=CrossvalConfig(
+        recipe=RECIPES["elevation0"], acf_estimators=8, acf_stages=(8,))) for s in (5, 6)]
+    both = AcfTreesDetector().fit(X_pos, X_neg, seed=5, config=CrossvalConfig(
+        recipe=two, acf_estimators=8, acf_stages=(8,)))
+    X = rng.random((25, 40))
+    free = [AdaBoostTrees.from_arrays(*m.to_arrays()) for m in (*single, both)]
+    for m in free:
+        m.cascade_threshold = None
+    np.testing.assert_allclose(free[2].decision_function(X),
+                               (free[0].decision_function(X) + free[1].decision_function(X)) / 2,
+                               rtol=1e-10, atol=1e-10)

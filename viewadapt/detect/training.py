@@ -4,7 +4,9 @@ A linear SVM on block-normalised HOG cells (Dalal & Triggs 2005) and boosted tre
 channels (Dollár et al. 2014), each optionally also trained on frame-view copies of the
 windows (:func:`~viewadapt.detect.frameview.frame_view_copies`): the window as the adapted
 full-frame operator reads it from a frame, at a random person height and offset against
-the frame's cell grid. Windows in, :class:`~viewadapt.io.models.SourceDetectors` out.
+the frame's cell grid. The boosted trees may be the average of several models, each
+trained with its own seed (:func:`~viewadapt.ensembles.average_trees`; bagging, Breiman
+1996). Windows in, :class:`~viewadapt.io.models.SourceDetectors` out.
 """
 
 from __future__ import annotations
@@ -12,7 +14,9 @@ from __future__ import annotations
 import numpy as np
 
 from ..boosting import AdaBoostTrees
+from .._validation import check_int
 from ..classifiers import LinearSVMDetector
+from ..ensembles import average_trees
 from ..io.models import SourceDetectors
 from .channels import HOG_WEIGHT_SHAPE
 from .frameview import frame_view_copies
@@ -38,7 +42,7 @@ def check_frame_view(frame_view: str) -> str:
 
 def train_on_windows(positives, negatives, *, seed: int = 0, quick: bool = False,
                      frame_view: str = DEFAULT_FRAME_VIEW,
-                     svm_params=None) -> SourceDetectors:
+                     svm_params=None, acf_members: int = 1) -> SourceDetectors:
     """HOG/SVM and ACF boosted trees trained on canonical windows.
 
     Parameters
@@ -55,6 +59,11 @@ def train_on_windows(positives, negatives, *, seed: int = 0, quick: bool = False
     svm_params : dict, optional
         :class:`~viewadapt.classifiers.LinearSVMDetector` parameters instead of
         :func:`hog_svm`'s (e.g. ``{"C": 0.001}``); recorded in ``training``.
+    acf_members : int
+        The boosted trees are the average (:func:`~viewadapt.ensembles.average_trees`) of
+        this many models; member ``k`` is trained as a single model of seed ``seed + k``
+        would be (its trees' feature subsets and its frame-view copies), so member 0 is the
+        single model. Recorded in ``training`` when above 1.
 
     Returns
     -------
@@ -62,19 +71,26 @@ def train_on_windows(positives, negatives, *, seed: int = 0, quick: bool = False
         With ``training = {seed, frame_view, quick, crops, background_windows}``.
     """
     check_frame_view(frame_view)
+    acf_members = check_int(acf_members, "acf_members", minimum=1)
     X, y = window_training_set(HOG_DETECTOR, positives, negatives, frame_view=frame_view,
                                seed=seed)
     svm = hog_svm(seed=seed, quick=quick, **dict(svm_params or {})).fit(X, y)
     # the channels the full-frame operator reads (float32 OpenCV path)
-    X, y = window_training_set(ACF_DETECTOR, positives, negatives, frame_view=frame_view,
-                               seed=seed + 2)
-    trees = acf_trees(seed=seed, quick=quick).fit(X, y)
+    members = []
+    for k in range(acf_members):
+        X, y = window_training_set(ACF_DETECTOR, positives, negatives, frame_view=frame_view,
+                                   seed=seed + k + 2)
+        members.append(acf_trees(seed=seed + k, quick=quick).fit(X, y))
+        del X, y
+    trees = members[0] if acf_members == 1 else average_trees(members)
     return SourceDetectors(svm.coef_[0].reshape(HOG_WEIGHT_SHAPE).astype(np.float64),
                            float(svm.intercept_[0]), trees,
                            training=dict(seed=seed, frame_view=frame_view, quick=quick,
                                          crops=len(positives),
                                          background_windows=len(negatives),
                                          **({"svm_params": dict(svm_params)} if svm_params
+                                            else {}),
+                                         **({"acf_members": acf_members} if acf_members > 1
                                             else {})))
 
 

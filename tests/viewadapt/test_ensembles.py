@@ -1,0 +1,105 @@
+import numpy as np
+import pytest
+
+from tests.tolerances import EXACT
+from viewadapt.boosting import AdaBoostTrees
+from viewadapt.ensembles import average_trees
+
+
+def _data(seed=0, n=300, d=12):
+    rng = np.random.default_rng(seed)
+    X = rng.normal(size=(n, d))
+    y = (X[:, 0] + 0.5 * X[:, 3] - X[:, 7] + 0.3 * rng.normal(size=n) > 0).astype(int)
+    return X, y
+
+
+def _members(n=3, trees=16, **kw):
+    X, y = _data()
+    return [AdaBoostTrees(n_estimators=trees, stages=None, max_features=0.5, random_state=s,
+                          **kw).fit(X, y) for s in range(n)], X
+
+
+def test_the_average_scores_the_members_mean_without_the_cascade():
+    members, X = _members(cascade_threshold=None)
+    avg = average_trees(members)
+    assert avg.n_estimators_ == sum(m.n_estimators_ for m in members)
+    want = np.mean([m.decision_function(X) for m in members], axis=0)
+    np.testing.assert_allclose(avg.decision_function(X), want, **EXACT)
+    # the members differ (their seeds pick other features), so the mean is not any one
+    assert not np.allclose(members[0].decision_function(X), want)
+
+
+def test_the_trees_are_interleaved_member_by_member():
+    members, _ = _members(n=2, trees=5)
+    avg = average_trees(members)
+    for t in range(5):
+        for i, m in enumerate(members):
+            np.testing.assert_array_equal(avg.feature_[2 * t + i], m.feature_[t])
+            np.testing.assert_array_equal(avg.value_[2 * t + i], m.value_[t] / 2)
+
+
+def _leaf(m, t, x):
+    node = 0
+    while m.feature_[t, node] >= 0:
+        node = 2 * node + (2 if x[m.feature_[t, node]] >= m.threshold_[t, node] else 1)
+    return m.value_[t, node]
+
+
+def test_the_cascade_stops_on_the_running_mean_of_the_members():
+    members, X = _members(cascade_threshold=-1.0)
+    avg, k = average_trees(members), len(members)
+    want, stops = np.zeros(len(X)), 0
+    for j, x in enumerate(X):                     # plain loop: round by round, member by member
+        s = 0.0
+        for t in range(16):
+            for m in members:
+                s += _leaf(m, t, x) / k
+                if s <= -1.0:
+                    break
+            else:
+                continue
+            stops += 1
+            break
+        want[j] = s
+    assert 0 < stops < len(X)
+    np.testing.assert_allclose(avg.decision_function(X), want, **EXACT)
+
+
+def test_members_of_different_lengths_are_averaged():
+    X, y = _data()
+    a = AdaBoostTrees(n_estimators=4, stages=None, random_state=0, cascade_threshold=None)
+    b = AdaBoostTrees(n_estimators=7, stages=None, random_state=1, cascade_threshold=None)
+    a.fit(X, y), b.fit(X, y)
+    avg = average_trees([a, b])
+    assert avg.n_estimators_ == 11
+    np.testing.assert_allclose(avg.decision_function(X),
+                               (a.decision_function(X) + b.decision_function(X)) / 2, **EXACT)
+
+
+def test_one_model_is_its_own_average_and_survives_storage():
+    (m,), X = _members(n=1)
+    avg = average_trees([m])
+    assert avg is not m
+    np.testing.assert_array_equal(avg.decision_function(X), m.decision_function(X))
+    again = AdaBoostTrees.from_arrays(*avg.to_arrays())
+    np.testing.assert_array_equal(again.decision_function(X), avg.decision_function(X))
+
+
+@pytest.mark.parametrize("change, match", [
+    ("features", "n_features_in_"), ("depth", "max_depth"), ("cascade", "cascade_threshold"),
+    ("unfitted", "not a fitted"), ("none", "at least one")])
+def test_members_that_do_not_match_are_refused(change, match):
+    members, X = _members(n=2, trees=4)
+    _, y = _data()
+    if change == "features":
+        members[1] = AdaBoostTrees(n_estimators=4, stages=None).fit(X[:, :5], y)
+    elif change == "depth":
+        members[1] = AdaBoostTrees(n_estimators=4, stages=None, max_depth=1).fit(X, y)
+    elif change == "cascade":
+        members[1] = AdaBoostTrees(n_estimators=4, stages=None, cascade_threshold=-2.0).fit(X, y)
+    elif change == "unfitted":
+        members[1] = AdaBoostTrees()
+    else:
+        members = []
+    with pytest.raises(ValueError, match=match):
+        average_trees(members)
