@@ -32,7 +32,8 @@ def shipped_model_path() -> Path:
     """Path of the source detectors shipped with the package.
 
     They are ``bench frames``' models (HOG/SVM and ACF boosted trees: elevation-0 crops
-    and their frame-view copies, seed 0, recipe ``regularised``) trained on the ``paper``
+    and their frame-view copies, seed 0, recipe ``averaged``: the ACF model the average of
+    nine seeds' trees, :func:`viewadapt.ensembles.average_trees`) trained on the ``paper``
     preset rendered through the generator's ``surveillance`` camera effects; the file's
     training record names the recipe and the dataset (preset, seed, renderer, camera
     effects, content hash) and the version that wrote it. ``viewadapt detect`` uses them
