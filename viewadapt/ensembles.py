@@ -10,7 +10,8 @@ divided by the number of members. Its score is the mean of the members' scores, 
 soft cascade (Bourdev & Brandt 2005) stops a window when the mean of the members' partial
 scores over the same number of trees drops to the threshold. Because it is an ordinary
 :class:`~viewadapt.boosting.AdaBoostTrees`, it is adapted (Wang et al. 2017, Algorithm 2),
-saved and loaded like any single model.
+saved and loaded like any single model. :func:`average_source_detectors` averages whole
+model files the same way (the HOG/SVMs by their weights).
 
 References
 ----------
@@ -26,7 +27,7 @@ import numpy as np
 
 from .boosting import AdaBoostTrees
 
-__all__ = ["average_trees"]
+__all__ = ["average_trees", "average_source_detectors"]
 
 #: the fitted arrays of one tree each, interleaved member by member
 _PER_TREE = ("feature_", "threshold_", "value_", "train_loss_")
@@ -83,3 +84,24 @@ def average_trees(models) -> AdaBoostTrees:
         out["feature_names_in_"] = first["feature_names_in_"]
     params = dict(params, n_estimators=len(order), stages=None, random_state=None)
     return AdaBoostTrees.from_arrays(params, out)
+
+
+def average_source_detectors(models):
+    """The average of several :class:`~viewadapt.io.models.SourceDetectors` (e.g. trained
+    on renders of other seeds): the HOG/SVMs' weights and biases averaged (a linear model's
+    mean score is the score of its mean weights) and the ACF models averaged by
+    :func:`average_trees`. The training record lists each member's record under
+    ``average_of``. ``ValueError`` for fewer than two models or one without an ACF model.
+    """
+    from .io.models import SourceDetectors
+
+    models = list(models)
+    if len(models) < 2:
+        raise ValueError(f"averaging needs at least two models, got {len(models)}")
+    for i, m in enumerate(models):
+        if not isinstance(m, SourceDetectors) or m.acf is None:
+            raise ValueError(f"model {i} is not a SourceDetectors with an ACF model")
+    weights = np.mean([np.asarray(m.hog_weights, np.float64) for m in models], axis=0)
+    bias = float(np.mean([m.hog_bias for m in models]))
+    return SourceDetectors(weights, bias, average_trees([m.acf for m in models]),
+                           training={"average_of": [dict(m.training) for m in models]})

@@ -393,8 +393,9 @@ def register(sub, common) -> None:
     p.add_argument("--model", type=Path, default=None,
                    help="source detectors: models/source_detectors.npz written by `viewadapt "
                         "bench frames` (default: the models shipped with viewadapt, trained "
-                        "on renders alone: the paper preset's elevation-0 crops through "
-                        "camera effects, recipe averaged); with --detector opencv a "
+                        "on renders alone: two renders of the paper preset's elevation-0 "
+                        "crops through camera effects, recipe averaged, the two models "
+                        "averaged); with --detector opencv a "
                         "64x128 HOG/SVM saved by cv2.HOGDescriptor.save (YAML or XML; "
                         "default OpenCV's INRIA-trained people detector), with --detector "
                         "daimler a 48x96 one without gamma correction")

@@ -31,13 +31,13 @@ _SHIPPED = "source_detectors.npz"
 def shipped_model_path() -> Path:
     """Path of the source detectors shipped with the package.
 
-    They are ``bench frames``' models (HOG/SVM and ACF boosted trees: elevation-0 crops
-    and their frame-view copies, seed 0, recipe ``averaged``: the ACF model the average of
-    nine seeds' trees, :func:`viewadapt.ensembles.average_trees`) trained on the ``paper``
-    preset rendered through the generator's ``surveillance`` camera effects; the file's
-    training record names the recipe and the dataset (preset, seed, renderer, camera
-    effects, content hash) and the version that wrote it. ``viewadapt detect`` uses them
-    when no ``--model`` is given.
+    They are the average (:func:`viewadapt.ensembles.average_source_detectors`) of
+    ``bench frames``' models of two renders (seeds 0 and 1) of the ``paper`` preset through
+    the generator's ``surveillance`` camera effects: HOG/SVM and ACF boosted trees on the
+    elevation-0 crops and their frame-view copies, seed 0, recipe ``averaged`` (the ACF
+    model the average of nine seeds' trees). The file's training record keeps each
+    member's record (recipe, dataset: preset, seed, renderer, camera effects, content
+    hash) under ``average_of``. ``viewadapt detect`` uses them when no ``--model`` is given.
     """
     return packaged_path(_SHIPPED)
 

@@ -1,0 +1,57 @@
+import numpy as np
+import pytest
+
+from benchmark.data import load_dataset
+from benchmark.frames.methods import train_source_detectors
+from benchmark.studies.average_models import main
+from tests.toy_frames import small_toy_frames
+from viewadapt.boosting import AdaBoostTrees
+from viewadapt.ensembles import average_source_detectors
+from viewadapt.io import SourceDetectors
+
+
+@pytest.fixture(scope="module")
+def two(tmp_path_factory):
+    root = tmp_path_factory.mktemp("avgm")
+    ds = load_dataset(small_toy_frames(root / "data"))
+    paths = []
+    for s in (0, 1):
+        p = root / f"m{s}.npz"
+        train_source_detectors(ds, quick=True, seed=s).save(p)
+        paths.append(p)
+    return paths
+
+
+def _free(trees):
+    out = AdaBoostTrees.from_arrays(*trees.to_arrays())
+    out.cascade_threshold = None
+    return out
+
+
+def test_the_average_of_two_files_scores_their_mean(two, tmp_path):
+    out = tmp_path / "avg.npz"
+    assert main([str(p) for p in two] + ["--out", str(out)]) == 0
+    avg, a, b = (SourceDetectors.load(p) for p in (out, *two))
+    np.testing.assert_allclose(avg.hog_weights, (a.hog_weights + b.hog_weights) / 2)
+    assert avg.hog_bias == pytest.approx((a.hog_bias + b.hog_bias) / 2)
+    X = np.random.default_rng(0).random((40, a.acf.n_features_in_))
+    want = (_free(a.acf).decision_function(X) + _free(b.acf).decision_function(X)) / 2
+    np.testing.assert_allclose(_free(avg.acf).decision_function(X), want, rtol=1e-10, atol=1e-10)
+    assert [r["seed"] for r in avg.training["average_of"]] == [0, 1]
+    assert avg.training["average_of_files"] == [str(p) for p in two]
+
+
+def test_bad_inputs_are_one_line_errors_and_write_nothing(two, tmp_path, capsys):
+    out = tmp_path / "avg.npz"
+    with pytest.raises(SystemExit):
+        main([str(two[0]), "--out", str(out)])                       # one model
+    with pytest.raises(SystemExit) as exc:
+        main([str(two[0]), str(tmp_path / "missing.npz"), "--out", str(out)])
+    assert exc.value.code == 2 and "missing.npz" in capsys.readouterr().err
+    assert not out.exists()
+    out.write_bytes(b"mine")
+    with pytest.raises(SystemExit):
+        main([str(p) for p in two] + ["--out", str(out)])            # never overwritten
+    assert out.read_bytes() == b"mine"
+    with pytest.raises(ValueError, match="at least two"):
+        average_source_detectors([SourceDetectors.load(two[0])])
