@@ -208,16 +208,12 @@ def train_source_detectors(ds, *, seed: int = 0, quick: bool = False, source_ind
         extra[ws.key] = len(ws)
     models = train_on_windows(pos, neg, seed=seed, quick=quick, frame_view=frame_view,
                               svm_params=svm_params, acf_members=recipe.acf_members)
-    training = dict(
-        seed=seed, frame_view=frame_view, quick=quick, source_index=source_index,
-        recipe=recipe.to_dict(), crops=len(pos), background_windows=n_background,
-        dataset=dataset_provenance(ds))
+    # train_on_windows' record (seed, SVM parameters, ACF members, ...), with what only
+    # this function knows; the background windows counted without the extra negatives
+    training = dict(models.training, source_index=source_index, recipe=recipe.to_dict(),
+                    background_windows=n_background, dataset=dataset_provenance(ds))
     if extra:
         training["extra_negatives"] = extra
-    if svm_params:
-        training["svm_params"] = dict(svm_params)
-    if recipe.acf_members > 1:
-        training["acf_members"] = recipe.acf_members
     return replace(models, training=training)
 
 

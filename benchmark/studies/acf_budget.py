@@ -58,11 +58,8 @@ def main(argv=None) -> int:
     from benchmark.data import load_dataset
     from benchmark.frames.methods import dataset_provenance, source_training_windows
     from benchmark.recipes import DEFAULT_RECIPE, get_recipe
-    from viewadapt.detect import ACF_DETECTOR, HOG_DETECTOR
-    from viewadapt.detect.channels import HOG_WEIGHT_SHAPE
-    from viewadapt.detect.training import (DEFAULT_FRAME_VIEW, acf_trees, hog_svm,
-                                           window_training_set)
-    from viewadapt.io.models import SourceDetectors
+    from viewadapt.detect import ACF_DETECTOR, train_on_windows
+    from viewadapt.detect.training import acf_trees, window_training_set
     from viewadapt.io.files import atomic_output_dir, check_output_dir
 
     ap = argparse.ArgumentParser(prog="python -m benchmark.studies.acf_budget",
@@ -94,16 +91,9 @@ def main(argv=None) -> int:
     check_output_dir(args.out)
     ds = load_dataset(args.data)
     pos, neg = source_training_windows(ds)
-    # the HOG/SVM as train_on_windows trains it (so that each model file is complete); the
+    # the HOG/SVM as bench frames trains it (so that each model file is complete); the
     # trees below are the study's, trained once
-    Xh, yh = window_training_set(HOG_DETECTOR, pos, neg, seed=args.seed)
-    svm = hog_svm(seed=args.seed, quick=args.quick).fit(Xh, yh)
-    del Xh, yh
-    base = SourceDetectors(svm.coef_[0].reshape(HOG_WEIGHT_SHAPE).astype(np.float64),
-                           float(svm.intercept_[0]), None,
-                           training=dict(seed=args.seed, frame_view=DEFAULT_FRAME_VIEW,
-                                         quick=args.quick, crops=len(pos),
-                                         background_windows=len(neg)))
+    base = train_on_windows(pos, neg, seed=args.seed, quick=args.quick, acf_members=0)
     X, y = window_training_set(ACF_DETECTOR, pos, neg, seed=args.seed + 2)
     if args.no_colour:
         per_channel = X.shape[1] // ACF_DETECTOR.features.shape[0]   # channel-major

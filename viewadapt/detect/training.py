@@ -63,7 +63,8 @@ def train_on_windows(positives, negatives, *, seed: int = 0, quick: bool = False
         The boosted trees are the average (:func:`~viewadapt.ensembles.average_trees`) of
         this many models; member ``k`` is trained as a single model of seed ``seed + k``
         would be (its trees' feature subsets and its frame-view copies), so member 0 is the
-        single model. Recorded in ``training`` when above 1.
+        single model. Recorded in ``training`` when above 1. 0: no ACF model (``acf`` is
+        None; for studies that train their own trees).
 
     Returns
     -------
@@ -71,7 +72,7 @@ def train_on_windows(positives, negatives, *, seed: int = 0, quick: bool = False
         With ``training = {seed, frame_view, quick, crops, background_windows}``.
     """
     check_frame_view(frame_view)
-    acf_members = check_int(acf_members, "acf_members", minimum=1)
+    acf_members = check_int(acf_members, "acf_members", minimum=0)
     X, y = window_training_set(HOG_DETECTOR, positives, negatives, frame_view=frame_view,
                                seed=seed)
     svm = hog_svm(seed=seed, quick=quick, **dict(svm_params or {})).fit(X, y)
@@ -82,16 +83,15 @@ def train_on_windows(positives, negatives, *, seed: int = 0, quick: bool = False
                                    seed=seed + k + 2)
         members.append(acf_trees(seed=seed + k, quick=quick).fit(X, y))
         del X, y
-    trees = members[0] if acf_members == 1 else average_trees(members)
+    trees = average_trees(members) if len(members) > 1 else next(iter(members), None)
+    training = dict(seed=seed, frame_view=frame_view, quick=quick, crops=len(positives),
+                    background_windows=len(negatives))
+    if svm_params:
+        training["svm_params"] = dict(svm_params)
+    if acf_members > 1:
+        training["acf_members"] = acf_members
     return SourceDetectors(svm.coef_[0].reshape(HOG_WEIGHT_SHAPE).astype(np.float64),
-                           float(svm.intercept_[0]), trees,
-                           training=dict(seed=seed, frame_view=frame_view, quick=quick,
-                                         crops=len(positives),
-                                         background_windows=len(negatives),
-                                         **({"svm_params": dict(svm_params)} if svm_params
-                                            else {}),
-                                         **({"acf_members": acf_members} if acf_members > 1
-                                            else {})))
+                           float(svm.intercept_[0]), trees, training=training)
 
 
 def window_training_set(kind, positives, negatives, *, frame_view: str = DEFAULT_FRAME_VIEW,
