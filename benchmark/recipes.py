@@ -68,8 +68,8 @@ class Recipe:
         ``CrossvalConfig.C``, :func:`viewadapt.detect.training.hog_svm`).
     acf_members : int
         Every ACF model the recipe trains is the average of this many models, member ``k``
-        trained with seed ``seed + k`` (:func:`viewadapt.ensembles.average_trees`); 1: one
-        model, as before.
+        trained with seed ``seed + k`` (:func:`viewadapt.ensembles.average_trees`, member 0
+        gating the others); 1: one model, as before.
     """
 
     name: str

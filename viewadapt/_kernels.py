@@ -335,7 +335,7 @@ def acf_channels_out(luv, mag, dx, dy, n_orient, out):  # pragma: no cover - com
 
 @njit(cache=True, nogil=True, boundscheck=False, error_model="numpy")
 def tree_cascade_scores(x, pos_group, pos_origin, n_groups, indptr, offsets, weights, cols,
-                        thr, val, depth, cascade_threshold, use_cascade,
+                        thr, val, depth, cascade_threshold, use_cascade, cascade_scale,
                         out):  # pragma: no cover - compiled; tested through its callers
     """Soft-cascade scores of remapped boosted trees.
 
@@ -345,8 +345,8 @@ def tree_cascade_scores(x, pos_group, pos_origin, n_groups, indptr, offsets, wei
     ``f * n_groups + g`` of the CSR ``(indptr, offsets, weights)`` with
     ``x[o + offsets]`` (terms in row order), branches on ``thr[t, node]`` and adds the
     leaf's ``val`` to a float64 running score; with ``use_cascade`` it stops at the first
-    running score ``<= cascade_threshold`` and keeps that score
-    (:func:`viewadapt.boosting.cascade_step`). Writes ``out[p]``.
+    running score times ``cascade_scale[t]`` that is ``<= cascade_threshold`` and keeps
+    that product (:func:`viewadapt.boosting.cascade_step`). Writes ``out[p]``.
 
     Consecutive positions of one group are walked together, tree by tree and node by
     node: the positions still alive that sit at a node share its row, so the row's terms
@@ -417,8 +417,8 @@ def tree_cascade_scores(x, pos_group, pos_origin, n_groups, indptr, offsets, wei
             m = 0
             for i in range(n):           # add the leaves; keep the slots the cascade passes
                 s = score[i] + val[t, node[i]]
-                if use_cascade and s <= cascade_threshold:
-                    out[alive[i]] = s
+                if use_cascade and s * cascade_scale[t] <= cascade_threshold:
+                    out[alive[i]] = s * cascade_scale[t]
                 else:
                     alive[m] = alive[i]
                     base[m] = base[i]

@@ -51,7 +51,8 @@ def bin_histograms(XqT, samples, w, subset, out):  # pragma: no cover - compiled
 
 @njit(cache=True, nogil=True, boundscheck=False)
 def cascade_scores(x, origin, offset, feature, threshold, value, depth, n_trees,
-                   cascade_threshold, use_cascade, out):  # pragma: no cover - compiled
+                   cascade_threshold, use_cascade, cascade_scale,
+                   out):  # pragma: no cover - compiled
     """Soft-cascade scores of complete-layout trees on windows read from a flat array.
 
     Window ``i`` reads its feature ``f`` at ``x[origin[i] + offset[f]]`` (rows of a matrix:
@@ -59,8 +60,9 @@ def cascade_scores(x, origin, offset, feature, threshold, value, depth, n_trees,
     each feature's place in it) and walks trees ``0 .. n_trees - 1`` in order: at an inner
     node (``feature >= 0``) it goes right when the value is ``>= threshold``; the leaf's
     ``value`` is added to a float64 running score ``((h_1 + h_2) + h_3) + ...``; with
-    ``use_cascade`` it stops at the first running score ``<= cascade_threshold`` and keeps
-    it (:func:`viewadapt.boosting.cascade_step`, the same sums). Writes ``out[i]``.
+    ``use_cascade`` it stops at the first running score times ``cascade_scale[t]`` that is
+    ``<= cascade_threshold`` and keeps that product (:func:`viewadapt.boosting.cascade_step`,
+    the same sums). Writes ``out[i]``.
     """
     for i in range(origin.shape[0]):
         o = origin[i]
@@ -73,7 +75,8 @@ def cascade_scores(x, origin, offset, feature, threshold, value, depth, n_trees,
                     break
                 node = 2 * node + 1 + (1 if x[o + offset[f]] >= threshold[t, node] else 0)
             score += value[t, node]
-            if use_cascade and score <= cascade_threshold:
+            if use_cascade and score * cascade_scale[t] <= cascade_threshold:
+                score *= cascade_scale[t]
                 break
         out[i] = score
     return out

@@ -11,7 +11,8 @@ import numbers
 
 import numpy as np
 
-__all__ = ["check_image", "check_homography", "check_elevation", "check_finite", "check_int"]
+__all__ = ["check_image", "check_homography", "check_elevation", "check_finite", "check_int",
+           "check_stages"]
 
 
 def check_image(image, name: str = "image", *, allow_color: bool = True,
@@ -95,3 +96,24 @@ def check_int(value, name: str, *, minimum: int) -> int:
     if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < minimum:
         raise ValueError(f"{name} must be an integer >= {minimum}, got {value!r}")
     return int(value)
+
+
+def check_stages(stages, n_estimators):
+    """Boosting stages (strictly increasing tree counts, each at most ``n_estimators``) as
+    a tuple of int; ``None``: ``(n_estimators,)``."""
+    if stages is None:
+        return (n_estimators,)
+    try:
+        stages = tuple(stages)
+    except TypeError:
+        raise ValueError(f"stages must be a sequence of tree counts or None, "
+                         f"got {stages!r}") from None
+    if not stages or any(isinstance(k, bool) or not isinstance(k, numbers.Integral) or k < 1
+                         for k in stages):
+        raise ValueError(f"stages must be positive integers, got {stages!r}")
+    if any(b <= a for a, b in zip(stages, stages[1:])):
+        raise ValueError(f"stages must be strictly increasing, got {stages!r}")
+    if stages[-1] > n_estimators:
+        raise ValueError(f"stages must not exceed n_estimators={n_estimators}, "
+                         f"got {stages!r}")
+    return tuple(int(k) for k in stages)

@@ -36,7 +36,7 @@ from sklearn.utils import check_array, check_random_state
 from sklearn.utils.multiclass import check_classification_targets, type_of_target
 from sklearn.utils.validation import check_is_fitted, validate_data
 
-from ._validation import check_int
+from ._validation import check_int, check_stages
 from .treegrow import bin_edges, grow_tree, quantize
 
 __all__ = ["AdaBoostTrees", "cascade_step"]
@@ -67,7 +67,9 @@ class AdaBoostTrees(ClassifierMixin, BaseEstimator):
 
     Evaluation (toolbox ``acfDetect1``): :math:`H_t(x) = H_{t-1}(x) + h_t(x)` tree by tree;
     with the soft cascade a sample stops at the first ``t`` with
-    :math:`H_t(x) \\le \\theta` (``cascade_threshold``) and keeps :math:`H_t(x)` as its score.
+    :math:`c_t H_t(x) \\le \\theta` (``cascade_threshold``) and keeps :math:`c_t H_t(x)` as
+    its score, :math:`c_t` (``cascade_scale_``) 1 unless the model says otherwise (e.g. an
+    average whose first member's trees stand for the whole: :mod:`viewadapt.ensembles`).
 
     Parameters
     ----------
@@ -118,6 +120,10 @@ class AdaBoostTrees(ClassifierMixin, BaseEstimator):
         Output of each node (alpha included); only leaves are summed.
     train_loss_ : (n_estimators_,) float64 ndarray
         Exponential loss :math:`\\sum_i \\exp(-y_i H(x_i)) / (2 N_{y_i})` after each tree.
+    cascade_scale_ : (n_estimators_,) float64 ndarray
+        :math:`c_t`: the factor by which the running score after tree ``t`` is multiplied
+        before the soft cascade compares it with the threshold (its estimate of the whole
+        model's score; a stopped sample keeps the product). Ones after :meth:`fit`.
     used_features_ : (n_used,) intp ndarray
         Sorted indices of the features read by any tree (a property).
 
@@ -181,7 +187,7 @@ class AdaBoostTrees(ClassifierMixin, BaseEstimator):
         if depth > _MAX_DEPTH_LIMIT:
             raise ValueError(f"max_depth must be <= {_MAX_DEPTH_LIMIT} (trees are stored "
                              f"as complete binary trees), got {self.max_depth!r}")
-        stages = _check_stages(self.stages, T)
+        stages = check_stages(self.stages, T)
         thr = self.cascade_threshold
         if thr is not None and (isinstance(thr, bool) or not isinstance(thr, numbers.Real)
                                 or not np.isfinite(thr)):
@@ -299,6 +305,7 @@ class AdaBoostTrees(ClassifierMixin, BaseEstimator):
         self.threshold_ = threshold[:n_trained]
         self.value_ = value[:n_trained]
         self.train_loss_ = losses[:n_trained]
+        self.cascade_scale_ = np.ones(n_trained)
         return self
 
     # ------------------------------------------------------------------ evaluation
@@ -417,8 +424,8 @@ class AdaBoostTrees(ClassifierMixin, BaseEstimator):
         ``params`` are the hyper-parameters (JSON-ready; ``random_state`` only when it is
         an int or None -- it seeds training alone -- else None) and ``n_features_in_``;
         ``arrays`` the fitted arrays (``classes_``, ``feature_``, ``threshold_``,
-        ``value_``, ``train_loss_``, and ``feature_names_in_`` as text if fitted on named
-        columns). :meth:`from_arrays` rebuilds the model; nothing needs pickling.
+        ``value_``, ``train_loss_``, ``cascade_scale_`` unless all ones, and
+        ``feature_names_in_`` as text if fitted on named columns). :meth:`from_arrays` rebuilds the model; nothing needs pickling.
         """
         check_is_fitted(self, "feature_")
         params = {}
@@ -438,6 +445,8 @@ class AdaBoostTrees(ClassifierMixin, BaseEstimator):
             classes = classes.astype(str)
         arrays = dict(classes_=classes, feature_=self.feature_, threshold_=self.threshold_,
                       value_=self.value_, train_loss_=self.train_loss_)
+        if np.any(self.cascade_scale_ != 1.0):
+            arrays["cascade_scale_"] = self.cascade_scale_
         if hasattr(self, "feature_names_in_"):
             arrays["feature_names_in_"] = np.asarray(self.feature_names_in_, dtype=str)
         return params, arrays
@@ -476,6 +485,10 @@ class AdaBoostTrees(ClassifierMixin, BaseEstimator):
                              "feature_'s shape")
         if np.isnan(threshold).any() or not np.all(np.isfinite(value)):
             raise ValueError("threshold_ or value_ holds NaN or infinite values")
+        scale = np.ones(len(feature)) if "cascade_scale_" not in arrays \
+            else get("cascade_scale_", "f")
+        if scale.shape != feature.shape[:1] or not np.all(np.isfinite(scale) & (scale > 0)):
+            raise ValueError(f"cascade_scale_ must be {len(feature)} positive finite factors")
         model.n_features_in_ = n_in
         if "feature_names_in_" in arrays:
             names = get("feature_names_in_", "U")
@@ -488,11 +501,12 @@ class AdaBoostTrees(ClassifierMixin, BaseEstimator):
         model.threshold_ = np.ascontiguousarray(threshold, dtype=np.float64)
         model.value_ = np.ascontiguousarray(value, dtype=np.float64)
         model.train_loss_ = np.ascontiguousarray(loss, dtype=np.float64)
+        model.cascade_scale_ = np.ascontiguousarray(scale, dtype=np.float64)
         return model
 
     def _stage_ends(self):
         T = self.n_estimators_
-        stages = _check_stages(self.stages, check_int(self.n_estimators, "n_estimators", minimum=1))
+        stages = check_stages(self.stages, check_int(self.n_estimators, "n_estimators", minimum=1))
         ends = [k for k in stages if k < T]
         return ends + [T]
 
@@ -535,11 +549,12 @@ class AdaBoostTrees(ClassifierMixin, BaseEstimator):
                               np.ascontiguousarray(self.value_, dtype=np.float64), depth,
                               int(self.n_estimators_ if n_trees is None else n_trees),
                               0.0 if thr is None else float(thr), thr is not None,
+                              np.ascontiguousarray(self.cascade_scale_, dtype=np.float64),
                               np.empty(origin.shape[0]))
 
 
 # ---------------------------------------------------------------------- helpers
-def cascade_step(score, h, threshold):
+def cascade_step(score, h, threshold, scale=None):
     """Add a block of tree outputs to running scores, with the soft cascade.
 
     Parameters
@@ -549,6 +564,9 @@ def cascade_step(score, h, threshold):
     threshold : float or None
         Cascade threshold; a sample stops at the first tree whose running score is
         ``<= threshold`` (acfDetect1: ``if (h <= cascThr) break``) and keeps that score.
+    scale : (t,) ndarray or None
+        The block's ``cascade_scale_``: the running score after tree ``k`` is multiplied by
+        ``scale[k]`` before the comparison, and a stopped sample keeps the product.
 
     Returns
     -------
@@ -561,26 +579,8 @@ def cascade_step(score, h, threshold):
     run = np.cumsum(np.concatenate([score[:, None], h], axis=1), axis=1)[:, 1:]
     if threshold is None:
         return run[:, -1], np.zeros(len(run), bool)
-    below = run <= threshold
+    scaled = run if scale is None else run * np.asarray(scale, np.float64)[None, :]
+    below = scaled <= threshold
     stopped = below.any(axis=1)
     first = np.argmax(below, axis=1)
-    return np.where(stopped, run[np.arange(len(run)), first], run[:, -1]), stopped
-
-
-def _check_stages(stages, n_estimators):
-    if stages is None:
-        return (n_estimators,)
-    try:
-        stages = tuple(stages)
-    except TypeError:
-        raise ValueError(f"stages must be a sequence of tree counts or None, "
-                         f"got {stages!r}") from None
-    if not stages or any(isinstance(k, bool) or not isinstance(k, numbers.Integral) or k < 1
-                         for k in stages):
-        raise ValueError(f"stages must be positive integers, got {stages!r}")
-    if any(b <= a for a, b in zip(stages, stages[1:])):
-        raise ValueError(f"stages must be strictly increasing, got {stages!r}")
-    if stages[-1] > n_estimators:
-        raise ValueError(f"stages must not exceed n_estimators={n_estimators}, "
-                         f"got {stages!r}")
-    return tuple(int(k) for k in stages)
+    return np.where(stopped, scaled[np.arange(len(run)), first], run[:, -1]), stopped

@@ -8,7 +8,12 @@ bagging removes by averaging models fitted to resampled data (Breiman 1996).
 every member's first tree, then every member's second, ... -- with each tree's outputs
 divided by the number of members. Its score is the mean of the members' scores, and its
 soft cascade (Bourdev & Brandt 2005) stops a window when the mean of the members' partial
-scores over the same number of trees drops to the threshold. Because it is an ordinary
+scores over the same number of trees drops to the threshold. Averaging ``K`` members costs
+``K`` times one member's trees per window; with ``gate=True`` the first member's trees come
+first and the cascade reads their running sum times ``K`` (the first member's own score,
+``cascade_scale_``), so a window that member rejects costs what it costs alone, and only the
+windows it keeps go on to the other members (a two-stage cascade, Viola & Jones 2001, whose
+first stage is one of the averaged models). Because it is an ordinary
 :class:`~viewadapt.boosting.AdaBoostTrees`, it is adapted (Wang et al. 2017, Algorithm 2),
 saved and loaded like any single model. :func:`average_source_detectors` averages whole
 model files the same way (the HOG/SVMs by their weights).
@@ -17,6 +22,8 @@ References
 ----------
 .. [1] L. Breiman, "Bagging Predictors", Machine Learning 24(2), 1996.
 .. [2] L. Bourdev, J. Brandt, "Robust Object Detection via Soft Cascade", CVPR 2005.
+.. [4] P. Viola, M. Jones, "Rapid Object Detection using a Boosted Cascade of Simple
+   Features", CVPR 2001.
 .. [3] P. Wang, K. Morton, P. Torrione, L. Collins, "Viewpoint Adaptation for Rigid Object
    Detection", arXiv preprint, 2017.
 """
@@ -27,27 +34,33 @@ import numpy as np
 
 from .boosting import AdaBoostTrees
 
-__all__ = ["average_trees", "average_source_detectors"]
+__all__ = ["average_trees", "split_average", "average_source_detectors"]
 
 #: the fitted arrays of one tree each, interleaved member by member
 _PER_TREE = ("feature_", "threshold_", "value_", "train_loss_")
 
 
-def average_trees(models) -> AdaBoostTrees:
+def average_trees(models, *, gate: bool = False) -> AdaBoostTrees:
     """One :class:`~viewadapt.boosting.AdaBoostTrees` whose score is the mean of ``models``'.
 
     Parameters
     ----------
     models : sequence of fitted AdaBoostTrees
         Trained on the same features (the same ``n_features_in_``, classes, tree depth and
-        soft-cascade threshold); they may hold different numbers of trees (training stops
-        early once the loss vanishes).
+        soft-cascade threshold), with the plain cascade (unit ``cascade_scale_``); they may
+        hold different numbers of trees (training stops early once the loss vanishes).
+    gate : bool
+        The first model's trees first, the cascade reading their running sum as that
+        model's own score (``cascade_scale_`` ``len(models)``), then the others'
+        interleaved. The score of a window no tree stops is the same mean (summed in
+        another order); a window stops early where the first model's own cascade stops it.
 
     Returns
     -------
     AdaBoostTrees
         The members' trees interleaved (round ``t`` holds the ``t``-th tree of every member
-        that has one), their outputs divided by ``len(models)``; the first member's
+        that has one; with ``gate`` the first member's trees before them), their outputs
+        divided by ``len(models)``; the first member's
         parameters, with ``n_estimators`` the total, no training stages and no seed. Without
         the soft cascade its decision function is the members' mean to rounding. One model
         is returned as a copy of itself.
@@ -55,8 +68,8 @@ def average_trees(models) -> AdaBoostTrees:
     Raises
     ------
     ValueError
-        For no models, an unfitted one, or members that do not share their features,
-        classes, depth or cascade threshold.
+        For no models, an unfitted one, one with a scaled cascade, or members that do not
+        share their features, classes, depth or cascade threshold.
     """
     models = list(models)
     if not models:
@@ -65,6 +78,9 @@ def average_trees(models) -> AdaBoostTrees:
     for i, m in enumerate(models):
         if not isinstance(m, AdaBoostTrees) or not hasattr(m, "feature_"):
             raise ValueError(f"model {i} is not a fitted AdaBoostTrees")
+        if np.any(m.cascade_scale_ != 1.0):
+            raise ValueError(f"model {i} has a scaled cascade (a gated average): "
+                             "average its members instead")
         arrays.append(m.to_arrays())
     params, first = arrays[0]
     for i, (p, a) in enumerate(arrays[1:], start=1):
@@ -75,10 +91,15 @@ def average_trees(models) -> AdaBoostTrees:
             raise ValueError(f"model {i} has other classes than model 0")
     k = len(models)
     longest = max(len(a["feature_"]) for _, a in arrays)
-    order = [(i, t) for t in range(longest) for i, (_, a) in enumerate(arrays)
-             if t < len(a["feature_"])]
+    rest = arrays[1:] if gate else arrays
+    order = [(0, t) for t in range(len(first["feature_"]))] if gate else []
+    order += [(i + (1 if gate else 0), t) for t in range(longest)
+              for i, (_, a) in enumerate(rest) if t < len(a["feature_"])]
     out = {name: np.stack([arrays[i][1][name][t] for i, t in order]) for name in _PER_TREE}
     out["value_"] = out["value_"] / k
+    if gate and k > 1:
+        out["cascade_scale_"] = np.where(np.arange(len(order)) < len(first["feature_"]),
+                                         float(k), 1.0)
     out["classes_"] = first["classes_"]
     if "feature_names_in_" in first:
         out["feature_names_in_"] = first["feature_names_in_"]
@@ -86,12 +107,57 @@ def average_trees(models) -> AdaBoostTrees:
     return AdaBoostTrees.from_arrays(params, out)
 
 
-def average_source_detectors(models):
+def split_average(model, members: int) -> list:
+    """The ``members`` models an :func:`average_trees` of equally long members was made of,
+    gated or not (member ``j``: its trees in their order, outputs times ``members``; their
+    sums equal the members' own to rounding). ``ValueError`` when the trees cannot be such
+    an average: a tree count that does not divide among the members, cascade scales that
+    are not a gate's, or a member whose training loss rises (the trees of several members
+    mixed)."""
+    k = int(members)
+    if not isinstance(model, AdaBoostTrees) or not hasattr(model, "feature_") or k < 1:
+        raise ValueError(f"need a fitted AdaBoostTrees and members >= 1, got {members!r}")
+    n, scale = model.n_estimators_, model.cascade_scale_
+    lead = int(np.argmax(scale == 1.0)) if np.any(scale != 1.0) else 0   # the gate's trees
+    if (lead and (k < 2 or np.any(scale[:lead] != k) or np.any(scale[lead:] != 1.0)
+                  or (n - lead) % (k - 1) or (n - lead) // (k - 1) != lead)) \
+            or (not lead and n % k):
+        raise ValueError(f"{n} trees with these cascade scales are not an average of {k} "
+                         "equally long models")
+    params, arrays = model.to_arrays()
+    picks = ([np.arange(lead)] + [lead + np.arange(j, n - lead, k - 1) for j in range(k - 1)]
+             if lead else [np.arange(j, n, k) for j in range(k)])
+    out = []
+    for j, idx in enumerate(picks):
+        part = {name: arrays[name][idx] for name in _PER_TREE}
+        if np.any(np.diff(part["train_loss_"]) > 1e-12 * part["train_loss_"][:-1]):
+            raise ValueError(f"member {j} of {k}: its training loss rises, so the trees are "
+                             f"not an average of {k} equally long models")
+        part["value_"] = part["value_"] * k
+        part["classes_"] = arrays["classes_"]
+        if "feature_names_in_" in arrays:
+            part["feature_names_in_"] = arrays["feature_names_in_"]
+        out.append(AdaBoostTrees.from_arrays(dict(params, n_estimators=len(idx)), part))
+    return out
+
+
+def _members_in(record) -> int:
+    """How many boosted models a source-detector file's ACF averages, from its training
+    record (``average_of`` lists, or the recipe's ``acf_members``; 1 when neither)."""
+    if isinstance(record.get("average_of"), list):
+        return sum(_members_in(r) for r in record["average_of"])
+    return int((record.get("recipe") or {}).get("acf_members") or 1)
+
+
+def average_source_detectors(models, *, gate: bool = True):
     """The average of several :class:`~viewadapt.io.models.SourceDetectors` (e.g. trained
     on renders of other seeds): the HOG/SVMs' weights and biases averaged (a linear model's
     mean score is the score of its mean weights) and the ACF models averaged by
     :func:`average_trees`. The training record lists each member's record under
-    ``average_of``. ``ValueError`` for fewer than two models or one without an ACF model.
+    ``average_of``. With ``gate`` (the default) every ACF model that is itself an average (its record's
+    ``acf_members``) is first split into its members (:func:`split_average`) and all of
+    them are averaged with ``gate=True``: the first model's first member gates the rest.
+    ``ValueError`` for fewer than two models or one without an ACF model.
     """
     from .io.models import SourceDetectors
 
@@ -103,5 +169,10 @@ def average_source_detectors(models):
             raise ValueError(f"model {i} is not a SourceDetectors with an ACF model")
     weights = np.mean([np.asarray(m.hog_weights, np.float64) for m in models], axis=0)
     bias = float(np.mean([m.hog_bias for m in models]))
-    return SourceDetectors(weights, bias, average_trees([m.acf for m in models]),
-                           training={"average_of": [dict(m.training) for m in models]})
+    if gate:
+        members = [t for m in models for t in split_average(m.acf, _members_in(m.training))]
+        acf = average_trees(members, gate=True)
+    else:
+        acf = average_trees([m.acf for m in models])
+    return SourceDetectors(weights, bias, acf, training={
+        "average_of": [dict(m.training) for m in models], **({"acf_gate": True} if gate else {})})

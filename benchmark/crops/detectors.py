@@ -185,7 +185,7 @@ class AcfTreesDetector(CropDetector):
         # the recipe's members (Recipe.acf_members): member k trained as seed + k would be
         k = config.recipe.acf_members
         members = [self._fit_one(X_pos, X_neg, seed=seed + i, config=config) for i in range(k)]
-        return members[0] if k == 1 else average_trees(members)
+        return members[0] if k == 1 else average_trees(members, gate=True)
 
     def _fit_one(self, X_pos, X_neg, *, seed, config):
         # the ACF toolbox bootstraps hard negatives between stages; we mine once with a

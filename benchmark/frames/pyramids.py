@@ -162,7 +162,8 @@ def dense_cascade_scores_reference(model, C, positions, block=32):
             v = C[ch[fi], py + ii[fi], px + jj[fi]]
             go = v >= thr_[t0:t1][trees, node]
             node = np.where(f >= 0, 2 * node + 1 + go, node)
-        score[alive], stopped = cascade_step(score[alive], val[t0:t1][trees, node], casc)
+        score[alive], stopped = cascade_step(score[alive], val[t0:t1][trees, node], casc,
+                                             model.cascade_scale_[t0:t1])
         alive = alive[~stopped]
     return score
 

@@ -181,7 +181,8 @@ def _trees_blocks(op: AdaptedTreesOperator, features):
             ii, jj = np.nonzero(f >= 0)
             v = remapped(f[ii, jj], alive[ii])
             node[ii, jj] = 2 * node[ii, jj] + 1 + (v >= thr[t0 + jj, node[ii, jj]])
-        s, stopped = cascade_step(score, val[t0:t1][trees, node], op.model.cascade_threshold)
+        s, stopped = cascade_step(score, val[t0:t1][trees, node], op.model.cascade_threshold,
+                                  op.model.cascade_scale_[t0:t1])
         out[alive[stopped]] = s[stopped]
         alive, score = alive[~stopped], s[~stopped]
         t0 = t1

@@ -214,9 +214,12 @@ def test_acf_members_average_that_many_seeds_of_every_acf_model(toy):
     assert np.array_equal(avg.hog_weights, one[0].hog_weights)
     n = one[0].acf.n_estimators_
     assert avg.acf.n_estimators_ == n + one[1].acf.n_estimators_
-    assert np.array_equal(avg.acf.feature_[0:2 * n:2], one[0].acf.feature_)
-    assert np.array_equal(avg.acf.feature_[1:2 * n:2], one[1].acf.feature_[:n])
-    assert np.allclose(avg.acf.value_[0:2 * n:2], one[0].acf.value_ / 2)
+    # member 0 gates: its trees first, read as its own score, then member 1's
+    assert np.array_equal(avg.acf.feature_[:n], one[0].acf.feature_)
+    assert np.array_equal(avg.acf.feature_[n:], one[1].acf.feature_)
+    assert np.allclose(avg.acf.value_[:n], one[0].acf.value_ / 2)
+    assert np.array_equal(avg.acf.cascade_scale_,
+                          np.repeat([2.0, 1.0], [n, avg.acf.n_estimators_ - n]))
     assert avg.training["acf_members"] == 2 and avg.training["recipe"]["acf_members"] == 2
     assert "acf_members" not in one[0].training
     # the crops' ACF models (crossval, sweep)

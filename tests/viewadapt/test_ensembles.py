@@ -3,7 +3,8 @@ import pytest
 
 from tests.tolerances import EXACT
 from viewadapt.boosting import AdaBoostTrees
-from viewadapt.ensembles import average_trees
+from viewadapt.boosting import cascade_step
+from viewadapt.ensembles import average_trees, split_average
 
 
 def _data(seed=0, n=300, d=12):
@@ -103,3 +104,84 @@ def test_members_that_do_not_match_are_refused(change, match):
         members = []
     with pytest.raises(ValueError, match=match):
         average_trees(members)
+
+
+def test_the_gated_average_stops_where_its_first_member_does_then_on_the_running_mean():
+    members, X = _members(cascade_threshold=-1.0)
+    avg, k = average_trees(members, gate=True), len(members)
+    want, gated, stops = np.zeros(len(X)), 0, 0
+    for j, x in enumerate(X):      # plain loop: member 0 alone, then the others round by round
+        s = 0.0
+        for t in range(16):
+            s += _leaf(members[0], t, x) / k
+            if s * k <= -1.0:
+                s *= k
+                gated += 1
+                break
+        else:
+            for t in range(16):
+                for m in members[1:]:
+                    s += _leaf(m, t, x) / k
+                    if s <= -1.0:
+                        break
+                else:
+                    continue
+                stops += 1
+                break
+        want[j] = s
+    assert 0 < gated < len(X) and stops > 0
+    got = avg.decision_function(X)
+    np.testing.assert_allclose(got, want, **EXACT)
+    # a window member 0 stops keeps member 0's own cascade score
+    own = members[0].decision_function(X)
+    np.testing.assert_allclose(got[own <= -1.0], own[own <= -1.0], rtol=0, atol=1e-12)
+    # without the cascade the gated and the plain average are the same mean
+    for m in members:
+        m.cascade_threshold = None
+    plain, gate = average_trees(members), average_trees(members, gate=True)
+    np.testing.assert_allclose(gate.decision_function(X), plain.decision_function(X),
+                               rtol=0, atol=1e-12)
+    np.testing.assert_array_equal(gate.cascade_scale_[:16], k)
+    np.testing.assert_array_equal(gate.cascade_scale_[16:], 1.0)
+
+
+def test_a_gated_average_survives_storage_and_blocked_evaluation():
+    members, X = _members(cascade_threshold=-1.0)
+    avg = average_trees(members, gate=True)
+    again = AdaBoostTrees.from_arrays(*avg.to_arrays())
+    np.testing.assert_array_equal(again.cascade_scale_, avg.cascade_scale_)
+    np.testing.assert_array_equal(again.decision_function(X), avg.decision_function(X))
+    # cascade_step over blocks of trees, as the pyramids' reference evaluates them
+    h = np.stack([[_leaf(avg, t, x) for t in range(avg.n_estimators_)] for x in X])
+    score, alive = np.zeros(len(X)), np.arange(len(X))
+    for t0 in range(0, avg.n_estimators_, 5):
+        sl = slice(t0, t0 + 5)
+        s, stopped = cascade_step(score[alive], h[alive, sl], -1.0, avg.cascade_scale_[sl])
+        score[alive] = s
+        alive = alive[~stopped]
+    np.testing.assert_allclose(score, avg.decision_function(X), **EXACT)
+    # a plain model stores no scales, and bad ones are refused
+    assert "cascade_scale_" not in members[0].to_arrays()[1]
+    params, arrays = avg.to_arrays()
+    for bad in (arrays["cascade_scale_"][:-1], -arrays["cascade_scale_"]):
+        with pytest.raises(ValueError, match="cascade_scale_"):
+            AdaBoostTrees.from_arrays(params, dict(arrays, cascade_scale_=bad))
+
+
+def test_a_plain_average_splits_back_into_its_members():
+    members, X = _members(n=3, trees=8)
+    parts = split_average(average_trees(members), 3)
+    for m, p in zip(members, parts):
+        np.testing.assert_allclose(p.decision_function(X), m.decision_function(X),
+                                   rtol=0, atol=1e-12)
+    for m, p in zip(members, split_average(average_trees(members, gate=True), 3)):
+        np.testing.assert_allclose(p.decision_function(X), m.decision_function(X),
+                                   rtol=0, atol=1e-12)
+    with pytest.raises(ValueError, match="not an average of 5"):
+        split_average(average_trees(members), 5)
+    with pytest.raises(ValueError, match="not an average of 4"):
+        split_average(average_trees(members, gate=True), 4)
+    with pytest.raises(ValueError, match="training loss rises"):   # 24 trees read as 2 x 12
+        split_average(average_trees(members), 2)
+    with pytest.raises(ValueError, match="scaled cascade"):
+        average_trees([average_trees(members, gate=True), members[0]])

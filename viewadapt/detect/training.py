@@ -63,8 +63,9 @@ def train_on_windows(positives, negatives, *, seed: int = 0, quick: bool = False
         The boosted trees are the average (:func:`~viewadapt.ensembles.average_trees`) of
         this many models; member ``k`` is trained as a single model of seed ``seed + k``
         would be (its trees' feature subsets and its frame-view copies), so member 0 is the
-        single model. Recorded in ``training`` when above 1. 0: no ACF model (``acf`` is
-        None; for studies that train their own trees).
+        single model and gates the others (``average_trees``' ``gate``: the same mean, a
+        window member 0 rejects costs its trees alone). Recorded in ``training`` when above
+        1. 0: no ACF model (``acf`` is None; for studies that train their own trees).
 
     Returns
     -------
@@ -83,7 +84,8 @@ def train_on_windows(positives, negatives, *, seed: int = 0, quick: bool = False
                                    seed=seed + k + 2)
         members.append(acf_trees(seed=seed + k, quick=quick).fit(X, y))
         del X, y
-    trees = average_trees(members) if len(members) > 1 else next(iter(members), None)
+    trees = average_trees(members, gate=True) if len(members) > 1 \
+        else next(iter(members), None)
     training = dict(seed=seed, frame_view=frame_view, quick=quick, crops=len(positives),
                     background_windows=len(negatives))
     if svm_params:

@@ -96,7 +96,8 @@ class AdaptedTreesOperator(TemplateOperator):
         tree_cascade_scores(features.vector(self.cell_sizes), pos_group, pos_origin, n_groups,
                             indptr, offsets, weights, self.tree_nodes, self.tree_thresholds,
                             self.tree_values, self.tree_depth,
-                            0.0 if thr is None else float(thr), thr is not None, out)
+                            0.0 if thr is None else float(thr), thr is not None,
+                            np.ascontiguousarray(self.model.cascade_scale_, np.float64), out)
         return out[pos_of]
 
     def gather_tables(self):

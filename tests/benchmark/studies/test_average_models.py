@@ -55,3 +55,18 @@ def test_bad_inputs_are_one_line_errors_and_write_nothing(two, tmp_path, capsys)
     assert out.read_bytes() == b"mine"
     with pytest.raises(ValueError, match="at least two"):
         average_source_detectors([SourceDetectors.load(two[0])])
+
+
+def test_the_gated_average_splits_averaged_members_and_scores_the_same_mean(two, tmp_path):
+    plain, gated = tmp_path / "plain.npz", tmp_path / "gated.npz"
+    assert main([str(p) for p in two] + ["--out", str(plain), "--plain"]) == 0
+    assert main([str(p) for p in two] + ["--out", str(gated)]) == 0
+    p, g, a = (SourceDetectors.load(f) for f in (plain, gated, two[0]))
+    n = a.acf.n_estimators_
+    assert g.training["acf_gate"] is True and "acf_gate" not in p.training
+    np.testing.assert_array_equal(g.acf.cascade_scale_[:n], 2.0)     # the first file gates
+    np.testing.assert_array_equal(g.acf.cascade_scale_[n:], 1.0)
+    X = np.random.default_rng(1).random((40, a.acf.n_features_in_))
+    np.testing.assert_allclose(_free(g.acf).decision_function(X),
+                               _free(p.acf).decision_function(X), rtol=0, atol=1e-10)
+    np.testing.assert_array_equal(g.hog_weights, p.hog_weights)

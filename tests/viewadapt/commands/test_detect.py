@@ -448,7 +448,8 @@ def test_the_shipped_model_runs_with_no_model_option(toy, tmp_path):
     """`viewadapt detect --calibration cam INPUT` uses the models shipped in the package:
     the average of bench frames' models of two renders of the paper preset (seeds 0 and 1)
     through the surveillance camera effects, each under the averaged recipe (ACF the
-    average of nine seeds), every member's record kept in the file."""
+    average of nine seeds, the first of the 18 gating the rest), every member's record kept
+    in the file."""
     path = shipped_model_path()
     assert path.is_file() and path.stat().st_size < 1_000_000
     shipped = SourceDetectors.load(path)
@@ -462,6 +463,10 @@ def test_the_shipped_model_runs_with_no_model_option(toy, tmp_path):
         assert m["recipe"]["name"] == "averaged" and m["acf_members"] == 9
         assert m["frame_view"] == "both" and not m["quick"] and m["seed"] == 0
     assert shipped.acf.n_estimators_ == 2 * 9 * 256 and np.abs(shipped.hog_weights).sum() > 0
+    # one of the 18 boosted models gates the others (viewadapt.ensembles.average_trees)
+    assert shipped.training["acf_gate"] is True
+    np.testing.assert_array_equal(shipped.acf.cascade_scale_,
+                                  np.repeat([18.0, 1.0], [256, 17 * 256]))
     out = tmp_path / "out"
     rc = main(["detect", "--calibration", str(toy.calibration), "--threshold", "-1",
                "--quiet", "--out", str(out), "--jobs", "2", str(toy.video)])
