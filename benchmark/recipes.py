@@ -37,6 +37,7 @@ from __future__ import annotations
 import argparse
 from dataclasses import dataclass
 
+from viewadapt.arrays import is_int
 from viewadapt.camera.effects import SURVEILLANCE_CAMERA, CameraEffects
 
 __all__ = ["Recipe", "RECIPES", "DEFAULT_RECIPE", "SURVEILLANCE_CAMERA", "get_recipe",
@@ -93,8 +94,7 @@ class Recipe:
                                            and 0 < self.svm_c < math.inf):
             raise ValueError(f"recipe {self.name!r}: svm_c must be a positive number or None, "
                              f"got {self.svm_c!r}")
-        k = self.acf_members
-        if isinstance(k, bool) or not isinstance(k, numbers.Integral) or k < 1:
+        if not is_int(self.acf_members) or self.acf_members < 1:
             raise ValueError(f"recipe {self.name!r}: acf_members must be an integer >= 1, got "
                              f"{self.acf_members!r}")
 
