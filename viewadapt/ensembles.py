@@ -22,10 +22,10 @@ References
 ----------
 .. [1] L. Breiman, "Bagging Predictors", Machine Learning 24(2), 1996.
 .. [2] L. Bourdev, J. Brandt, "Robust Object Detection via Soft Cascade", CVPR 2005.
-.. [4] P. Viola, M. Jones, "Rapid Object Detection using a Boosted Cascade of Simple
-   Features", CVPR 2001.
 .. [3] P. Wang, K. Morton, P. Torrione, L. Collins, "Viewpoint Adaptation for Rigid Object
    Detection", arXiv preprint, 2017.
+.. [4] P. Viola, M. Jones, "Rapid Object Detection using a Boosted Cascade of Simple
+   Features", CVPR 2001.
 """
 
 from __future__ import annotations
@@ -118,7 +118,8 @@ def split_average(model, members: int) -> list:
     if not isinstance(model, AdaBoostTrees) or not hasattr(model, "feature_") or k < 1:
         raise ValueError(f"need a fitted AdaBoostTrees and members >= 1, got {members!r}")
     n, scale = model.n_estimators_, model.cascade_scale_
-    lead = int(np.argmax(scale == 1.0)) if np.any(scale != 1.0) else 0   # the gate's trees
+    ones = np.flatnonzero(scale == 1.0)
+    lead = 0 if len(ones) == n else (int(ones[0]) if len(ones) else n)   # the gate's trees
     if (lead and (k < 2 or np.any(scale[:lead] != k) or np.any(scale[lead:] != 1.0)
                   or (n - lead) % (k - 1) or (n - lead) // (k - 1) != lead)) \
             or (not lead and n % k):
@@ -143,10 +144,11 @@ def split_average(model, members: int) -> list:
 
 def _members_in(record) -> int:
     """How many boosted models a source-detector file's ACF averages, from its training
-    record (``average_of`` lists, or the recipe's ``acf_members``; 1 when neither)."""
+    record (``average_of`` lists, or its ``acf_members``, or its recipe's; 1 when none)."""
     if isinstance(record.get("average_of"), list):
         return sum(_members_in(r) for r in record["average_of"])
-    return int((record.get("recipe") or {}).get("acf_members") or 1)
+    recipe = record.get("recipe") or {}
+    return int(record.get("acf_members") or recipe.get("acf_members") or 1)
 
 
 def average_source_detectors(models, *, gate: bool = True):

@@ -181,6 +181,10 @@ def test_a_plain_average_splits_back_into_its_members():
         split_average(average_trees(members), 5)
     with pytest.raises(ValueError, match="not an average of 4"):
         split_average(average_trees(members, gate=True), 4)
+    broken = average_trees(members, gate=True)
+    broken.cascade_scale_ = np.full(broken.n_estimators_, 3.0)      # no tree after the gate
+    with pytest.raises(ValueError, match="not an average of 3"):
+        split_average(broken, 3)
     with pytest.raises(ValueError, match="training loss rises"):   # 24 trees read as 2 x 12
         split_average(average_trees(members), 2)
     with pytest.raises(ValueError, match="scaled cascade"):
