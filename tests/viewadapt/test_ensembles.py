@@ -46,22 +46,22 @@ def _leaf(m, t, x):
     return m.value_[t, node]
 
 
+def _round_by_round(members, x, k, s=0.0, trees=16):
+    """Plain loop: ``members``' trees round by round, member by member, each output over
+    ``k``, from running score ``s``, stopping at -1: ``(score, stopped)``."""
+    for t in range(trees):
+        for m in members:
+            s += _leaf(m, t, x) / k
+            if s <= -1.0:
+                return s, True
+    return s, False
+
+
 def test_the_cascade_stops_on_the_running_mean_of_the_members():
     members, X = _members(cascade_threshold=-1.0)
     avg, k = average_trees(members), len(members)
-    want, stops = np.zeros(len(X)), 0
-    for j, x in enumerate(X):                     # plain loop: round by round, member by member
-        s = 0.0
-        for t in range(16):
-            for m in members:
-                s += _leaf(m, t, x) / k
-                if s <= -1.0:
-                    break
-            else:
-                continue
-            stops += 1
-            break
-        want[j] = s
+    runs = [_round_by_round(members, x, k) for x in X]
+    want, stops = np.array([s for s, _ in runs]), sum(stop for _, stop in runs)
     assert 0 < stops < len(X)
     np.testing.assert_allclose(avg.decision_function(X), want, **EXACT)
 
@@ -119,15 +119,8 @@ def test_the_gated_average_stops_where_its_first_member_does_then_on_the_running
                 gated += 1
                 break
         else:
-            for t in range(16):
-                for m in members[1:]:
-                    s += _leaf(m, t, x) / k
-                    if s <= -1.0:
-                        break
-                else:
-                    continue
-                stops += 1
-                break
+            s, stopped = _round_by_round(members[1:], x, k, s)
+            stops += stopped
         want[j] = s
     assert 0 < gated < len(X) and stops > 0
     got = avg.decision_function(X)
