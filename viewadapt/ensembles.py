@@ -91,15 +91,13 @@ def average_trees(models, *, gate: bool = False) -> AdaBoostTrees:
             raise ValueError(f"model {i} has other classes than model 0")
     k = len(models)
     longest = max(len(a["feature_"]) for _, a in arrays)
-    rest = arrays[1:] if gate else arrays
-    order = [(0, t) for t in range(len(first["feature_"]))] if gate else []
-    order += [(i + (1 if gate else 0), t) for t in range(longest)
-              for i, (_, a) in enumerate(rest) if t < len(a["feature_"])]
+    lead = [(0, t) for t in range(len(first["feature_"]))] if gate else []
+    order = lead + [(i, t) for t in range(longest) for i in range(1 if gate else 0, k)
+                    if t < len(arrays[i][1]["feature_"])]
     out = {name: np.stack([arrays[i][1][name][t] for i, t in order]) for name in _PER_TREE}
     out["value_"] = out["value_"] / k
     if gate and k > 1:
-        out["cascade_scale_"] = np.where(np.arange(len(order)) < len(first["feature_"]),
-                                         float(k), 1.0)
+        out["cascade_scale_"] = np.repeat([float(k), 1.0], [len(lead), len(order) - len(lead)])
     out["classes_"] = first["classes_"]
     if "feature_names_in_" in first:
         out["feature_names_in_"] = first["feature_names_in_"]
@@ -118,16 +116,15 @@ def split_average(model, members: int) -> list:
     if not isinstance(model, AdaBoostTrees) or not hasattr(model, "feature_") or k < 1:
         raise ValueError(f"need a fitted AdaBoostTrees and members >= 1, got {members!r}")
     n, scale = model.n_estimators_, model.cascade_scale_
-    ones = np.flatnonzero(scale == 1.0)
-    lead = 0 if len(ones) == n else (int(ones[0]) if len(ones) else n)   # the gate's trees
-    if (lead and (k < 2 or np.any(scale[:lead] != k) or np.any(scale[lead:] != 1.0)
-                  or (n - lead) % (k - 1) or (n - lead) // (k - 1) != lead)) \
-            or (not lead and n % k):
+    length = n // k                                   # each member's trees
+    gated = np.array_equal(scale, np.repeat([float(k), 1.0], [length, n - length]))
+    if n % k or not (gated or np.all(scale == 1.0)):
         raise ValueError(f"{n} trees with these cascade scales are not an average of {k} "
                          "equally long models")
     params, arrays = model.to_arrays()
-    picks = ([np.arange(lead)] + [lead + np.arange(j, n - lead, k - 1) for j in range(k - 1)]
-             if lead else [np.arange(j, n, k) for j in range(k)])
+    picks = ([np.arange(length)] + [length + np.arange(j, n - length, k - 1)
+                                    for j in range(k - 1)]
+             if gated and k > 1 else [np.arange(j, n, k) for j in range(k)])
     out = []
     for j, idx in enumerate(picks):
         part = {name: arrays[name][idx] for name in _PER_TREE}

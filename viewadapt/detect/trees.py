@@ -69,10 +69,11 @@ class AdaptedTreesOperator(TemplateOperator):
         self.used = used
         feat = model.feature_
         #: per tree and node: the column in ``used`` of its feature (-1 at a leaf), its
-        #: threshold and value, and the trees' depth
+        #: threshold and value; the trees' depth and cascade scales
         self.tree_nodes = np.where(feat >= 0, np.searchsorted(used, np.maximum(feat, 0)), -1)
         self.tree_thresholds = model.threshold_
         self.tree_values = model.value_
+        self.tree_scales = np.ascontiguousarray(model.cascade_scale_, np.float64)
         self.tree_depth = (feat.shape[1] + 1).bit_length() - 2
 
     def frame_features(self, image) -> FrameFeatures:
@@ -97,7 +98,7 @@ class AdaptedTreesOperator(TemplateOperator):
                             indptr, offsets, weights, self.tree_nodes, self.tree_thresholds,
                             self.tree_values, self.tree_depth,
                             0.0 if thr is None else float(thr), thr is not None,
-                            np.ascontiguousarray(self.model.cascade_scale_, np.float64), out)
+                            self.tree_scales, out)
         return out[pos_of]
 
     def gather_tables(self):

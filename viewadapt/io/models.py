@@ -35,7 +35,9 @@ def shipped_model_path() -> Path:
     ``bench frames``' models of two renders (seeds 0 and 1) of the ``paper`` preset through
     the generator's ``surveillance`` camera effects: HOG/SVM and ACF boosted trees on the
     elevation-0 crops and their frame-view copies, seed 0, recipe ``averaged`` (the ACF
-    model the average of nine seeds' trees). The file's training record keeps each
+    model the average of nine seeds' trees); the 18 boosted models are stored with the
+    first gating the others (:func:`viewadapt.ensembles.average_trees`' ``gate``). The
+    file's training record keeps each
     member's record (recipe, dataset: preset, seed, renderer, camera effects, content
     hash) under ``average_of``. ``viewadapt detect`` uses them when no ``--model`` is given.
     """
