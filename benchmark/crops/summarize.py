@@ -15,7 +15,7 @@ import pandas as pd
 from viewadapt.metrics import det_curve_windows, log_average_miss_rate, miss_rate_at_fppw
 
 __all__ = ["FPPW_REFERENCE", "operating_threshold", "summarize", "paired_differences",
-           "group_keys", "PAPER_MISS_RATES"]
+           "group_keys", "PAPER_MISS_RATES", "PAPER_SWEEP", "PAPER_SWEEP_UNADAPTED"]
 
 #: LAMR over the paper's plotted fppw range (Fig. 5: 1e-3 .. 1), 13 log-spaced points
 FPPW_REFERENCE = np.array([10.0 ** (k / 4) for k in range(-12, 1)])
@@ -28,6 +28,16 @@ PAPER_MISS_RATES = {
     (np.pi / 8, "unadapted"): 0.502, (np.pi / 8, "image warping"): 0.473,
     (np.pi / 8, "adapted"): 0.348, (np.pi / 4, "oracle"): 0.317,
 }
+
+#: Wang et al. 2017, Fig. 6 (20160308_sketchupRobustness.tex): a HOG/SVM trained at
+#: elevation 0, adapted to each estimate ``k pi / 72`` (k = 1..35) and tested at pi/4 --
+#: the miss rate at 1e-2 fppw per estimate, in order, and the unadapted detector's
+PAPER_SWEEP = tuple(zip(np.arange(1, 36) * np.pi / 72, (
+    0.7863, 0.7739, 0.7676, 0.7623, 0.7514, 0.7416, 0.7384, 0.7298, 0.7073, 0.6992, 0.6968,
+    0.6932, 0.6795, 0.6717, 0.6624, 0.6643, 0.6677, 0.6723, 0.6765, 0.6995, 0.7190, 0.7440,
+    0.7652, 0.7865, 0.8072, 0.8327, 0.8550, 0.8942, 0.9224, 0.9485, 0.9725, 0.9911, 0.9962,
+    0.9994, 0.9984)))
+PAPER_SWEEP_UNADAPTED = 0.7964
 
 
 def operating_threshold(neg_scores, fppw: float) -> float:

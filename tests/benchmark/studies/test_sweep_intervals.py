@@ -5,7 +5,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from benchmark.crops.report import sweep_table
+from benchmark.crops.report import paper_sweep_table, sweep_table
 from benchmark.studies.sweep_intervals import main, sweep_intervals
 
 ESTIMATES = np.round(np.arange(0.0, 1.3, 0.1), 1)
@@ -77,3 +77,32 @@ def test_a_flat_sweep_has_wide_intervals_and_bad_input_is_one_line(tmp_path, cap
     text = (run / "sweep_intervals.md").read_text()
     assert "| adapted | 0.60 (" in text and "40 test persons, 50 resamples" in text
     assert (run / "sweep_intervals.csv").is_file()
+
+
+def test_the_interpolated_crossing_is_where_the_curve_meets_unadapted():
+    e = np.round(np.arange(0.0, 1.25, 0.1), 1)
+    curve = pd.DataFrame({"method": "adapted", "estimate": e,
+                          "mr_at_fppw_0.01": 0.1 + 0.5 * np.abs(e - 0.6)})
+    for u, grid, meet in ((0.3, 0.9, 1.0), (0.28, 0.9, 0.96), (0.12, 0.6, 0.64)):
+        summary = pd.concat([curve, pd.DataFrame({"method": ["unadapted"], "estimate": [np.nan],
+                                                  "mr_at_fppw_0.01": [u]})])
+        row = sweep_table(summary, 0.6).iloc[0]
+        assert row["crossing"] == pytest.approx(grid)
+        assert row["crossing_interp"] == pytest.approx(meet)
+        assert row["band_interp"] == pytest.approx(meet - 0.6)
+    # better than unadapted to the grid's end: no later point to interpolate towards
+    summary = pd.concat([curve, pd.DataFrame({"method": ["unadapted"], "estimate": [np.nan],
+                                              "mr_at_fppw_0.01": [0.9]})])
+    assert sweep_table(summary, 0.6).iloc[0]["crossing_interp"] == pytest.approx(1.2)
+
+
+def test_the_papers_fig6_is_read_by_the_same_rules():
+    # Wang et al. 2017, Fig. 6: best 0.662 at 15 pi/72; 0.7865 at 24 pi/72 and 0.8072 at
+    # 25 pi/72 against the unadapted 0.7964, so the last estimate still better is 24 pi/72
+    row = paper_sweep_table().iloc[0]
+    assert row["best_estimate"] == pytest.approx(15 * np.pi / 72)
+    assert row["best_mr"] == pytest.approx(0.6624)
+    assert row["crossing"] == pytest.approx(24 * np.pi / 72)
+    assert row["band_above_truth"] == pytest.approx(24 * np.pi / 72 - np.pi / 4)
+    assert 24 * np.pi / 72 < row["crossing_interp"] < 25 * np.pi / 72
+    assert row["unadapted"] == pytest.approx(0.7964)
