@@ -55,7 +55,7 @@ def averaged_remap(det, source, estimate, sigma, cfg, n_nodes: int = 5):
 
 def run_sweep(ds: Dataset, cfg: CrossvalConfig, cache: FeatureCache, *, detector="hog",
               source=0.0, step=np.pi / 72, sigma=0.1, variants=SWEEP_VARIANTS,
-              progress=True, models=None) -> pd.DataFrame:
+              progress=True, models=None, extra=None) -> pd.DataFrame:
     """Per fold, method and estimate: the test windows' scores.
 
     Every variant of ``variants`` (names of :data:`benchmark.crops.crossval.ADAPT_VARIANTS`: an
@@ -65,6 +65,8 @@ def run_sweep(ds: Dataset, cfg: CrossvalConfig, cache: FeatureCache, *, detector
     ``models`` (optional): source models by ``(detector, source, fold name)`` from
     :func:`benchmark.crops.crossval.run_crossval` with the same seed and windows, used instead of
     training them again (the same models: the seeds derive from the same ids).
+    ``extra`` (optional): a function of the estimate giving more ``{method name: G}`` to
+    score beside the variants (e.g. a study's own remappings), on the same folds and models.
 
     Returns
     -------
@@ -92,6 +94,8 @@ def run_sweep(ds: Dataset, cfg: CrossvalConfig, cache: FeatureCache, *, detector
         maps = view_maps(source, float(e), cfg)
         for v in variants:
             Gs[(v, e)] = variant_remap(detector, maps[ADAPT_VARIANTS[v][2]], v, cfg)
+        for name, G in (extra(float(e)) if extra is not None else {}).items():
+            Gs[(name, e)] = G
     if sigma > 0:
         for e in estimates:
             Gs[(f"adapted, prior σ={sigma:g}", e)] = averaged_remap(detector, source, e, sigma, cfg)
