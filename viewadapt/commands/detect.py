@@ -440,7 +440,10 @@ def register(sub, common) -> None:
                         "evaluation.json) instead of --annotate-threshold; the input is "
                         "read a second time")
     p.add_argument("--heights", type=person_heights, default=(PERSON_HEIGHT_M,),
-                   help="assumed person heights, metres, comma-separated (default 1.75)")
+                   help="assumed person heights, metres, comma-separated (default 1.75); "
+                        "each adds a window size at every ground position, so a band such "
+                        "as 1.65,1.75,1.85 also tolerates a calibration whose tilt is a "
+                        "little off, for more windows and false positives")
     p.add_argument("--min-height", type=min_height, default=MIN_PERSON_HEIGHT_PX, metavar="PX",
                    help="persons shorter than this in the frame get no candidate window "
                         f"(default {MIN_PERSON_HEIGHT_PX:g} px; 0 = down to the horizon)")
