@@ -21,16 +21,12 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["camera_tilt", "pitched", "main"]
+from viewadapt.camera.calibrate import camera_height_and_tilt
+
+__all__ = ["pitched", "main"]
 
 _METHODS = ("hog_adapted", "hog_adapted[paper eq.3]", "hog_adapted[S only]")
 _ERRORS = (-0.2, -0.1, -0.05, 0.0, 0.05, 0.1, 0.2, 0.3)
-
-
-def camera_tilt(camera) -> float:
-    """Angle of the optical axis below the horizontal, radians (world Z up)."""
-    axis = np.asarray(camera.R, float).T @ np.array([0.0, 0.0, 1.0])
-    return float(np.arcsin(np.clip(-axis[2], -1.0, 1.0)))
 
 
 def pitched(camera, delta: float):
@@ -40,6 +36,11 @@ def pitched(camera, delta: float):
     Rx = np.array([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]])
     R = Rx @ np.asarray(camera.R, float)
     return replace(camera, R=R, t=-R @ camera.center)
+
+
+def _tilt(camera) -> float:
+    """The optical axis' angle below the horizontal, radians."""
+    return float(np.radians(camera_height_and_tilt(camera.R, camera.t)[1]))
 
 
 def _plot(rows, base_name, base_lamr, tilt, path):
@@ -118,7 +119,7 @@ def main(argv=None) -> int:
         print(f"error: {exc}")
         return 2
     size = clip0.camera.image_size
-    tilt = camera_tilt(clip0.camera)
+    tilt = _tilt(clip0.camera)
 
     def matched(run, m):
         return evaluation_matches(run.detections[m], run.truth, size, regions=clip0.regions)[0]
@@ -132,7 +133,7 @@ def main(argv=None) -> int:
     for e in errors:
         clip = clip_at(e)
         run = run_footage(clip, methods, models, heights=args.heights)
-        runs[e] = ({m: matched(run, m) for m in methods}, camera_tilt(clip.camera) - tilt,
+        runs[e] = ({m: matched(run, m) for m in methods}, _tilt(clip.camera) - tilt,
                    {m: run.n_frames / max(run.seconds[m], 1e-9) for m in methods})
         print(f"tilt error {e:+.2f}: " + ", ".join(f"{m.name} {matches_lamr(ms):.3f}"
                                                    for m, ms in runs[e][0].items()), flush=True)

@@ -26,13 +26,15 @@ import numpy as np
 import scipy.sparse as sp
 
 from viewadapt.adapt import hog_remap_matrix
-from viewadapt.geometry import elevation_homography, homography_jacobian
+from viewadapt.geometry import (
+    WINDOW_HEIGHT, WINDOW_WIDTH, elevation_homography, homography_jacobian,
+)
 from viewadapt.remap import CellGrid, assemble_remap_matrix, orientation_remap_matrix
 
 __all__ = ["angle_blocks", "split_remap", "main"]
 
-#: the HOG crops' source window and cells (:class:`benchmark.crops.detectors.HogDescriptorDetector`)
-_WINDOW, _CELL, _BINS = (64, 128), 8, 9
+#: the HOG crops' source cells and bins (:func:`viewadapt.adapt.hog_remap_matrix`' defaults)
+_CELL, _BINS = 8, 9
 
 
 def angle_blocks(H_st, rule: str) -> sp.csr_matrix:
@@ -40,7 +42,7 @@ def angle_blocks(H_st, rule: str) -> sp.csr_matrix:
     ``H_st`` (source window -> target window pixels) at the cell's centre, block-diagonal
     over the source cells -- the factor of ``G`` that :func:`viewadapt.remap.feature_remap_matrix`
     multiplies into ``S``."""
-    grid = CellGrid.for_window(*_WINDOW, _CELL)
+    grid = CellGrid.for_window(WINDOW_WIDTH, WINDOW_HEIGHT, _CELL)
     A = orientation_remap_matrix(homography_jacobian(H_st, grid.centers()), _BINS, rule)
     return assemble_remap_matrix(sp.identity(grid.n_cells, format="csr"), A, n_bins=_BINS)
 

@@ -4,9 +4,14 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from benchmark.studies.footage_pitch import camera_tilt, main, pitched
+from benchmark.studies.footage_pitch import main, pitched
+from viewadapt.camera.calibrate import camera_height_and_tilt
 from viewadapt.geometry import crop_camera
 from tests.toy_frames import mot_toy_clip
+
+
+def camera_tilt(camera):
+    return np.radians(camera_height_and_tilt(camera.R, camera.t)[1])
 
 
 @pytest.mark.parametrize("elevation", [0.2, np.pi / 4])
