@@ -65,5 +65,33 @@ def test_the_sweep_scores_extra_remappings_beside_its_variants(tmp_path):
     for curve in ("covariant: S estimated, A true", "covariant: S true, A estimated",
                   "eq. (3): S true, A estimated", "| adapted |"):
         assert curve in text
+    assert "| covariant | " in text and "| eq. (3) | " in text      # the maps' costs
     assert (out / "decomposition.png").is_file() and (out / "sweep_summary.csv").is_file()
     assert main(["--data", str(data), "--out", str(tmp_path / "o2"), "--step", "1"]) == 2
+
+
+def test_orientation_cost_is_the_paired_miss_rate_difference_at_the_truth():
+    from benchmark.studies.sweep_decomposition import orientation_cost
+
+    rng = np.random.default_rng(0)
+    rows = []
+    persons = ["p1", "p2", "p3", "p4"]
+    for method, missed in (("covariant: S true, A estimated", {0.0: {"p1"}, 0.8: {"p1", "p2"}}),
+                           ("eq. (3): S true, A estimated", {0.0: {"p3"}, 0.8: {"p3"}}),
+                           ("covariant: S estimated, A true", {0.0: set(), 0.8: set(persons)})):
+        for e in (0.0, 0.4, 0.8):
+            for s in rng.uniform(-3, -1, 300):
+                rows.append((method, e, 0, s, "bg"))
+            for p in persons:
+                for _ in range(2):
+                    rows.append((method, e, 1, -5.0 if p in missed.get(e, ()) else 1.0, p))
+    scores = pd.DataFrame(rows, columns=["method", "estimate", "label", "score", "person_id"])
+    cost = {c["rule"]: c for c in orientation_cost(scores, np.pi / 4, n_boot=200)}
+    # only the "S true, A estimated" curves; the estimate nearest the truth is 0.8
+    assert set(cost) == {"covariant", "eq. (3)"}
+    c = cost["covariant"]
+    assert (c["mr_identity"], c["mr_truth"], c["cost"]) == pytest.approx((0.25, 0.5, 0.25))
+    # paired: a draw loses p2's share of its positives, never less than nothing
+    assert 0 <= c["low"] <= 0.25 <= c["high"] < 1 and c["high"] > c["low"]
+    e = cost["eq. (3)"]
+    assert (e["cost"], e["low"], e["high"]) == pytest.approx((0.0, 0.0, 0.0))
