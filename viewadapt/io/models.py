@@ -120,6 +120,9 @@ class SourceDetectors:
 
         h = hashlib.sha256(np.asarray(self.hog_weights, np.float64).tobytes())
         h.update(np.float64(self.hog_bias).tobytes())
-        for a in (self.acf.feature_, self.acf.threshold_, self.acf.value_):
-            h.update(np.ascontiguousarray(a).tobytes())
+        if self.acf is None:                # a file of the HOG/SVM alone
+            h.update(b"no ACF model")
+        else:
+            for a in (self.acf.feature_, self.acf.threshold_, self.acf.value_):
+                h.update(np.ascontiguousarray(a).tobytes())
         return h.hexdigest()[:16]

@@ -108,6 +108,19 @@ def test_source_detectors_round_trip(models, files):
     assert back.fingerprint() == models.fingerprint()
 
 
+def test_a_hog_only_model_file_detects_with_hog(camera, models, frame, tmp_path):
+    # train_on_windows(acf_members=0) writes files without an ACF model; the HOG detector
+    # must still run from them (its operator cache keys the models by their fingerprint)
+    hog_only = SourceDetectors(models.hog_weights, models.hog_bias, None, {"acf_members": 0})
+    hog_only.save(tmp_path / "hog_only.npz")
+    back = SourceDetectors.load(tmp_path / "hog_only.npz")
+    assert back.acf is None and back.fingerprint() == hog_only.fingerprint()
+    assert back.fingerprint() != models.fingerprint()
+    with_acf = FrameDetector(camera, models, cache_dir=tmp_path / "a").operator("hog")
+    alone = FrameDetector(camera, back, cache_dir=tmp_path / "b").operator("hog")
+    assert np.array_equal(alone.detect(frame, threshold=-1.0),
+                          with_acf.detect(frame, threshold=-1.0))
+
 def test_adaboost_arrays_are_checked(models):
     params, arrays = models.acf.to_arrays()
     json.dumps(params)                                    # JSON-ready
