@@ -109,12 +109,7 @@ def main(argv=None) -> int:
             raise ValueError("--errors must lie in [-0.6, 0.6] rad")
         check_output_dir(args.out)
         models = SourceDetectors.load(args.model or shipped_model_path())
-
-        def clip_at(delta):
-            c = open_clip(args.inputs, args.calibration, args.boxes, args.ignore)
-            return replace(c, camera=pitched(c.camera, delta)) if delta else c
-
-        clip0 = clip_at(0.0)
+        clip0 = open_clip(args.inputs, args.calibration, args.boxes, args.ignore)
     except (ValueError, OSError) as exc:
         print(f"error: {exc}")
         return 2
@@ -130,8 +125,8 @@ def main(argv=None) -> int:
     base_lamr = matches_lamr(mb)
     errors = sorted(set(args.errors) | {0.0})
     runs = {}
-    for e in errors:
-        clip = clip_at(e)
+    for e in errors:                    # the clip read once, its camera pitched per error
+        clip = replace(clip0, camera=pitched(clip0.camera, e)) if e else clip0
         run = run_footage(clip, methods, models, heights=args.heights)
         runs[e] = ({m: matched(run, m) for m in methods}, _tilt(clip.camera) - tilt,
                    {m: run.n_frames / max(run.seconds[m], 1e-9) for m in methods})
@@ -142,7 +137,8 @@ def main(argv=None) -> int:
         ms, dt, fps = runs[e]
         for m in methods:
             ci = matches_bootstrap(ms[m])
-            own = paired_matches_bootstrap(ms[m], runs[0.0][0][m])
+            own = paired_matches_bootstrap(ms[m], runs[0.0][0][m]) if e else \
+                {"difference": 0.0, "ci": (0.0, 0.0)}           # the calibrated run itself
             vs = paired_matches_bootstrap(ms[m], mb)
             numbers = summary_numbers(*accumulate_frames(ms[m])[:2])
             rows.append({"method": m.name, "tilt_error": e, "tilt_change": dt,

@@ -17,7 +17,7 @@ def jitter(img, s):
 
 import sys
 UP = sys.argv[1:] == ["up"]     # up: factors in [1, 1.08] only (no reflected border)
-out = Path("/tmp/s12/models"); out.mkdir(exist_ok=True)  
+out = Path("/tmp/s12/models"); out.mkdir(exist_ok=True)   # where the runs wrote them
 fx = load_dataset(Path("/tmp/exp/dsfx"))
 pos = list(person_windows(fx, 0).images(fx.root))
 rng = np.random.default_rng(12345)
