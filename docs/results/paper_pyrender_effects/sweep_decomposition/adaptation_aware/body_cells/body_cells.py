@@ -1,7 +1,8 @@
-"""One-off probe: the covariant orientation map only in the source cells the mean body covers
-(at least half of each 8-px cell's pixels inside its silhouette in the elevation-0 crop), the
-identity elsewhere; S from the plane everywhere. Sweep of HOG 0 -> pi/4 beside the full covariant
-map. Usage: body_cells.py DATA OUT CACHE"""
+"""One-off probe (docs/training.md point 53): the covariant orientation map only in some source
+cells, the identity elsewhere, S from the plane everywhere; sweep of HOG 0 -> pi/4 beside the full
+covariant map. The cells: those at least half inside the mean body's silhouette in the
+elevation-0 crop ("body cells", 24 of 128), those at least 90 % inside ("core body cells"), and
+the complement of the first ("around the body"). Usage: body_cells.py DATA OUT CACHE"""
 import sys
 from pathlib import Path
 
@@ -25,11 +26,12 @@ from viewadapt.surface import surface_depth
 CELL, BINS = 8, 9
 
 
-def body_cells(distance, coverage=0.5):
+def body_coverage(distance):
+    """Per source cell (row-major, as CellGrid), the share of its pixels inside the mean body."""
     V, F = object_model("body").mesh()
     d = surface_depth(V, F, crop_camera(0.0, distance=distance), (WINDOW_HEIGHT, WINDOW_WIDTH))
     inside = np.isfinite(d).reshape(WINDOW_HEIGHT // CELL, CELL, WINDOW_WIDTH // CELL, CELL)
-    return inside.mean(axis=(1, 3)).ravel() >= coverage       # row-major cells, as CellGrid
+    return inside.mean(axis=(1, 3)).ravel()
 
 
 def masked_remap(H_spatial, H_angles, mask, tcs):
@@ -47,9 +49,12 @@ def main(data, out, cache_dir):
                          framing=str(ds.config.get("framing", "plane")), object_models=("plane",))
     cfg.recipe = get_recipe("regularised")
     truth = cfg.target
-    mask = body_cells(cfg.distance)
-    print(f"body cells: {mask.sum()} of {mask.size}")
-    print("\n".join("".join("#" if m else "." for m in row) for row in mask.reshape(16, 8)))
+    cover = body_coverage(cfg.distance)
+    mask = cover >= 0.5
+    masks = {"body cells": mask, "core body cells": cover >= 0.9, "around the body": ~mask}
+    for name, m in masks.items():
+        print(f"{name}: {m.sum()} of {m.size}")
+        print("\n".join("".join("#" if x else "." for x in row) for row in m.reshape(16, 8)))
 
     def H(x):
         return elevation_homography(0.0, x, distance=cfg.distance, framing=cfg.framing)
@@ -57,9 +62,11 @@ def main(data, out, cache_dir):
     def extra(e):
         He, Ht = H(e), H(truth)
         t = cfg.target_cell_size
-        return {"covariant: S true, A estimated": split_remap(Ht, He, "covariant", t),
-                "body cells: S true, A estimated": masked_remap(Ht, He, mask, t),
-                "body cells": masked_remap(He, He, mask, t)}
+        out = {"covariant: S true, A estimated": split_remap(Ht, He, "covariant", t),
+               "body cells": masked_remap(He, He, mask, t)}
+        for name, m in masks.items():
+            out[f"{name}: S true, A estimated"] = masked_remap(Ht, He, m, t)
+        return out
 
     cache = FeatureCache(ds, cache_dir, n_jobs=2)
     rows = run_sweep(ds, cfg, cache, detector="hog", step=np.pi / 72, sigma=0.0,
@@ -67,8 +74,8 @@ def main(data, out, cache_dir):
     summary = sweep_summary(rows)
     tab = sweep_table(summary, truth)
     Path(out).mkdir(parents=True, exist_ok=True)
-    lines = [f"# Covariant orientation map in the body's cells only ({mask.sum()} of {mask.size} "
-             f"cells)", "", f"Data `{data}`, recipe regularised, HOG 0 → π/4, the person plane; "
+    lines = ["# Covariant orientation map in some cells only: " + ", ".join(
+                 f"{n} {m.sum()} of {m.size}" for n, m in masks.items()), "", f"Data `{data}`, recipe regularised, HOG 0 → π/4, the person plane; "
              f"unadapted {tab['unadapted'].iloc[0]:.3f}.", "",
              "| curve | best estimate | best MR | MR at truth | crossing | above truth | "
              "interpolated | above truth |", "|---|---|---|---|---|---|---|---|"]
