@@ -33,7 +33,7 @@ from viewadapt.geometry import (
 )
 from viewadapt.remap import CellGrid, assemble_remap_matrix, orientation_remap_matrix
 
-__all__ = ["angle_blocks", "split_remap", "orientation_cost", "main"]
+__all__ = ["angle_blocks", "split_remap", "orientation_cost", "decomposition_lines", "main"]
 
 #: the HOG crops' source cells and bins (:func:`viewadapt.adapt.hog_remap_matrix`' defaults)
 _CELL, _BINS = 8, 9
@@ -104,6 +104,34 @@ def orientation_cost(scores, truth: float, *, n_boot: int = 1000, seed: int = 0,
     return out
 
 
+def decomposition_lines(rows, summary, truth: float, *, title: str, intro: str,
+                        seed: int = 0) -> list[str]:
+    """The Markdown lines of ``decomposition.md``: ``title``, ``intro`` (one sentence, to which
+    the unadapted miss rate is appended), every curve of ``summary``
+    (:func:`benchmark.crops.sweep.sweep_summary` of ``rows``) with its best estimate and its
+    crossings (:func:`benchmark.crops.report.sweep_table`), and the orientation-map cost of
+    each ``"<name>: S true, A estimated"`` curve of ``rows`` (:func:`orientation_cost`)."""
+    from benchmark.crops.report import sweep_table
+
+    tab = sweep_table(summary, truth)
+    lines = [f"# {title}", "", f"{intro}; unadapted {tab['unadapted'].iloc[0]:.3f}.", "",
+             "| curve | best estimate | best MR | MR at truth | crossing | above truth | "
+             "interpolated | above truth |", "|---|---|---|---|---|---|---|---|"]
+    for _, r in tab.iterrows():
+        lines.append(f"| {r['method']} | {r['best_estimate']:.2f} | {r['best_mr']:.3f} | "
+                     f"{r['mr_at_true']:.3f} | {r['crossing']:.2f} | "
+                     f"{r['band_above_truth']:+.2f} | {r['crossing_interp']:.2f} | "
+                     f"{r['band_interp']:+.2f} |")
+    lines += ["", "The orientation maps' cost with the geometry right (`S` true): miss rate with "
+              "`A` of the true elevation minus with `A` the identity (e = 0), paired bootstrap "
+              "over test persons (95 %):", "",
+              "| rule | A identity | A true | cost |", "|---|---|---|---|"]
+    for c in orientation_cost(rows, truth, seed=seed):
+        lines.append(f"| {c['rule']} | {c['mr_identity']:.3f} | {c['mr_truth']:.3f} | "
+                     f"{c['cost']:+.3f} ({c['low']:+.3f}…{c['high']:+.3f}) |")
+    return lines
+
+
 def _plot(summary, truth, path):
     import matplotlib
 
@@ -135,7 +163,6 @@ def _plot(summary, truth, path):
 def main(argv=None) -> int:
     from benchmark.crops.crossval import CrossvalConfig
     from benchmark.crops.features import FeatureCache
-    from benchmark.crops.report import sweep_table
     from benchmark.crops.sweep import run_sweep, sweep_summary
     from benchmark.data import load_dataset
     from benchmark.recipes import add_recipe_argument
@@ -173,24 +200,10 @@ def main(argv=None) -> int:
                      variants=("adapted", "adapted[paper eq.3]", "adapted[S only]"),
                      extra=lambda e: _methods(e, truth, cfg))
     summary = sweep_summary(rows)
-    tab = sweep_table(summary, truth)
-    lines = ["# Which part of G fails under a wrong elevation estimate", "",
-             f"Data `{args.data}`, recipe `{cfg.recipe.name}`, HOG 0 → {truth:.3f} rad, the "
-             f"person plane; unadapted {tab['unadapted'].iloc[0]:.3f}.", "",
-             "| curve | best estimate | best MR | MR at truth | crossing | above truth | "
-             "interpolated | above truth |", "|---|---|---|---|---|---|---|---|"]
-    for _, r in tab.iterrows():
-        lines.append(f"| {r['method']} | {r['best_estimate']:.2f} | {r['best_mr']:.3f} | "
-                     f"{r['mr_at_true']:.3f} | {r['crossing']:.2f} | "
-                     f"{r['band_above_truth']:+.2f} | {r['crossing_interp']:.2f} | "
-                     f"{r['band_interp']:+.2f} |")
-    lines += ["", "The orientation maps' cost with the geometry right (`S` true): miss rate with "
-              "`A` of the true elevation minus with `A` the identity (e = 0), paired bootstrap "
-              "over test persons (95 %):", "",
-              "| rule | A identity | A true | cost |", "|---|---|---|---|"]
-    for c in orientation_cost(rows, truth, seed=args.seed):
-        lines.append(f"| {c['rule']} | {c['mr_identity']:.3f} | {c['mr_truth']:.3f} | "
-                     f"{c['cost']:+.3f} ({c['low']:+.3f}…{c['high']:+.3f}) |")
+    lines = decomposition_lines(
+        rows, summary, truth, title="Which part of G fails under a wrong elevation estimate",
+        intro=f"Data `{args.data}`, recipe `{cfg.recipe.name}`, HOG 0 → {truth:.3f} rad, the "
+              f"person plane", seed=args.seed)
     with atomic_output_dir(args.out) as tmp:
         rows.to_parquet(tmp / "sweep_scores.parquet", index=False)
         summary.to_csv(tmp / "sweep_summary.csv", index=False)

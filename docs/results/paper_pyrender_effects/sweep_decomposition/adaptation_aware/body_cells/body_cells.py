@@ -11,11 +11,10 @@ import scipy.sparse as sp
 
 from benchmark.crops.crossval import CrossvalConfig
 from benchmark.crops.features import FeatureCache
-from benchmark.crops.report import sweep_table
 from benchmark.crops.sweep import run_sweep, sweep_summary
 from benchmark.data import load_dataset
 from benchmark.recipes import get_recipe
-from benchmark.studies.sweep_decomposition import orientation_cost, split_remap
+from benchmark.studies.sweep_decomposition import decomposition_lines, split_remap
 from viewadapt.adapt import hog_remap_matrix
 from viewadapt.geometry import (WINDOW_HEIGHT, WINDOW_WIDTH, crop_camera, elevation_homography,
                                 homography_jacobian)
@@ -72,22 +71,11 @@ def main(data, out, cache_dir):
     rows = run_sweep(ds, cfg, cache, detector="hog", step=np.pi / 72, sigma=0.0,
                      variants=("adapted", "adapted[paper eq.3]", "adapted[S only]"), extra=extra)
     summary = sweep_summary(rows)
-    tab = sweep_table(summary, truth)
     Path(out).mkdir(parents=True, exist_ok=True)
-    lines = ["# Covariant orientation map in some cells only: " + ", ".join(
-                 f"{n} {m.sum()} of {m.size}" for n, m in masks.items()), "", f"Data `{data}`, recipe regularised, HOG 0 → π/4, the person plane; "
-             f"unadapted {tab['unadapted'].iloc[0]:.3f}.", "",
-             "| curve | best estimate | best MR | MR at truth | crossing | above truth | "
-             "interpolated | above truth |", "|---|---|---|---|---|---|---|---|"]
-    for _, r in tab.iterrows():
-        lines.append(f"| {r['method']} | {r['best_estimate']:.2f} | {r['best_mr']:.3f} | "
-                     f"{r['mr_at_true']:.3f} | {r['crossing']:.2f} | "
-                     f"{r['band_above_truth']:+.2f} | {r['crossing_interp']:.2f} | "
-                     f"{r['band_interp']:+.2f} |")
-    lines += ["", "| map (true S) | A identity | A true | cost |", "|---|---|---|---|"]
-    for c in orientation_cost(rows, truth, seed=0):
-        lines.append(f"| {c['rule']} | {c['mr_identity']:.3f} | {c['mr_truth']:.3f} | "
-                     f"{c['cost']:+.3f} ({c['low']:+.3f}…{c['high']:+.3f}) |")
+    lines = decomposition_lines(
+        rows, summary, truth, title="Covariant orientation map in some cells only: " + ", ".join(
+            f"{n} {m.sum()} of {m.size}" for n, m in masks.items()),
+        intro=f"Data `{data}`, recipe regularised, HOG 0 → π/4, the person plane")
     (Path(out) / "body_cells.md").write_text("\n".join(lines) + "\n")
     summary.to_csv(Path(out) / "sweep_summary.csv", index=False)
     rows.to_parquet(Path(out) / "sweep_scores.parquet", index=False)
