@@ -11,7 +11,17 @@ the rest:
               every window (what a detector could use without knowing the person).
 Rows: S only everywhere (A identity), covariant everywhere, covariant on the inside only,
 covariant on the rest only; each against A identity, paired bootstrap over test persons.
-Usage: pixel_split.py depth|depth2|silhouette DATA OUT CACHE"""
+  ground      the depth split with other maps on the rest (point 55): S only, eq. (3), or the
+              ground plane's own orientation map (per source cell, the covariant map of the
+              Jacobian of source -> target pixels through the ground Z = 0 between the two
+              crop cameras; the identity where a source cell's ray misses the ground); and
+              eq. (3) and the ground map on every pixel.
+  silhouette-ground  the silhouette split with the ground plane's map outside it.
+  ground-control     as ground, but every background window is split by the depth mask of a
+              test person drawn at random (seed 0), so negatives are split as positives are
+              (the split then says nothing about which windows hold a person).
+Usage: pixel_split.py depth|depth2|silhouette|ground|silhouette-ground|ground-control DATA
+       OUT CACHE"""
 import sys
 from pathlib import Path
 
@@ -28,9 +38,35 @@ from benchmark.recipes import get_recipe
 from benchmark.studies.sweep_intervals import person_hits
 from viewadapt.adapt import remap_features
 from viewadapt.detect import cell_sums, fast_orientation_channels
-from viewadapt.geometry import WINDOW_HEIGHT, WINDOW_WIDTH, crop_camera
+import scipy.sparse as sp
+
+from viewadapt.adapt import hog_remap_matrix
+from viewadapt.geometry import (WINDOW_HEIGHT, WINDOW_WIDTH, crop_camera, elevation_homography,
+                                homography_jacobian)
 from viewadapt.objectmodel import object_model
+from viewadapt.remap import CellGrid, assemble_remap_matrix, orientation_remap_matrix
 from viewadapt.surface import surface_depth
+
+
+def ground_remap(t, distance, target_cell_size):
+    """S of the person plane 0 -> t with, per source cell, the ground plane's covariant
+    orientation map (the identity where the cell's ray misses the ground)."""
+    def ground_h(cam):                       # ground (X, Y, 1) -> image pixels
+        return cam.K @ np.column_stack([cam.R[:, 0], cam.R[:, 1], cam.t])
+
+    cs, ct = crop_camera(0.0, distance=distance), crop_camera(float(t), distance=distance)
+    Hg = ground_h(ct) @ np.linalg.inv(ground_h(cs))          # source -> target, via the ground
+    grid = CellGrid.for_window(WINDOW_WIDTH, WINDOW_HEIGHT, 8)
+    c = grid.centers()
+    g = np.linalg.solve(ground_h(cs), np.c_[c, np.ones(len(c))].T).T
+    X = np.c_[g[:, :2] / g[:, 2:], np.zeros(len(c))]
+    hits = (X @ cs.R.T + cs.t)[:, 2] > 0                     # in front of the source camera
+    A = orientation_remap_matrix(homography_jacobian(Hg, c), 9, "covariant")
+    A[~hits] = np.eye(9)
+    S = hog_remap_matrix(elevation_homography(0.0, float(t), distance=distance),
+                         target_cell_size=target_cell_size, rule="none")
+    D = assemble_remap_matrix(sp.identity(grid.n_cells, format="csr"), A, n_bins=9)
+    return (D @ S).tocsr(), int(hits.sum())
 
 
 def mean_silhouette(e, distance):
@@ -60,7 +96,7 @@ def main(mode, data, out, cache_dir):
     et = ds.elevation_index(cfg.target)
     pw, bw = person_windows(ds, et), background_windows(ds, et, stride=cfg.bg_stride)
     X4 = np.vstack([cache.get(pw, "cells4"), cache.get(bw, "cells4")])
-    if mode in ("depth", "depth2"):
+    if mode in ("depth", "depth2", "ground", "ground-control"):
         rows = ds.persons.set_index("path").loc[pw.meta["path"]].reset_index()
         masks = [np.isfinite(read_depth_map(ds.root, r)) for _, r in rows.iterrows()]
         if mode == "depth2":
@@ -68,17 +104,37 @@ def main(mode, data, out, cache_dir):
 
             masks = [cv2.dilate(m.astype(np.uint8), None, iterations=2).astype(bool)
                      for m in masks]
-        Xin = np.vstack([inside_cells(ds, pw, masks), np.zeros((len(bw), X4.shape[1]), np.float32)])
-    else:
+        if mode == "ground-control":
+            drawn = np.random.default_rng(0).integers(len(masks), size=len(bw))
+            Xb_in = inside_cells(ds, bw, [masks[i] for i in drawn])
+        else:
+            Xb_in = np.zeros((len(bw), X4.shape[1]), np.float32)
+        Xin = np.vstack([inside_cells(ds, pw, masks), Xb_in])
+    else:                                    # silhouette, silhouette-ground
         m = mean_silhouette(cfg.target, cfg.distance)
         Xin = np.vstack([inside_cells(ds, pw, [m] * len(pw)), inside_cells(ds, bw, [m] * len(bw))])
     maps = view_maps(0.0, cfg.target, cfg)["plane"]
     G = {"cov": variant_remap("hog", maps, "adapted", cfg),
          "S": variant_remap("hog", maps, "adapted[S only]", cfg)}
-    inside = "covariant on the person's own pixels" if mode.startswith("depth") else \
+    inside = "covariant on the person's own pixels" if mode != "silhouette" else \
         "covariant inside the mean body's silhouette"
     methods = {"A identity (S only)": ("S", "S"), "covariant everywhere": ("cov", "cov"),
                inside: ("cov", "S"), "covariant on the rest only": ("S", "cov")}
+    if mode in ("ground", "silhouette-ground", "ground-control"):
+        G["eq3"] = variant_remap("hog", maps, "adapted[paper eq.3]", cfg)
+        G["ground"], n_hit = ground_remap(cfg.target, cfg.distance, cfg.target_cell_size)
+        print(f"ground map: {n_hit} of 128 source cells see the ground")
+    if mode == "silhouette-ground":
+        methods = {"A identity (S only)": ("S", "S"), "covariant everywhere": ("cov", "cov"),
+                   "eq. (3) everywhere": ("eq3", "eq3"),
+                   "covariant inside the mean body's silhouette, the ground map outside": ("cov", "ground"),
+                   "the ground map everywhere": ("ground", "ground")}
+    elif mode in ("ground", "ground-control"):
+        methods = {"A identity (S only)": ("S", "S"),
+                   "covariant on the person, S only on the rest": ("cov", "S"),
+                   "covariant on the person, eq. (3) on the rest": ("cov", "eq3"),
+                   "covariant on the person, the ground map on the rest": ("cov", "ground"),
+                   "eq. (3) everywhere": ("eq3", "eq3"), "the ground map everywhere": ("ground", "ground")}
     labels = np.r_[np.ones(len(pw)), np.zeros(len(bw))]
     pids = np.r_[pw.meta["person_id"].to_numpy(), np.full(len(bw), "")]
     folds = make_folds(ds.persons["person_id"], ds.persons["scene_id"],
@@ -113,6 +169,7 @@ def main(mode, data, out, cache_dir):
 
 
 if __name__ == "__main__":
-    if len(sys.argv) != 5 or sys.argv[1] not in ("depth", "depth2", "silhouette"):
+    if len(sys.argv) != 5 or sys.argv[1] not in ("depth", "depth2", "silhouette", "ground",
+                                                     "silhouette-ground", "ground-control"):
         raise SystemExit(__doc__)
     main(*sys.argv[1:5])
