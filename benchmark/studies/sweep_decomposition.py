@@ -39,22 +39,31 @@ __all__ = ["angle_blocks", "split_remap", "orientation_cost", "decomposition_lin
 _CELL, _BINS = 8, 9
 
 
-def angle_blocks(H_st, rule: str) -> sp.csr_matrix:
+def angle_blocks(H_st, rule: str, keep=None) -> sp.csr_matrix:
     """``D_A``: per source cell, the orientation map ``A_k`` of ``rule`` from the Jacobian of
     ``H_st`` (source window -> target window pixels) at the cell's centre, block-diagonal
     over the source cells -- the factor of ``G`` that :func:`viewadapt.remap.feature_remap_matrix`
-    multiplies into ``S``."""
+    multiplies into ``S``. ``keep`` (optional, a boolean per source cell in row-major order):
+    the cells that get their map; the others get the identity."""
     grid = CellGrid.for_window(WINDOW_WIDTH, WINDOW_HEIGHT, _CELL)
     A = orientation_remap_matrix(homography_jacobian(H_st, grid.centers()), _BINS, rule)
+    if keep is not None:
+        keep = np.asarray(keep, bool)
+        if keep.shape != (grid.n_cells,):
+            raise ValueError(f"keep must hold one flag per source cell ({grid.n_cells}), "
+                             f"got shape {keep.shape}")
+        A[~keep] = np.eye(_BINS)
     return assemble_remap_matrix(sp.identity(grid.n_cells, format="csr"), A, n_bins=_BINS)
 
 
-def split_remap(H_spatial, H_angles, rule: str, target_cell_size: int) -> sp.csr_matrix:
-    """``G`` with ``S`` from ``H_spatial`` and the ``A_k`` of ``rule`` from ``H_angles``."""
+def split_remap(H_spatial, H_angles, rule: str, target_cell_size: int,
+                keep=None) -> sp.csr_matrix:
+    """``G`` with ``S`` from ``H_spatial`` and the ``A_k`` of ``rule`` from ``H_angles``
+    (only in the source cells ``keep`` flags, when given: :func:`angle_blocks`)."""
     S = hog_remap_matrix(H_spatial, target_cell_size=target_cell_size, rule="none")
     if rule == "none":
         return S
-    return (angle_blocks(H_angles, rule) @ S).tocsr()
+    return (angle_blocks(H_angles, rule, keep) @ S).tocsr()
 
 
 def _methods(e, truth, cfg):
@@ -82,7 +91,7 @@ def orientation_cost(scores, truth: float, *, n_boot: int = 1000, seed: int = 0,
     Returns one dict per such curve: ``rule``, ``mr_identity``, ``mr_truth``, ``cost``,
     ``low``, ``high``.
     """
-    from benchmark.studies.sweep_intervals import person_hits
+    from benchmark.studies.sweep_intervals import bootstrap_miss_rates, person_hits
 
     out = []
     rng = np.random.default_rng(seed)
@@ -92,10 +101,7 @@ def orientation_cost(scores, truth: float, *, n_boot: int = 1000, seed: int = 0,
         ends = (est[np.argmin(abs(est))], est[np.argmin(abs(est - truth))])
         keys, persons, hits, counts = person_hits(rows[rows["estimate"].isin(ends)], fppw)
         i0, it = ([k[1] for k in keys].index(e) for e in ends)
-        draws = np.vstack([np.ones(len(persons))] + [
-            np.bincount(rng.integers(len(persons), size=len(persons)), minlength=len(persons))
-            for _ in range(n_boot)]).astype(float)
-        mr = 1 - (draws @ hits.T) / np.maximum(draws @ counts.T, 1e-12)   # (1 + n_boot, K)
+        mr = bootstrap_miss_rates(hits, counts, n_boot, rng)             # (1 + n_boot, K)
         diff = mr[:, it] - mr[:, i0]
         out.append({"rule": method.split(":")[0], "mr_identity": float(mr[0, i0]),
                     "mr_truth": float(mr[0, it]), "cost": float(diff[0]),

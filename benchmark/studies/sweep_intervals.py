@@ -24,7 +24,7 @@ import pandas as pd
 from benchmark.crops.report import paper_sweep_table, sweep_table
 from benchmark.crops.summarize import operating_threshold
 
-__all__ = ["person_hits", "sweep_intervals", "main"]
+__all__ = ["person_hits", "person_weights", "bootstrap_miss_rates", "sweep_intervals", "main"]
 
 #: the sweep_table columns an interval is given for
 _COLUMNS = ("best_estimate", "best_mr", "mr_at_true", "crossing", "band_above_truth",
@@ -53,6 +53,23 @@ def person_hits(scores: pd.DataFrame, fppw: float = 1e-2):
         hits.append(np.bincount(idx, weights=det, minlength=len(persons)))
         counts.append(np.bincount(idx, minlength=len(persons)).astype(float))
     return keys, persons, np.array(hits), np.array(counts)
+
+
+def person_weights(n_persons: int, n_boot: int, rng) -> np.ndarray:
+    """``(n_boot, n_persons)`` float weights of a bootstrap over persons: per draw, how many
+    copies of each person it holds (``n_persons`` persons drawn with replacement from
+    ``rng``, a ``numpy.random.Generator``)."""
+    draws = rng.integers(n_persons, size=(n_boot, n_persons))
+    return np.stack([np.bincount(d, minlength=n_persons) for d in draws]).astype(float)
+
+
+def bootstrap_miss_rates(hits, counts, n_boot: int, rng) -> np.ndarray:
+    """``(1 + n_boot, K)`` miss rates of the ``K`` rows of :func:`person_hits`' ``hits`` and
+    ``counts``: row 0 on every person once, then one row per draw of :func:`person_weights`
+    -- the same draw for every column, so differences between columns are paired."""
+    n = hits.shape[1]
+    W = np.vstack([np.ones(n), person_weights(n, n_boot, rng)])
+    return 1 - (W @ hits.T) / np.maximum(W @ counts.T, 1e-12)
 
 
 def _summary(keys, mr, rules) -> pd.DataFrame:
@@ -84,11 +101,8 @@ def sweep_intervals(scores: pd.DataFrame, *, true_elevation: float = np.pi / 4,
                     g["object_model"].iloc[0] if "object_model" in g else "")
     keys, persons, hits, counts = person_hits(scores, fppw)
     full = sweep_table(_summary(keys, 1 - hits.sum(1) / counts.sum(1), rules), true_elevation)
-    rng = np.random.default_rng(seed)
-    draws = rng.integers(len(persons), size=(n_boot, len(persons)))
     boot = []
-    for d in draws:
-        w = np.bincount(d, minlength=len(persons)).astype(float)   # each person's copies
+    for w in person_weights(len(persons), n_boot, np.random.default_rng(seed)):
         mr = 1 - (hits @ w) / np.maximum(counts @ w, 1e-12)
         boot.append(sweep_table(_summary(keys, mr, rules), true_elevation))
     boot = pd.concat(boot, ignore_index=True)

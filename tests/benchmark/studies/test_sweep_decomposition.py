@@ -38,6 +38,21 @@ def test_the_parts_come_from_their_own_elevations():
     np.testing.assert_array_equal(cells > 0, cells_own > 0)
 
 
+def test_kept_cells_get_their_map_and_the_others_the_identity():
+    H = _H(np.pi / 4)
+    full, bare = split_remap(H, H, "covariant", 4), split_remap(H, H, "none", 4)
+    keep = np.zeros(128, bool)
+    keep[::3] = True
+    part = split_remap(H, H, "covariant", 4, keep=keep)
+    rows = np.repeat(keep, 9)                            # a source cell's 9 bins are its rows
+    assert abs(part[rows] - full[rows]).max() == pytest.approx(0, abs=1e-12)
+    assert abs(part[~rows] - bare[~rows]).max() == pytest.approx(0, abs=1e-12)
+    assert abs(full[~rows] - bare[~rows]).max() > 0.1  # the test can tell the two apart
+    assert abs(split_remap(H, H, "covariant", 4, keep=np.ones(128, bool)) - full).max() == 0
+    with pytest.raises(ValueError, match="one flag per source cell"):
+        split_remap(H, H, "covariant", 4, keep=np.ones(12, bool))
+
+
 def test_the_sweep_scores_extra_remappings_beside_its_variants(tmp_path):
     from benchmark.crops.crossval import CrossvalConfig
     from benchmark.crops.features import FeatureCache

@@ -6,7 +6,8 @@ import pandas as pd
 import pytest
 
 from benchmark.crops.report import paper_sweep_table, sweep_table
-from benchmark.studies.sweep_intervals import main, sweep_intervals
+from benchmark.studies.sweep_intervals import (bootstrap_miss_rates, main, person_weights,
+                                               sweep_intervals)
 
 ESTIMATES = np.round(np.arange(0.0, 1.3, 0.1), 1)
 TRUE = 0.6
@@ -106,3 +107,17 @@ def test_the_papers_fig6_is_read_by_the_same_rules():
     assert row["band_above_truth"] == pytest.approx(24 * np.pi / 72 - np.pi / 4)
     assert 24 * np.pi / 72 < row["crossing_interp"] < 25 * np.pi / 72
     assert row["unadapted"] == pytest.approx(0.7964)
+
+
+def test_person_bootstrap_draws_persons_and_pairs_the_rows():
+    w = person_weights(5, 200, np.random.default_rng(1))
+    assert w.shape == (200, 5) and (w.sum(1) == 5).all() and (w >= 0).all()
+    assert (w == 0).any(1).mean() > 0.5                   # most draws leave someone out
+    # two rows with the same persons: person 0 missed in row 1 only
+    hits = np.array([[2.0, 2, 2, 2, 2], [0, 2, 2, 2, 2]])
+    counts = np.full((2, 5), 2.0)
+    mr = bootstrap_miss_rates(hits, counts, 200, np.random.default_rng(1))
+    assert mr.shape == (201, 2) and mr[0] == pytest.approx([0.0, 0.2])
+    # the same draw for both rows: row 1's miss rate is person 0's share of that draw
+    np.testing.assert_allclose(mr[1:, 1], w[:, 0] / 5)
+    np.testing.assert_allclose(mr[1:, 0], 0)

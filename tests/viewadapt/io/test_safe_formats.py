@@ -121,6 +121,7 @@ def test_a_hog_only_model_file_detects_with_hog(camera, models, frame, tmp_path)
     assert np.array_equal(alone.detect(frame, threshold=-1.0),
                           with_acf.detect(frame, threshold=-1.0))
 
+
 def test_adaboost_arrays_are_checked(models):
     params, arrays = models.acf.to_arrays()
     json.dumps(params)                                    # JSON-ready

@@ -2,7 +2,7 @@
 miss rate at 1e-2 fppw of 'unadapted' and of each named curve at the truth, run B - run A."""
 import sys
 import numpy as np, pandas as pd
-from benchmark.studies.sweep_intervals import person_hits
+from benchmark.studies.sweep_intervals import bootstrap_miss_rates, person_hits
 truth = np.pi / 4
 A, B = sys.argv[1:3]
 curves = ["unadapted", "adapted", "adapted[paper eq.3]", "adapted[S only]"]
@@ -17,10 +17,7 @@ for tag, run in (("A", A), ("B", B)):
     parts.append(d)
 keys, persons, hits, counts = person_hits(pd.concat(parts, ignore_index=True), 1e-2)
 names = [k[0] for k in keys]
-rng = np.random.default_rng(0)
-draws = np.vstack([np.ones(len(persons))] + [np.bincount(rng.integers(len(persons), size=len(persons)),
-                   minlength=len(persons)) for _ in range(1000)]).astype(float)
-mr = 1 - (draws @ hits.T) / np.maximum(draws @ counts.T, 1e-12)
+mr = bootstrap_miss_rates(hits, counts, 1000, np.random.default_rng(0))
 for c in curves:
     i, j = names.index("A:" + c), names.index("B:" + c)
     diff = mr[:, j] - mr[:, i]

@@ -7,7 +7,6 @@ import sys
 from pathlib import Path
 
 import numpy as np
-import scipy.sparse as sp
 
 from benchmark.crops.crossval import CrossvalConfig
 from benchmark.crops.features import FeatureCache
@@ -15,14 +14,11 @@ from benchmark.crops.sweep import run_sweep, sweep_summary
 from benchmark.data import load_dataset
 from benchmark.recipes import get_recipe
 from benchmark.studies.sweep_decomposition import decomposition_lines, split_remap
-from viewadapt.adapt import hog_remap_matrix
-from viewadapt.geometry import (WINDOW_HEIGHT, WINDOW_WIDTH, crop_camera, elevation_homography,
-                                homography_jacobian)
+from viewadapt.geometry import WINDOW_HEIGHT, WINDOW_WIDTH, crop_camera, elevation_homography
 from viewadapt.objectmodel import object_model
-from viewadapt.remap import CellGrid, assemble_remap_matrix, orientation_remap_matrix
 from viewadapt.surface import surface_depth
 
-CELL, BINS = 8, 9
+CELL = 8
 
 
 def body_coverage(distance):
@@ -31,15 +27,6 @@ def body_coverage(distance):
     d = surface_depth(V, F, crop_camera(0.0, distance=distance), (WINDOW_HEIGHT, WINDOW_WIDTH))
     inside = np.isfinite(d).reshape(WINDOW_HEIGHT // CELL, CELL, WINDOW_WIDTH // CELL, CELL)
     return inside.mean(axis=(1, 3)).ravel()
-
-
-def masked_remap(H_spatial, H_angles, mask, tcs):
-    S = hog_remap_matrix(H_spatial, target_cell_size=tcs, rule="none")
-    grid = CellGrid.for_window(WINDOW_WIDTH, WINDOW_HEIGHT, CELL)
-    A = orientation_remap_matrix(homography_jacobian(H_angles, grid.centers()), BINS, "covariant")
-    A[~mask] = np.eye(BINS)
-    D = assemble_remap_matrix(sp.identity(grid.n_cells, format="csr"), A, n_bins=BINS)
-    return (D @ S).tocsr()
 
 
 def main(data, out, cache_dir):
@@ -62,9 +49,9 @@ def main(data, out, cache_dir):
         He, Ht = H(e), H(truth)
         t = cfg.target_cell_size
         out = {"covariant: S true, A estimated": split_remap(Ht, He, "covariant", t),
-               "body cells": masked_remap(He, He, mask, t)}
+               "body cells": split_remap(He, He, "covariant", t, keep=mask)}
         for name, m in masks.items():
-            out[f"{name}: S true, A estimated"] = masked_remap(Ht, He, m, t)
+            out[f"{name}: S true, A estimated"] = split_remap(Ht, He, "covariant", t, keep=m)
         return out
 
     cache = FeatureCache(ds, cache_dir, n_jobs=2)

@@ -35,16 +35,13 @@ from benchmark.crops.features import FeatureCache, background_windows, person_wi
 from benchmark.crops.folds import make_folds
 from benchmark.data import load_dataset, read_depth_map
 from benchmark.recipes import get_recipe
-from benchmark.studies.sweep_intervals import person_hits
+from benchmark.studies.sweep_decomposition import split_remap
+from benchmark.studies.sweep_intervals import bootstrap_miss_rates, person_hits
 from viewadapt.adapt import remap_features
 from viewadapt.detect import cell_sums, fast_orientation_channels
-import scipy.sparse as sp
-
-from viewadapt.adapt import hog_remap_matrix
-from viewadapt.geometry import (WINDOW_HEIGHT, WINDOW_WIDTH, crop_camera, elevation_homography,
-                                homography_jacobian)
+from viewadapt.geometry import WINDOW_HEIGHT, WINDOW_WIDTH, crop_camera, elevation_homography
 from viewadapt.objectmodel import object_model
-from viewadapt.remap import CellGrid, assemble_remap_matrix, orientation_remap_matrix
+from viewadapt.remap import CellGrid
 from viewadapt.surface import surface_depth
 
 
@@ -56,17 +53,13 @@ def ground_remap(t, distance, target_cell_size):
 
     cs, ct = crop_camera(0.0, distance=distance), crop_camera(float(t), distance=distance)
     Hg = ground_h(ct) @ np.linalg.inv(ground_h(cs))          # source -> target, via the ground
-    grid = CellGrid.for_window(WINDOW_WIDTH, WINDOW_HEIGHT, 8)
-    c = grid.centers()
+    c = CellGrid.for_window(WINDOW_WIDTH, WINDOW_HEIGHT, 8).centers()
     g = np.linalg.solve(ground_h(cs), np.c_[c, np.ones(len(c))].T).T
     X = np.c_[g[:, :2] / g[:, 2:], np.zeros(len(c))]
     hits = (X @ cs.R.T + cs.t)[:, 2] > 0                     # in front of the source camera
-    A = orientation_remap_matrix(homography_jacobian(Hg, c), 9, "covariant")
-    A[~hits] = np.eye(9)
-    S = hog_remap_matrix(elevation_homography(0.0, float(t), distance=distance),
-                         target_cell_size=target_cell_size, rule="none")
-    D = assemble_remap_matrix(sp.identity(grid.n_cells, format="csr"), A, n_bins=9)
-    return (D @ S).tocsr(), int(hits.sum())
+    G = split_remap(elevation_homography(0.0, float(t), distance=distance), Hg, "covariant",
+                    target_cell_size, keep=hits)
+    return G, int(hits.sum())
 
 
 def mean_silhouette(e, distance):
@@ -139,21 +132,26 @@ def main(mode, data, out, cache_dir):
     pids = np.r_[pw.meta["person_id"].to_numpy(), np.full(len(bw), "")]
     folds = make_folds(ds.persons["person_id"], ds.persons["scene_id"],
                        rng=np.random.default_rng(cfg.seed))
+    tests = [np.r_[fold_masks(pw.meta, fold, False), fold_masks(bw.meta, fold, False)]
+             for fold in folds]
+    part = {"in": Xin, "rest": X4 - Xin}
+    remapped = {}                            # (map, part) -> its remapped cells, made once
+
+    def mapped(g, k):
+        if (g, k) not in remapped:
+            remapped[(g, k)] = remap_features(G[g], part[k])
+        return remapped[(g, k)]
+
     frames = []
     for name, (gi, gr) in methods.items():
-        X = (remap_features(G[gi], Xin) + remap_features(G[gr], X4 - Xin)).astype(np.float32)
-        for fold in folds:
-            t = np.r_[fold_masks(pw.meta, fold, False), fold_masks(bw.meta, fold, False)]
+        X = (mapped(gi, "in") + mapped(gr, "rest")).astype(np.float32)
+        for fold, t in zip(folds, tests):
             frames.append(pd.DataFrame({"method": name, "estimate": cfg.target, "label": labels[t],
                                         "score": spec.score(models[("hog", 0.0, fold.name)], X[t]),
                                         "person_id": pids[t]}))
     keys, persons, hits, counts = person_hits(pd.concat(frames, ignore_index=True), 1e-2)
     names = [k[0] for k in keys]
-    rng = np.random.default_rng(0)
-    draws = np.vstack([np.ones(len(persons))] + [np.bincount(
-        rng.integers(len(persons), size=len(persons)), minlength=len(persons))
-        for _ in range(1000)]).astype(float)
-    mr = 1 - (draws @ hits.T) / np.maximum(draws @ counts.T, 1e-12)
+    mr = bootstrap_miss_rates(hits, counts, 1000, np.random.default_rng(0))
     i0 = names.index("A identity (S only)")
     lines = [f"# The covariant map on part of each window ({mode}; `{data}`, regularised, "
              "HOG 0 → π/4, at the truth, S from the plane)", "",
