@@ -149,6 +149,37 @@ def _block_score(block, weights, at, eps, clip):  # pragma: no cover - compiled
     return ((s0 + s1) + (s2 + s3)) * sc
 
 
+@njit(cache=True, nogil=True, boundscheck=False, error_model="numpy", inline="always")
+def _rect_cell(flat, base, ny, nx, c, ic, area, px, py, ex, ey, h):  # pragma: no cover
+    """The raw cells of size ``c`` (``flat[base:]``, (ny, nx, 9)) under the axis-aligned
+    rectangle of centre ``(px, py)`` and half-sides ``ex, ey``, area-weighted, summed into
+    ``h`` (9,) and scaled per source pixel of an 8-px cell (``area`` = 16 / c^2 against
+    the rectangle's area 4 ex ey)."""
+    n_bins = 9
+    x0, x1, y0, y1 = px - ex, px + ex, py - ey, py + ey
+    for k in range(n_bins):
+        h[k] = 0.0
+    # the frame cells the rectangle can touch (one more at an exact boundary reads
+    # weight 0)
+    u0 = max(int(math.floor((x0 + 0.5) * ic)), 0)
+    u1 = min(int(math.floor((x1 + 0.5) * ic)), nx - 1)
+    v0 = max(int(math.floor((y0 + 0.5) * ic)), 0)
+    v1 = min(int(math.floor((y1 + 0.5) * ic)), ny - 1)
+    for v in range(v0, v1 + 1):
+        wy = min(y1, c * (v + 1) - 0.5) - max(y0, c * v - 0.5)
+        if wy <= 0:
+            continue
+        for u in range(u0, u1 + 1):
+            wx = min(x1, c * (u + 1) - 0.5) - max(x0, c * u - 0.5)
+            if wx <= 0:
+                continue
+            wgt = np.float32(wx * wy)
+            at = base + (v * nx + u) * n_bins
+            for k in range(n_bins):
+                h[k] += wgt * flat[at + k]
+    return np.float32(area / max(ex * ey, 2.5e-13))
+
+
 @njit(cache=True, nogil=True, boundscheck=False, error_model="numpy")
 def _window_cells(flat, base, ny, nx, c, Hn, rule, ncx, ncy, lo, hi, frac, h,
                   src):  # pragma: no cover - compiled
@@ -175,31 +206,44 @@ def _window_cells(flat, base, ny, nx, c, Hn, rule, ncx, ncy, lo, hi, frac, h,
             py = (h10 * x + h11 * y + h12) * iw
             ex = 4.0 * abs((h00 - px * h20) * iw)
             ey = 4.0 * abs((h11 - py * h21) * iw)
-            x0, x1, y0, y1 = px - ex, px + ex, py - ey, py + ey
-            for k in range(n_bins):
-                h[k] = 0.0
-            # the frame cells the rectangle can touch (one more at an exact boundary
-            # reads weight 0)
-            u0 = max(int(math.floor((x0 + 0.5) * ic)), 0)
-            u1 = min(int(math.floor((x1 + 0.5) * ic)), nx - 1)
-            v0 = max(int(math.floor((y0 + 0.5) * ic)), 0)
-            v1 = min(int(math.floor((y1 + 0.5) * ic)), ny - 1)
-            for v in range(v0, v1 + 1):
-                wy = min(y1, c * (v + 1) - 0.5) - max(y0, c * v - 0.5)
-                if wy <= 0:
-                    continue
-                for u in range(u0, u1 + 1):
-                    wx = min(x1, c * (u + 1) - 0.5) - max(x0, c * u - 0.5)
-                    if wx <= 0:
-                        continue
-                    wgt = np.float32(wx * wy)
-                    at = base + (v * nx + u) * n_bins
-                    for k in range(n_bins):
-                        h[k] += wgt * flat[at + k]
-            # per source pixel of the cell: the rectangle's area against the cell's 64
-            scale = np.float32(area / max(ex * ey, 2.5e-13))
+            scale = _rect_cell(flat, base, ny, nx, c, ic, area, px, py, ex, ey, h)
             for k in range(n_bins):
                 src[j, i, k] = 0.0
+            for k in range(n_bins):
+                t = h[k] * scale
+                src[j, i, lo[k]] += (np.float32(1.0) - frac[k]) * t
+                src[j, i, hi[k]] += frac[k] * t
+
+
+@njit(cache=True, nogil=True, boundscheck=False, error_model="numpy")
+def _mapped_window_cells(flat, base, ny, nx, c, Hn, R, rule, ncx, ncy, lo, hi, frac, h,
+                         src):  # pragma: no cover - compiled
+    """:func:`_window_cells` for an object model that is not the window's plane: source
+    cell ``(j, i)`` is first moved within the canonical window by ``R[j, i]`` -- its
+    centre's image ``R[j, i, :2]`` and the Jacobian there ``R[j, i, 2:]`` (row-major
+    2x2) -- then mapped by ``Hn``; its rectangle's sides and its ``A`` come from the
+    Jacobian of the two composed, at that cell (as the fold's per-cell ``A``). A cell whose
+    ``R`` is not finite (the object model hides it) reads nothing."""
+    n_bins = 9
+    ic = 1.0 / c
+    area = 16.0 / (c * c)
+    for j in range(ncy):
+        for i in range(ncx):
+            for k in range(n_bins):
+                src[j, i, k] = 0.0
+            cx, cy = R[j, i, 0], R[j, i, 1]
+            r00, r01, r10, r11 = R[j, i, 2], R[j, i, 3], R[j, i, 4], R[j, i, 5]
+            if not (math.isfinite(cx) and math.isfinite(cy) and math.isfinite(r00)
+                    and math.isfinite(r01) and math.isfinite(r10) and math.isfinite(r11)):
+                continue
+            px, py, a00, a01, a10, a11 = _map(Hn, cx, cy)
+            j00 = a00 * r00 + a01 * r10
+            j01 = a00 * r01 + a01 * r11
+            j10 = a10 * r00 + a11 * r10
+            j11 = a10 * r01 + a11 * r11
+            _angle_taps(j00, j01, j10, j11, rule, lo, hi, frac)
+            scale = _rect_cell(flat, base, ny, nx, c, ic, area, px, py, 4.0 * abs(j00),
+                               4.0 * abs(j11), h)
             for k in range(n_bins):
                 t = h[k] * scale
                 src[j, i, lo[k]] += (np.float32(1.0) - frac[k]) * t
@@ -263,14 +307,17 @@ def _hog_window_score(src, W2, eps, clip, E, inv):  # pragma: no cover - compile
 
 @njit(cache=True, nogil=True, boundscheck=False, error_model="numpy")
 def hog_renorm_scores(flat, offsets, dims, size_of, cells, H, weights, bias, eps, clip,
-                      rule, ncx, ncy, out):  # pragma: no cover - compiled
+                      rule, ncx, ncy, out, R=None, r_of=None):  # pragma: no cover - compiled
     """:func:`renorm_scores` for the project's HOG/SVM: each window's source cells
     (:func:`_window_cells`) block-normalised in the window as
     :func:`viewadapt.detect.block_normalize_cells` normalises a canonical window's cells
     (13 channels per cell, reflected borders, floor ``eps``, clip ``clip``), dotted with
     ``weights`` ((ncy, ncx, 13) flat) plus ``bias``. The 13 channels are not formed: each
     clipped block copy is dotted with its orientation weights plus its block's texture
-    weight (:func:`_hog_window_score`; the same sum in another order)."""
+    weight (:func:`_hog_window_score`; the same sum in another order). With ``R``
+    ((M, ncy, ncx, 6)) and ``r_of`` ((N,) int), window ``n``'s source cells are first
+    moved by ``R[r_of[n]]`` (:func:`_mapped_window_cells`: an object model other than the
+    plane)."""
     n_bins = 9
     nc = n_bins + 4
     src = np.empty((ncy, ncx, n_bins), np.float32)
@@ -289,8 +336,12 @@ def hog_renorm_scores(flat, offsets, dims, size_of, cells, H, weights, bias, eps
     h = np.empty(n_bins, np.float32)
     for n in range(len(out)):
         s = size_of[n]
-        _window_cells(flat, offsets[s], dims[s, 0], dims[s, 1], cells[s], H[n], rule, ncx,
-                      ncy, lo, hi, frac, h, src)
+        if R is None:
+            _window_cells(flat, offsets[s], dims[s, 0], dims[s, 1], cells[s], H[n], rule,
+                          ncx, ncy, lo, hi, frac, h, src)
+        else:
+            _mapped_window_cells(flat, offsets[s], dims[s, 0], dims[s, 1], cells[s], H[n],
+                                 R[r_of[n]], rule, ncx, ncy, lo, hi, frac, h, src)
         out[n] = _hog_window_score(src, W2, eps, clip, E, inv) + bias
 
 

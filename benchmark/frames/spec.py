@@ -126,10 +126,11 @@ class FrameMethod:
             raise ValueError(f"only the pyramids take the ground-plane filter, got "
                              f"{self.how!r} with ground={self.ground!r}")
         if self.fold not in (False, True) or (self.fold and not (
-                adapted and self.object_model == "plane" and detector_kind(self.kind).has_stage)):
-            raise ValueError(f"only the adapted detectors with a normalisation stage, on "
-                             f"the paper's plane, have a fold alone; got {self.kind}_{self.how} "
-                             f"with object model {self.object_model!r}")
+                adapted and detector_kind(self.kind).stages(self.object_model))):
+            raise ValueError(f"only the adapted detectors with a normalisation stage (HOG "
+                             f"with any object model, the others on the paper's plane) have "
+                             f"a fold alone; got {self.kind}_{self.how} with object model "
+                             f"{self.object_model!r}")
 
     def _fill(self, **defaults):
         for field, value in defaults.items():
@@ -188,7 +189,7 @@ def _all_methods():
     out += [FrameMethod(k, "pyramid", upsample=u) for k in PRETRAINED_KINDS for u in UPSAMPLES[k]]
     return tuple(out) + tuple(replace(m, ground=True) for m in out if m.how.startswith("pyramid")) \
         + tuple(replace(m, fold=True) for m in out if m.how == "adapted"
-                and m.object_model == "plane" and m.detector.has_stage)
+                and m.detector.stages(m.object_model))
 
 
 #: every method of the frames benchmark

@@ -412,8 +412,9 @@ def register(sub, common) -> None:
                         "paper's person plane) or body (a mean body shape shipped with the "
                         "package; slower to build, cached)")
     p.add_argument("--stage", choices=("on", "off"), default="on",
-                   help="hog, opencv and daimler: on (default) rescores the windows the "
-                        "adapted operator calls a person with their own block normalisation "
+                   help="hog (either object model), opencv and daimler (the plane): on "
+                        "(default) rescores the windows the adapted operator calls a person "
+                        "with their own block normalisation "
                         "(the others keep their score); off: the adapted operator alone "
                         "(faster where many windows look like persons; docs/real_footage.md "
                         "has the measurement)")

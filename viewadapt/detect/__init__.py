@@ -77,7 +77,7 @@ from .features import (
 )
 from .renorm import (
     RENORM_CELLS_PER_SOURCE_CELL, STAGE_CELL_TOLERANCE, VERIFY_THRESHOLD, OPENCV_DESCRIPTOR_SIZE,
-    OPENCV_STAGE_CELL_SIZES, stage_cell_sizes,
+    OPENCV_STAGE_CELL_SIZES, cell_maps_of_mapping, stage_cell_sizes,
     RenormStage,
 )
 from .linear import (
@@ -124,6 +124,7 @@ __all__ = [
     "feature_maker_to_dict", "feature_maker_from_dict", "RENORM_CELLS_PER_SOURCE_CELL",
     "STAGE_CELL_TOLERANCE",
     "VERIFY_THRESHOLD", "OPENCV_DESCRIPTOR_SIZE", "OPENCV_STAGE_CELL_SIZES", "stage_cell_sizes",
+    "cell_maps_of_mapping",
     "RenormStage", "AdaptedLinearOperator", "OPENCV_FOLD_CELL_SIZES",
     "build_adapted_linear_operator", "build_adapted_opencv_operator",
     "AdaptedTreesOperator", "build_adapted_trees_operator", "UPSAMPLE_BELOW", "UPSAMPLE_FACTOR",

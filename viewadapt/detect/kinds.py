@@ -118,12 +118,18 @@ class DetectorKind:
     #: whether the windows the folded operator keeps are rescored by a per-window
     #: normalisation stage (:class:`~viewadapt.detect.renorm.RenormStage`)
     renorm = False
+    #: the object models whose operators the stage rescores (the others: the fold alone)
+    stage_object_models = ("plane",)
 
     @property
     def has_stage(self) -> bool:
         """Whether the kind's operator has a normalisation stage that :meth:`fold` can
         leave out."""
         return self.renorm
+
+    def stages(self, object_model: str) -> bool:
+        """Whether the kind's operator under ``object_model`` has a normalisation stage."""
+        return self.renorm and object_model in self.stage_object_models
 
     def fold(self) -> DetectorKind:
         """The same detector without its per-window normalisation stage (the folded
@@ -148,6 +154,7 @@ class _HogDetector(DetectorKind):
 
     name, features, tolerance = "hog", HOG_FEATURES, HOG_TOLERANCE
     operator_class = AdaptedLinearOperator
+    stage_object_models = ("plane", "body")
 
     def __init__(self, renorm: bool = True, verify_threshold: float = HOG_VERIFY_THRESHOLD):
         #: whether the windows the fold keeps are rescored with their own block
@@ -162,7 +169,8 @@ class _HogDetector(DetectorKind):
     def model_fingerprint(self, models) -> str:
         key = models.fingerprint()         # (the fold alone)
         return key if not self.renorm else hashlib.sha256(
-            f"{key} renorm {self.verify_threshold} cells +{STAGE_CELL_TOLERANCE}".encode()
+            f"{key} renorm {self.verify_threshold} cells +{STAGE_CELL_TOLERANCE}"
+            " any object model".encode()     # (before: the stage of the plane alone)
         ).hexdigest()
 
     def build_operator(self, windows, models, **kw):

@@ -37,7 +37,8 @@ from .opencv_cells import (
     OPENCV_CHANNELS, opencv_descriptor_weights, opencv_frame_features,
 )
 from .renorm import (
-    HOG_VERIFY_THRESHOLD, OPENCV_STAGE_CELL_SIZES, VERIFY_THRESHOLD, RenormStage, stage_cell_sizes,
+    HOG_VERIFY_THRESHOLD, OPENCV_STAGE_CELL_SIZES, VERIFY_THRESHOLD, RenormStage,
+    cell_maps_of_mapping, stage_cell_sizes,
 )
 from .templates import (
     CELLS_PER_SOURCE_CELL, FRAME_CELL_SIZES, HOG_TOLERANCE, TemplateOperator, build_template_groups,
@@ -407,11 +408,13 @@ def build_adapted_linear_operator(windows: CandidateWindows, weights, bias: floa
         plane (each window's homography) or e.g. the mean body of
         :mod:`viewadapt.objectmodel` (needs ``windows.camera``).
     renorm, verify_threshold : bool, float
-        With ``renorm`` (the paper's plane only) the windows whose folded score reaches
-        ``verify_threshold`` are rescored by a :class:`~viewadapt.detect.renorm.RenormStage`
-        of the HOG model: raw cells remapped by each window's own ``G`` and
-        block-normalised in the window (as :func:`build_adapted_opencv_operator` does for
-        OpenCV's blocks); the boxes are then the windows' own.
+        With ``renorm`` the windows whose folded score reaches ``verify_threshold`` are
+        rescored by a :class:`~viewadapt.detect.renorm.RenormStage` of the HOG model: raw
+        cells remapped by each window's own ``G`` and block-normalised in the window (as
+        :func:`build_adapted_opencv_operator` does for OpenCV's blocks); the boxes are then
+        the windows' own. With an object model other than the plane, each window's cells
+        are first moved as its template group's prototype's are by the model, relative to
+        the prototype's plane (:func:`~viewadapt.detect.renorm.cell_maps_of_mapping`).
 
     Returns
     -------
@@ -425,16 +428,24 @@ def build_adapted_linear_operator(windows: CandidateWindows, weights, bias: floa
                          f"(hog_window_features), got {w.size}")
     cell, groups = _template_groups(windows, tolerance, cells_per_source_cell, allowed_cell_sizes)
     model = resolve_object_model(object_model)
-    for g in groups:
-        G = hog_frame_remap(window_mapping(windows, g.prototype, model), g, rule)
+    plane = isinstance(model, PlaneModel)
+    maps, map_of = [], np.zeros(len(windows.homographies), np.int64)
+    for n, g in enumerate(groups):
+        mapping = window_mapping(windows, g.prototype, model)
+        G = hog_frame_remap(mapping, g, rule)
         g.template = np.asarray(G.T @ w, dtype=np.float32).reshape(g.shape[0], g.shape[1],
                                                                      HOG_CHANNELS)
+        if renorm and not plane:    # the group's cells moved by the model, off its plane
+            maps.append(cell_maps_of_mapping(mapping, windows.homographies[g.prototype]))
+            map_of[g.members] = n
     stage = None
-    if renorm and isinstance(model, PlaneModel):
+    if renorm:
         stage = RenormStage(windows.homographies,
                             stage_cell_sizes(windows.scale, allowed_cell_sizes), w, bias,
                             threshold=verify_threshold, rule=rule, binning="cells",
-                            model="hog")
+                            model="hog", **({} if plane else dict(
+                                cell_maps=np.array(maps).reshape(-1, *HOG_WEIGHT_SHAPE[:2], 6),
+                                cell_map_of=map_of)))
     op = _operator(windows, cell, groups, bias, tolerance, hog_frame_features, HOG_CHANNELS,
                    **({"raw_cell_sizes": stage.cell_sizes} if stage else {}))
     if stage is not None:           # the final scores are the windows' own

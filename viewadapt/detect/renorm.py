@@ -35,7 +35,7 @@ from .windows import detector_window_homography
 
 __all__ = ["RENORM_CELLS_PER_SOURCE_CELL", "STAGE_CELL_TOLERANCE", "VERIFY_THRESHOLD",
            "OPENCV_STAGE_CELL_SIZES", "HOG_VERIFY_THRESHOLD", "OPENCV_DESCRIPTOR_SIZE",
-           "BINNINGS", "stage_cell_sizes", "RenormStage"]
+           "BINNINGS", "stage_cell_sizes", "cell_maps_of_mapping", "RenormStage"]
 
 #: Frame cells per source cell of the raw cells the stage reads
 #: (:func:`~viewadapt.detect.templates.choose_cell_sizes`' ``cells_per_source_cell``).
@@ -103,12 +103,19 @@ class RenormStage:
         :func:`~viewadapt.detect.block_normalize_cells` features), its source cells hard
         binned (``binning`` must be ``"cells"``) and normalised as that function does
         (:func:`viewadapt._renorm_kernels.hog_renorm_scores`).
+    cell_maps, cell_map_of : (M, 16, 8, 6) and (N,) arrays, optional
+        ``model="hog"`` only: an object model other than the window's plane (e.g. the mean
+        body, :mod:`viewadapt.objectmodel`). Window ``n``'s source cells are first moved
+        within the canonical window by ``cell_maps[cell_map_of[n]]`` -- each cell centre's
+        image and the 2x2 Jacobian there (row-major; a cell with a NaN reads nothing),
+        :func:`cell_maps_of_mapping` -- then mapped by its homography; ``S`` and ``A`` per
+        cell from the two composed.
     """
 
     def __init__(self, homographies, cell_size, weights, bias, *,
                  threshold: float = VERIFY_THRESHOLD, rule: str = "covariant",
                  binning: str = "opencv", window=(WINDOW_WIDTH, WINDOW_HEIGHT),
-                 model: str = "opencv"):
+                 model: str = "opencv", cell_maps=None, cell_map_of=None):
         H = np.ascontiguousarray(homographies, np.float64).reshape(-1, 3, 3)
         cell = np.ascontiguousarray(cell_size, np.int64).ravel()
         w = np.ascontiguousarray(weights, np.float32).ravel()
@@ -139,6 +146,21 @@ class RenormStage:
         self.weights, self.bias = w, float(bias)
         self.threshold, self.rule = float(threshold), str(rule)
         self.cell_sizes = sorted(set(int(c) for c in cell))
+        self.cell_maps = self.cell_map_of = None
+        if (cell_maps is None) != (cell_map_of is None):
+            raise ValueError("cell_maps and cell_map_of come together")
+        if cell_maps is not None:
+            R = np.ascontiguousarray(cell_maps, np.float64)
+            of = np.ascontiguousarray(cell_map_of, np.int64).ravel()
+            if model != "hog" or R.ndim != 4 or R.shape[1:] != (ny, nx, 6):
+                raise ValueError(f"cell maps need model 'hog' and shape (M, {ny}, {nx}, 6), "
+                                 f"got model {model!r} and shape {R.shape}")
+            if len(of) != len(H) or (len(of) and (of.min() < 0 or of.max() >= len(R))):
+                raise ValueError(f"one cell map index in [0, {len(R)}) per window: "
+                                 f"{len(of)} indices for {len(H)} windows")
+            if np.isinf(R).any():
+                raise ValueError("cell maps must be finite or NaN (hidden cells)")
+            self.cell_maps, self.cell_map_of = R, of
 
     def scores(self, index, raw) -> np.ndarray:
         """Scores of the windows ``index`` from
@@ -165,7 +187,9 @@ class RenormStage:
                 np.ascontiguousarray(self._window_h[index]), self.weights,
                 np.float32(self.bias), np.float32(eps), np.float32(clip),
                 _RULE_CODES[self.rule], *self._cells)
-        if self.model == "hog":
+        if self.model == "hog" and self.cell_maps is not None:
+            hog_renorm_scores(*args, out, self.cell_maps, self.cell_map_of[index])
+        elif self.model == "hog":
             hog_renorm_scores(*args, out)
         elif self.binning == "opencv":
             renorm_scores_binned(*args, block_axis_weights(HOG_CELL).astype(np.float32), out)
@@ -190,12 +214,26 @@ class RenormStage:
         out = {}
         for c in self.cell_sizes:
             H = self._window_h[self.cell == c]
+            R = None if self.cell_maps is None else self.cell_maps[self.cell_map_of[
+                self.cell == c]].reshape(len(H), -1, 6)
             ny = h // c
             y0, y1 = ny, 0
-            for x, y in points:
+            for n in range(len(points)):
+                if R is None:
+                    x, y = points[n]
+                else:                   # each window's cell n (row-major) moved first
+                    x, y = R[:, n, 0], R[:, n, 1]
                 w = H[:, 2, 0] * x + H[:, 2, 1] * y + H[:, 2, 2]
                 py = (H[:, 1, 0] * x + H[:, 1, 1] * y + H[:, 1, 2]) / w
-                ey = half * np.abs((H[:, 1, 1] - py * H[:, 2, 1]) / w) + margin
+                j11 = (H[:, 1, 1] - py * H[:, 2, 1]) / w
+                if R is not None:
+                    j10 = (H[:, 1, 0] - py * H[:, 2, 0]) / w
+                    j11 = j10 * R[:, n, 3] + j11 * R[:, n, 5]
+                    keep = np.isfinite(py) & np.isfinite(j11)
+                    if not keep.any():
+                        continue
+                    py, j11 = py[keep], j11[keep]
+                ey = half * np.abs(j11) + margin
                 lo = np.floor((py - ey + 0.5) / c)
                 hi = np.floor((py + ey + 0.5) / c)
                 y0 = min(y0, int(max(lo.min() - 1, 0)))      # a row more each side:
@@ -211,8 +249,10 @@ class RenormStage:
             meta["model"] = self.model
         if self.window != (WINDOW_WIDTH, WINDOW_HEIGHT):
             meta["window"] = list(self.window)
-        return (meta,
-                dict(renorm_cell=self.cell, renorm_weights=self.weights))
+        arrays = dict(renorm_cell=self.cell, renorm_weights=self.weights)
+        if self.cell_maps is not None:
+            arrays.update(renorm_cell_maps=self.cell_maps, renorm_cell_map_of=self.cell_map_of)
+        return meta, arrays
 
     @classmethod
     def from_arrays(cls, meta, arrays, homographies) -> "RenormStage":
@@ -224,10 +264,14 @@ class RenormStage:
         cell = stored_array(arrays, "renorm_cell", "iu", ndim=1)
         if len(cell) and not all(is_int(c) for c in cell[:1]):
             raise ValueError("its normalisation stage's cell sizes are not integers")
+        maps = of = None
+        if "renorm_cell_maps" in arrays or "renorm_cell_map_of" in arrays:
+            maps = stored_array(arrays, "renorm_cell_maps", "f", ndim=4, finite=False)
+            of = stored_array(arrays, "renorm_cell_map_of", "iu", ndim=1)
         return cls(homographies, cell, stored_array(arrays, "renorm_weights", "f", ndim=1),
                    meta["bias"], threshold=meta["threshold"], rule=meta.get("rule"),
                    binning=meta.get("binning"), window=_stored_window(meta.get("window")),
-                   model=meta.get("model", "opencv"))
+                   model=meta.get("model", "opencv"), cell_maps=maps, cell_map_of=of)
 
 
 def _stored_window(v):
@@ -240,6 +284,37 @@ def _stored_window(v):
                     for x in v)):
         raise ValueError(f"its normalisation stage's window is {v!r}")
     return tuple(v)
+
+
+def cell_maps_of_mapping(mapping, homography, *, cells=(WINDOW_WIDTH // HOG_CELL,
+                                                      WINDOW_HEIGHT // HOG_CELL),
+                         step: float = 0.5) -> np.ndarray:
+    """(ny, nx, 6): where an object model moves each 8-px cell of the canonical window
+    relative to the window's plane, for :class:`RenormStage`'s ``cell_maps``: ``mapping``
+    (canonical px -> frame px, e.g. :func:`~viewadapt.detect.frame_remap.window_mapping`
+    of the mean body) followed by the inverse of the window's ``homography``, at each cell
+    centre -- the point (2) and its Jacobian (4, row-major, central differences of
+    ``step`` px). Where the model hides a point (the mapping is NaN there) the window's
+    plane stands in: on the paper preset's rendered frames reading such cells as empty
+    cost far more than reading them on the plane (docs/real_footage.md)."""
+    nx, ny = cells
+    ys, xs = np.mgrid[0:ny, 0:nx].astype(np.float64)
+    c = np.stack([8.0 * xs + 3.5, 8.0 * ys + 3.5], -1)
+    d = np.array([[0.0, 0.0], [step, 0.0], [-step, 0.0], [0.0, step], [0.0, -step]])
+    pts = (c[:, :, None, :] + d).reshape(-1, 2)
+    H = np.asarray(homography, np.float64)
+    p = np.asarray(mapping(pts), np.float64)
+    on_plane = np.c_[pts, np.ones(len(pts))] @ H.T
+    p = np.where(np.isfinite(p), p, on_plane[:, :2] / on_plane[:, 2:])   # hidden: the plane
+    Hi = np.linalg.inv(H)
+    q = np.concatenate([p, np.ones((len(p), 1))], 1) @ Hi.T
+    q = (q[:, :2] / q[:, 2:]).reshape(ny, nx, 5, 2)
+    out = np.empty((ny, nx, 6))
+    out[..., :2] = q[:, :, 0]
+    out[..., 2:6:2] = (q[:, :, 1] - q[:, :, 2]) / (2 * step)    # d/dx of (x', y')
+    out[..., 3:6:2] = (q[:, :, 3] - q[:, :, 4]) / (2 * step)    # d/dy
+    out[~np.all(np.isfinite(out), axis=-1)] = np.nan
+    return out
 
 
 def stage_cell_sizes(scale, allowed) -> np.ndarray:

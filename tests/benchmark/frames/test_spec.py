@@ -69,6 +69,9 @@ EXPECTED = {
     "hog_adapted[fold]": ("hog", "adapted", "covariant", "plane", None, False, True),
     "hog_adapted[S only, fold]": ("hog", "adapted", "none", "plane", None, False, True),
     "hog_adapted[paper eq.3, fold]": ("hog", "adapted", "paper", "plane", None, False, True),
+    "hog_adapted[body, fold]": ("hog", "adapted", "covariant", "body", None, False, True),
+    "hog_adapted[body, S only, fold]": ("hog", "adapted", "none", "body", None, False, True),
+    "hog_adapted[body, paper eq.3, fold]": ("hog", "adapted", "paper", "body", None, False, True),
     "opencv_adapted[fold]": ("opencv", "adapted", "covariant", "plane", None, False, True),
     "opencv_adapted[S only, fold]": ("opencv", "adapted", "none", "plane", None, False, True),
     "opencv_adapted[paper eq.3, fold]": ("opencv", "adapted", "paper", "plane", None, False, True),
@@ -126,7 +129,7 @@ def test_defaults_fill_in_and_specs_are_frozen():
 @pytest.mark.parametrize("name", ["nonsense", "hog_pyramid_fast", "hog_adapted[cube]",
                                   "hog_adapted[single A]", "hog_warp[body]", "opencv_pyramid",
                                   "opencv_warp[body]", "acf_adapted[paper eq.3, body]", "hog", "",
-                                  "acf_adapted[fold]", "hog_adapted[body, fold]", "opencv_2x[fold]",
+                                  "acf_adapted[fold]", "opencv_adapted[body, fold]", "opencv_2x[fold]",
                                   "HOG_ADAPTED", None])
 def test_a_bad_name_is_one_line_naming_the_choices(name):
     with pytest.raises(ValueError, match="unknown method") as err:
@@ -145,7 +148,7 @@ def test_a_bad_name_is_one_line_naming_the_choices(name):
     ("hog", "adapted", None, None, None, True), ("opencv", "warp", None, None, None, True),
     ("opencv", "pyramid", None, None, 2, "yes"),
     ("acf", "adapted", None, None, None, False, True),
-    ("hog", "adapted", None, "body", None, False, True),
+    ("opencv", "adapted", None, "body", None, False, True),
     ("hog", "warp", None, None, None, False, True),
     ("opencv", "pyramid", None, None, 2, False, True)])
 def test_combinations_no_method_has_are_refused(fields):

@@ -68,8 +68,82 @@ def test_the_hog_cascade_rescores_what_the_fold_keeps_and_is_stored(tmp_path):
     back = cache.load({"k": 1})
     assert back.stage.model == "hog" and back.stage.binning == "cells"
     np.testing.assert_allclose(back.scores(back.frame_features(frame)), s)
-    assert build_adapted_linear_operator(windows, W, b, renorm=True,
-                                         object_model="body").stage is None
+
+
+def test_cell_maps_move_each_source_cell_before_the_window_homography():
+    """``cell_maps`` of the window's own plane are the identity (the same scores as the
+    plane's stage on an affine window); a map moving every cell one cell to the right
+    scores as the window shifted by 8 canonical px; a hidden cell reads nothing."""
+    from viewadapt.detect import cell_maps_of_mapping
+    from viewadapt.mapping import homography_mapping
+
+    img = bars_scene((200, 160), 5, bars=10)
+    W, b = _weights(3)
+    f = hog_frame_features(img, [4], pad=0, raw_cell_sizes=[4])
+    H = np.array([[0.9, 0.05, 40.2], [0.02, 0.8, 20.7], [0, 0, 1.0]])
+    ident = cell_maps_of_mapping(homography_mapping(H), H)
+    np.testing.assert_allclose(ident[..., 2:], np.broadcast_to([1.0, 0, 0, 1.0], (16, 8, 4)),
+                               atol=1e-9)
+    plane = RenormStage(H[None], [4], W, b, binning="cells", model="hog")
+    mapped = RenormStage(H[None], [4], W, b, binning="cells", model="hog",
+                         cell_maps=ident[None], cell_map_of=[0])
+    np.testing.assert_allclose(mapped.scores([0], f.raw), plane.scores([0], f.raw), atol=1e-5)
+    T = np.array([[1.0, 0, 8.0], [0, 1.0, 0], [0, 0, 1.0]])
+    shift = cell_maps_of_mapping(homography_mapping(H @ T), H)
+    moved = RenormStage(H[None], [4], W, b, binning="cells", model="hog",
+                        cell_maps=shift[None], cell_map_of=[0])
+    want = RenormStage((H @ T)[None], [4], W, b, binning="cells", model="hog")
+    np.testing.assert_allclose(moved.scores([0], f.raw), want.scores([0], f.raw), atol=1e-5)
+    hidden = ident.copy()
+    hidden[3:9, 2:6] = np.nan
+    cut = RenormStage(H[None], [4], W, b, binning="cells", model="hog",
+                      cell_maps=hidden[None], cell_map_of=[0]).scores([0], f.raw)[0]
+    assert np.isfinite(cut) and abs(cut - plane.scores([0], f.raw)[0]) > 1e-3
+    # where the model hides a point, the window's plane stands in
+    plane_m = homography_mapping(H)
+    holes = cell_maps_of_mapping(lambda p: np.where(p[:, :1] > 30, np.nan, plane_m(p)), H)
+    np.testing.assert_allclose(holes, ident, atol=1e-9)
+    with pytest.raises(ValueError, match="cell maps need model 'hog'"):
+        RenormStage(H[None], [4], np.zeros(3780), b, cell_maps=ident[None], cell_map_of=[0])
+    with pytest.raises(ValueError, match="one cell map index"):
+        RenormStage(H[None], [4], W, b, binning="cells", model="hog",
+                    cell_maps=ident[None], cell_map_of=[1])
+
+
+def test_the_body_models_hog_operator_has_the_stage_and_stores_it(tmp_path):
+    """With the mean body the stage moves each window's cells as its template group's body
+    mapping does; the stored operator scores the same, and it reads only the rows it says."""
+    from viewadapt.io import OperatorCache
+
+    cam = camera_from_pose(focal=200.0, principal_point=(95.5, 71.5), height=4.0,
+                           tilt=np.radians(35), image_size=SIZE)
+    frame = bars_scene((SIZE[1], SIZE[0]), 13)
+    windows = select_candidate_windows(cam)
+    W, b = _weights(4)
+    op = build_adapted_linear_operator(windows, W, b, renorm=True, object_model="body",
+                                       verify_threshold=-1e9)
+    plane = build_adapted_linear_operator(windows, W, b, renorm=True, verify_threshold=-1e9)
+    st = op.stage
+    assert st.cell_maps.shape == (len(op.groups), 16, 8, 6) and plane.stage.cell_maps is None
+    moved = np.nanmax(np.abs(st.cell_maps[..., :2] - plane_centres()), axis=(1, 2, 3))
+    assert np.nanmax(moved) > 0.5          # the body is not the plane
+    feats = op.frame_features(frame)
+    s = op.scores(feats)
+    assert np.abs(s - plane.scores(plane.frame_features(frame))).max() > 1e-3
+    cache = OperatorCache(tmp_path)
+    cache.save({"k": 2}, op)
+    back = cache.load({"k": 2})
+    np.testing.assert_array_equal(back.stage.cell_map_of, st.cell_map_of)
+    np.testing.assert_allclose(back.scores(back.frame_features(frame)), s)
+    whole = op.features(frame)
+    rows, raw_rows = op.read_rows()
+    scramble_unread_rows(whole, rows, raw_rows, seed=6)
+    np.testing.assert_allclose(op.scores(whole), s, atol=1e-5)
+
+
+def plane_centres():
+    ys, xs = np.mgrid[0:16, 0:8].astype(np.float64)
+    return np.stack([8.0 * xs + 3.5, 8.0 * ys + 3.5], -1)
 
 
 def test_the_hog_operator_reads_only_the_cell_rows_it_computes():
@@ -128,6 +202,8 @@ def test_a_frame_detector_with_the_hog_stage(tmp_path):
 
 def test_only_kinds_with_a_stage_have_a_fold():
     from viewadapt.detect import ACF_DETECTOR, DAIMLER_DETECTOR, HOG_DETECTOR, OPENCV_DETECTOR
+
+    assert HOG_DETECTOR.stages("body") and not OPENCV_DETECTOR.stages("body")
 
     for kind in (HOG_DETECTOR, OPENCV_DETECTOR, DAIMLER_DETECTOR):
         fold = kind.fold()
