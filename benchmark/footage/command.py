@@ -13,7 +13,8 @@ from benchmark.footage.report import evaluate_run, paired_differences, summary_l
 from benchmark.footage.run import FOOTAGE_METHODS, open_clip, run_footage
 from benchmark.frames.spec import expand_adapted, method_arg
 from viewadapt.commands.detect import (
-    DEFAULT_LENS, LENS_CHOICES, add_cache_options, check_frame_selection, person_heights,
+    DEFAULT_LENS, LENS_CHOICES, add_cache_options, add_ground_stride_option,
+    check_frame_selection, person_heights,
 )
 from viewadapt.detect.evaluation import BOOTSTRAP_BLOCK
 from viewadapt.geometry import PERSON_HEIGHT_M
@@ -53,7 +54,7 @@ def cmd_bench_footage(args) -> int:
         run = run_footage(clip, methods, models, heights=args.heights,
                           cache_dir=args.cache or (args.out / "cache"),
                           cache_limit_gb=args.cache_limit, tolerance=args.tolerance,
-                          progress=lambda: bar.update(1))
+                          ground_stride=args.ground_stride, progress=lambda: bar.update(1))
     if run.n_frames == 0:
         raise ValueError(f"{clip.stream.name} has no frames to evaluate")
     size = clip.camera.image_size
@@ -107,6 +108,7 @@ def cmd_bench_footage(args) -> int:
             calibration=str(args.calibration), boxes=str(args.boxes),
             ignore=None if args.ignore is None else str(args.ignore),
             lens_correction=clip.correction, heights=list(args.heights),
+            ground_stride=None if args.ground_stride is None else list(args.ground_stride),
             model=str(model_path) if needs else None,
             model_training=models.training if needs else None,
             methods=[m.name for m in methods], n_frames=run.n_frames, windows=run.n_windows,
@@ -166,6 +168,7 @@ def register_footage(bsub, common) -> None:
     p.add_argument("--heights", type=person_heights, default=(PERSON_HEIGHT_M,),
                    help="assumed person heights, metres, comma-separated (default 1.75); the "
                         "ground-plane filter keeps boxes within 20%% of one of them")
+    add_ground_stride_option(p)
     p.add_argument("--lens", choices=LENS_CHOICES, default=DEFAULT_LENS,
                    help="with dist in the calibration: as viewadapt detect --lens (default "
                         "auto: windows through the lens, for either object model)")

@@ -137,7 +137,7 @@ class FootageRun:
 
 
 def run_footage(clip: Clip, methods, models, *, heights, cache_dir=None, cache_limit_gb=None,
-                tolerance=None, progress=None) -> FootageRun:
+                tolerance=None, ground_stride=None, progress=None) -> FootageRun:
     """Every method on every frame of the clip, in one process, each timed on one core
     (OpenCV and BLAS limited to one thread, :func:`benchmark.frames.runtime.single_thread`).
 
@@ -152,8 +152,9 @@ def run_footage(clip: Clip, methods, models, *, heights, cache_dir=None, cache_l
         Our source detectors (None when no method needs them).
     heights : sequence of float
         Assumed person heights, metres.
-    cache_dir, cache_limit_gb, tolerance
-        :class:`viewadapt.detect.FrameDetector`'s (tolerance None: its default).
+    cache_dir, cache_limit_gb, tolerance, ground_stride
+        :class:`viewadapt.detect.FrameDetector`'s (tolerance, ground_stride None: its
+        defaults).
     progress : callable or None
         Called once per frame.
     """
@@ -161,6 +162,8 @@ def run_footage(clip: Clip, methods, models, *, heights, cache_dir=None, cache_l
     kw = dict(person_heights=heights, cache_dir=cache_dir, cache_limit_gb=cache_limit_gb)
     if tolerance is not None:
         kw["tolerance"] = tolerance
+    if ground_stride is not None:
+        kw["ground_stride"] = list(ground_stride)
     if clip.correction == "windows":
         kw["lens"] = np.asarray(clip.dist).tolist()
     undistort = Undistortion(cam.K, clip.dist, cam.image_size) \

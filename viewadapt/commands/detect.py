@@ -19,7 +19,7 @@ from viewadapt.detect.evaluation import (
 from viewadapt.detect.kinds import DETECTOR_KINDS, PRETRAINED_KINDS, PRETRAINED_UPSAMPLE_BELOW
 from viewadapt.detect.layers import UPSAMPLE_BELOW
 from viewadapt.detect.stream import DetectorSpec, detect_stream, pretrained_kinds
-from viewadapt.detect.windows import MIN_PERSON_HEIGHT_PX
+from viewadapt.detect.windows import GROUND_STRIDE_M, MIN_PERSON_HEIGHT_PX, check_ground_stride
 from viewadapt.geometry import PERSON_HEIGHT_M
 from viewadapt.io.boxes import FrameBoxes, read_boxes, read_ignore_regions
 from viewadapt.io.cache import DEFAULT_CACHE_LIMIT_GB, check_cache_limit
@@ -34,8 +34,8 @@ from viewadapt.objectmodel import OBJECT_MODELS
 from viewadapt.remap import ANGLE_RULES
 
 __all__ = ["LENS_CHOICES", "DEFAULT_LENS", "register", "cmd_detect", "check_frame_selection",
-           "person_heights", "cache_limit", "add_cache_options", "lens_correction",
-           "boxes_in_input_pixels"]
+           "person_heights", "ground_stride", "add_ground_stride_option", "cache_limit",
+           "add_cache_options", "lens_correction", "boxes_in_input_pixels"]
 
 
 #: How ``detect`` handles a calibration's lens distortion (``--lens``); ``auto`` maps the
@@ -75,6 +75,26 @@ def person_heights(text):
     if not vals or any(not np.isfinite(v) or v <= 0 for v in vals):
         raise argparse.ArgumentTypeError("person heights must be positive metres")
     return vals
+
+
+def ground_stride(text):
+    """argparse type: the candidate windows' ground stride, metres: one number, or
+    ``FORWARD,LATERAL``."""
+    try:
+        return check_ground_stride([float(v) for v in text.split(",")])
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"cannot read the ground stride {text!r} (positive "
+                                         "metres: one, or forward,lateral)") from None
+
+
+def add_ground_stride_option(p) -> None:
+    """``--ground-stride``, shared by ``detect`` and ``bench footage``."""
+    p.add_argument("--ground-stride", type=ground_stride, default=None, metavar="M[,M]",
+                   help="the candidate windows' ground grid, metres between ground positions: "
+                        f"one stride, or forward,lateral (default {GROUND_STRIDE_M:.4f} both "
+                        "ways, the paper's). A lateral stride of half (e.g. 0.1458,0.0729) "
+                        "doubles the windows across the view, for more time per frame "
+                        "(docs/real_footage.md has the measurement)")
 
 
 def min_height(text):
@@ -161,6 +181,8 @@ def _metadata(args, det, stream, writer, dist, correction, annotate, *, imported
         stage=any(getattr(L.operator, "stage", None) is not None
                   for L in det.operator(args.detector).layers),
         person_heights=list(det.params["person_heights"]), min_person_height=args.min_height,
+        ground_stride=list(check_ground_stride(det.params.get("ground_stride",
+                                                               GROUND_STRIDE_M))),
         windows=len(det.windows),
         upsample_below=det.upsample_below(args.detector),
         input=stream.describe(), frames=writer.n_frames, detections=writer.n_detections,
@@ -283,6 +305,8 @@ def cmd_detect(args) -> int:
             out.update(labels=labels, truth=t.boxes, status=status)
         return out
     options = dict(person_heights=args.heights, min_person_height=args.min_height,
+                   **({} if args.ground_stride is None
+                      else {"ground_stride": list(args.ground_stride)}),
                    cache_dir=args.cache or (args.out / "cache"),
                    cache_limit_gb=args.cache_limit,
                    upsample_below=args.upsample_below,
@@ -445,6 +469,7 @@ def register(sub, common) -> None:
                         "each adds a window size at every ground position, so a band such "
                         "as 1.65,1.75,1.85 also tolerates a calibration whose tilt is a "
                         "little off, for more windows and false positives")
+    add_ground_stride_option(p)
     p.add_argument("--min-height", type=min_height, default=MIN_PERSON_HEIGHT_PX, metavar="PX",
                    help="persons shorter than this in the frame get no candidate window "
                         f"(default {MIN_PERSON_HEIGHT_PX:g} px; 0 = down to the horizon)")

@@ -41,7 +41,8 @@ Example
 """
 
 from .windows import (
-    GROUND_STRIDE_M, PERSON_BOX_WINDOW, CandidateWindows, check_ground_visible,
+    GROUND_STRIDE_M, PERSON_BOX_WINDOW, CandidateWindows, check_ground_stride,
+    check_ground_visible,
     window_homographies, select_candidate_windows, person_boxes, window_scale, distort_pixels,
     windows_through_lens, detector_window_homography,
 )
@@ -100,7 +101,8 @@ from .stream import DetectorSpec, detect_stream
 from .evaluation import standardize_boxes, ground_truth_rows, evaluate_detections
 
 __all__ = [
-    "GROUND_STRIDE_M", "PERSON_BOX_WINDOW", "CandidateWindows", "check_ground_visible",
+    "GROUND_STRIDE_M", "PERSON_BOX_WINDOW", "CandidateWindows", "check_ground_stride",
+    "check_ground_visible",
     "window_homographies", "select_candidate_windows", "person_boxes", "window_scale",
     "distort_pixels", "windows_through_lens", "detector_window_homography", "HOG_CELL",
     "N_HOG_BINS", "HOG_CHANNELS",

@@ -24,7 +24,10 @@ from .channels import check_frame
 from .kinds import DETECTOR_KINDS, HOG_DETECTOR, PRETRAINED_KINDS, detector_kind
 from .layers import build_multiresolution_operator, check_upsample_below
 from .templates import HOG_TOLERANCE
-from .windows import MIN_PERSON_HEIGHT_PX, select_candidate_windows, windows_through_lens
+from .windows import (
+    GROUND_STRIDE_M, MIN_PERSON_HEIGHT_PX, check_ground_stride, select_candidate_windows,
+    windows_through_lens,
+)
 
 __all__ = ["DEFAULT_THRESHOLD", "FrameDetections", "FrameDetector"]
 #: Score threshold of the detections kept for non-maximum suppression: low, so that a DET
@@ -98,6 +101,10 @@ class FrameDetector:
     grid_phase : (2,) float
         Offset of the ground grid of candidate windows, in strides (forward, left), each in
         ``[0, 1)`` (:func:`~viewadapt.detect.windows.select_candidate_windows`).
+    ground_stride : float or (2,) float or None
+        The ground grid's stride, metres, one or (forward, lateral)
+        (:func:`~viewadapt.detect.windows.select_candidate_windows`); None (default): the
+        paper's :data:`~viewadapt.detect.windows.GROUND_STRIDE_M` both ways.
     min_person_height : float
         Persons shorter than this in the frame, px, get no candidate window (default
         :data:`~viewadapt.detect.windows.MIN_PERSON_HEIGHT_PX`).
@@ -118,7 +125,7 @@ class FrameDetector:
                  upsample_below: float | None = None, thresholds=None,
                  rule: str = "covariant", object_model: str = "plane", lens=None,
                  grid_phase=(0.0, 0.0), min_person_height: float = MIN_PERSON_HEIGHT_PX,
-                 kinds=None, stage: bool = True):
+                 kinds=None, stage: bool = True, ground_stride=None):
         if not isinstance(camera, Camera) or camera.image_size is None:
             raise ValueError("camera must be a Camera with its image_size (width, height)")
         self.camera = camera
@@ -151,10 +158,13 @@ class FrameDetector:
                 and not isinstance(min_person_height, bool) and 0 <= min_person_height < 1e4):
             raise ValueError(f"min_person_height must be a number of pixels >= 0, got "
                              f"{min_person_height!r}")
+        stride = GROUND_STRIDE_M if ground_stride is None else ground_stride
         self.windows = select_candidate_windows(camera, self.size,
                                                 person_heights=self.params["person_heights"],
-                                                grid_phase=grid_phase,
+                                                grid_phase=grid_phase, stride=stride,
                                                 min_person_height_px=min_person_height)
+        if ground_stride is not None:   # (only then: the cache keys of before stay valid)
+            self.params["ground_stride"] = list(check_ground_stride(ground_stride))
         self.params["grid_phase"] = [float(v) for v in grid_phase]
         self.params["min_person_height"] = float(min_person_height)
         if lens is not None:

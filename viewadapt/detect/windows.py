@@ -47,6 +47,7 @@ from ..geometry import (
 
 __all__ = [
     "GROUND_STRIDE_M",
+    "check_ground_stride",
     "MIN_PERSON_HEIGHT_PX",
     "PERSON_BOX_WINDOW",
     "CandidateWindows",
@@ -311,6 +312,20 @@ def window_homographies(camera: Camera, ground_xy, person_height=PERSON_HEIGHT_M
     return H / H[:, 2:3, 2:3]
 
 
+def check_ground_stride(stride) -> tuple:
+    """``(forward, lateral)`` metres of a ground-grid stride given as one number or a pair;
+    ValueError for anything but positive finite metres."""
+    try:
+        v = np.atleast_1d(np.asarray(stride, dtype=np.float64)) if not isinstance(
+            stride, (str, bytes, bool)) else np.array([np.nan])
+    except (TypeError, ValueError):
+        v = np.array([np.nan])
+    if v.ndim != 1 or len(v) not in (1, 2) or not np.all(np.isfinite(v)) or np.any(v <= 0):
+        raise ValueError(f"stride must be positive metres, one or a (forward, lateral) pair, "
+                         f"got {stride!r}")
+    return (float(v[0]), float(v[-1]))
+
+
 def select_candidate_windows(camera: Camera, image_size=None, *,
                              person_heights=(PERSON_HEIGHT_M,), stride: float = GROUND_STRIDE_M,
                              min_separation: float = 1.0,
@@ -326,8 +341,10 @@ def select_candidate_windows(camera: Camera, image_size=None, *,
         Defaults to ``camera.image_size``.
     person_heights : sequence of float
         Assumed person heights, metres; each gets its own set of windows.
-    stride : float
-        Ground-grid stride, metres (default the paper's ``8 * 1.75 / 96``).
+    stride : float or (2,) float
+        Ground-grid stride, metres (default the paper's ``8 * 1.75 / 96``); a pair gives
+        the strides along the camera's forward and left axes (e.g. a lateral stride of
+        half: windows twice as dense across the view; docs/real_footage.md measures it).
     min_separation : float
         Minimum image distance, px, between the feet points of two kept windows of the same
         height (the paper's 1 px).
@@ -357,8 +374,7 @@ def select_candidate_windows(camera: Camera, image_size=None, *,
             raise ValueError("image_size is needed (the camera has none)")
         image_size = camera.image_size
     w, h = _check_size(image_size)
-    if not np.isfinite(stride) or stride <= 0:
-        raise ValueError(f"stride must be positive metres, got {stride!r}")
+    sf, sl = check_ground_stride(stride)
     if not np.isfinite(min_separation) or min_separation < 0:
         raise ValueError(f"min_separation must be >= 0 px, got {min_separation!r}")
     heights = np.atleast_1d(np.asarray(person_heights, dtype=np.float64))
@@ -370,15 +386,15 @@ def select_candidate_windows(camera: Camera, image_size=None, *,
                          f"{grid_phase!r}")
     seen = check_ground_visible(camera, (w, h))
     origin, fwd, left = _camera_ground_frame(camera)
-    origin = origin + stride * (phase[0] * fwd + phase[1] * left)
+    origin = origin + sf * phase[0] * fwd + sl * phase[1] * left
     rel = seen - origin[:2]
     f_seen, l_seen = rel @ fwd[:2], rel @ left[:2]
     f_lo = max(float(f_seen.min()), -max_distance)
     f_hi = min(float(f_seen.max()), max_distance)
     l_lo = max(float(l_seen.min()), -max_distance)
     l_hi = min(float(l_seen.max()), max_distance)
-    i_range = np.arange(np.floor(f_lo / stride), np.ceil(f_hi / stride) + 1).astype(np.int64)
-    j_range = np.arange(np.floor(l_lo / stride), np.ceil(l_hi / stride) + 1).astype(np.int64)
+    i_range = np.arange(np.floor(f_lo / sf), np.ceil(f_hi / sf) + 1).astype(np.int64)
+    j_range = np.arange(np.floor(l_lo / sl), np.ceil(l_hi / sl) + 1).astype(np.int64)
     if i_range.size * j_range.size > 20_000_000:
         raise ValueError("the visible ground holds more than 2e7 grid positions: lower "
                          "max_distance or raise the stride")
@@ -389,7 +405,7 @@ def select_candidate_windows(camera: Camera, image_size=None, *,
         occupied: dict = {}
         for i in i_range:                                  # near to far, row by row
             ii = np.full(j_range.size, i)
-            xy = origin[:2] + (i * stride) * fwd[:2] + np.outer(j_range * stride, left[:2])
+            xy = origin[:2] + (i * sf) * fwd[:2] + np.outer(j_range * sl, left[:2])
             ok = np.linalg.norm(xy - C[:2], axis=1) > max(0.5, 1e-6)
             cam_z = (np.c_[xy, np.full(len(xy), 0.5 * hgt)] @ camera.R.T + camera.t)[:, 2]
             ok &= cam_z > 0.05

@@ -178,6 +178,18 @@ def test_the_body_model_through_the_lens_or_on_undistorted_frames(toy, tmp_path)
         == "undistort"
 
 
+def test_a_denser_ground_grid(toy, tmp_path):
+    """``--ground-stride F,L`` reaches the adapted detectors' windows and run.json."""
+    runs = {}
+    for name, argv in (("paper", ()), ("dense", ("--ground-stride", "0.1458,0.0729"))):
+        out = tmp_path / name
+        assert _footage(toy, out, "--methods", "hog_adapted", "--max-frames", "2", *argv) == 0
+        runs[name] = json.loads((out / "run.json").read_text())
+    assert runs["paper"]["ground_stride"] is None
+    assert runs["dense"]["ground_stride"] == [0.1458, 0.0729]
+    assert 1.5 * runs["paper"]["windows"] < runs["dense"]["windows"]
+
+
 def test_the_daimler_detector_against_its_own_pyramids(toy, tmp_path, capsys):
     """OpenCV's Daimler detector runs as OpenCV's INRIA one does; each adapted detector is
     paired with the best unadapted baseline and with its own detector's best pyramid."""

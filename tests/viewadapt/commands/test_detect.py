@@ -492,6 +492,27 @@ def test_the_stage_can_be_left_out(toy, detect):
     assert (two / "detections.csv").read_bytes() == (off / "detections.csv").read_bytes()
 
 
+def test_a_denser_ground_grid_across_the_view(toy, detect, tmp_path, capfd):
+    """``--ground-stride F,L``: more windows (a cache entry of their own), recorded in
+    metadata.json; one number is both strides; a bad value is argparse's one-line error."""
+    from viewadapt.detect import GROUND_STRIDE_M as S
+
+    meta = json.loads((detect("folder", toy.folder) / "metadata.json").read_text())
+    assert meta["ground_stride"] == [S, S]
+    dense = json.loads((detect("dense", toy.folder, "--ground-stride", f"{S},{S / 2}")
+                        / "metadata.json").read_text())
+    assert dense["ground_stride"] == [S, S / 2]
+    assert 1.5 * meta["windows"] < dense["windows"] < 2.5 * meta["windows"]
+    for bad in ("0", "0.1,-1", "0.1,0.1,0.1", "wide"):
+        capfd.readouterr()
+        with pytest.raises(SystemExit) as exc:
+            main(["detect", "--calibration", str(toy.calibration), "--model", str(toy.model),
+                  "--out", str(tmp_path / "o"), "--ground-stride", bad, str(toy.folder)])
+        err = capfd.readouterr().err.strip().splitlines()[-1]
+        assert exc.value.code == 2 and "cannot read the ground stride" in err, err
+        assert not (tmp_path / "o").exists()
+
+
 def test_min_height_drops_windows_of_shorter_persons(toy, detect, tmp_path, capfd):
     meta = json.loads((detect("folder", toy.folder) / "metadata.json").read_text())
     from viewadapt.detect import FrameDetector

@@ -98,6 +98,29 @@ def test_grid_phase_moves_the_grid_and_nothing_else(camera, windows):
             select_candidate_windows(camera, grid_phase=bad)
 
 
+def test_a_lateral_stride_of_half_is_the_grid_and_its_half_phase(camera):
+    """stride=(s, s / 2) places windows where the grid at lateral phases 0 and 1/2 together
+    does (without the 1-px thinning, which then acts across both); one number is both
+    strides; a bad stride is a one-line error."""
+    s = GROUND_STRIDE_M
+    kw = dict(min_separation=0.0)
+    dense = select_candidate_windows(camera, stride=(s, s / 2), **kw)
+    both = np.concatenate([select_candidate_windows(camera, grid_phase=(0, b), **kw).ground_xy
+                           for b in (0.0, 0.5)])
+    key = lambda xy: set(map(tuple, np.round(xy / s * 4).astype(int)))  # noqa: E731
+    assert key(dense.ground_xy) == key(both) and len(dense) == len(both)
+    ij = dense.ground_xy / [s, s / 2]
+    assert np.allclose(ij, dense.grid_index, atol=1e-9)
+    assert np.array_equal(select_candidate_windows(camera, stride=(s, s)).ground_xy,
+                          select_candidate_windows(camera).ground_xy)
+    phased = select_candidate_windows(camera, stride=(s, s / 2), grid_phase=(0.5, 0.5))
+    assert np.allclose(phased.ground_xy / [s, s / 2] - 0.5, phased.grid_index, atol=1e-9)
+    for bad in [0.0, -1.0, (s, 0.0), (s, s, s), np.nan, "0.1", [[s]]]:
+        with pytest.raises(ValueError, match="stride must be positive metres") as err:
+            select_candidate_windows(camera, stride=bad)
+        assert "\n" not in str(err.value)
+
+
 def test_vectorised_homographies_match_geometry(camera, windows):
     for k in (0, len(windows) // 2, len(windows) - 1):
         H = window_to_image_homography(camera, windows.ground_xy[k])

@@ -1,7 +1,9 @@
 """One-off: the adapted detectors' LAMR on the PETS clip at each of n x n grid phases of the
 candidate windows (benchmark.frames.phases.grid_phases; FrameDetector's grid_phase), the
 bench footage runner otherwise, shipped models; each phase paired with the default grid
-(10-frame block bootstrap). No image warping (18 min a phase). argv: OUT.json n method..."""
+(10-frame block bootstrap). No image warping (18 min a phase). argv: OUT.json n method...
+Environment: STRIDE=F,L runs with that ground stride (FrameDetector's ground_stride)."""
+import os
 import json, sys
 from pathlib import Path
 
@@ -23,7 +25,10 @@ for ph in grid_phases(n):
     fr.FrameMethods = lambda cam, models, **kw: _FM(cam, models, grid_phase=ph, **kw)
     clip = fr.open_clip([D / "img1"], D / "calibration/View_001.xml", D / "gt/gt.txt",
                         D / "ignore.json")
-    run = fr.run_footage(clip, methods, models, heights=(1.75,))
+    stride = os.environ.get("STRIDE")
+    run = fr.run_footage(clip, methods, models, heights=(1.75,),
+                         ground_stride=None if stride is None
+                         else [float(v) for v in stride.split(",")])
     size = clip.camera.image_size
     for m in methods:
         mt, _ = evaluation_matches(run.detections[m], run.truth, size, regions=clip.regions)
