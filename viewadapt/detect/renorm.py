@@ -295,8 +295,7 @@ def cell_maps_of_mapping(mapping, homography, *, cells=(WINDOW_WIDTH // HOG_CELL
     of the mean body) followed by the inverse of the window's ``homography``, at each cell
     centre -- the point (2) and its Jacobian (4, row-major, central differences of
     ``step`` px). Where the model hides a point (the mapping is NaN there) the window's
-    plane stands in: on the paper preset's rendered frames reading such cells as empty
-    cost far more than reading them on the plane (docs/real_footage.md)."""
+    plane stands in (docs/real_footage.md has the measurement behind that choice)."""
     nx, ny = cells
     ys, xs = np.mgrid[0:ny, 0:nx].astype(np.float64)
     c = np.stack([8.0 * xs + 3.5, 8.0 * ys + 3.5], -1)
