@@ -1,0 +1,40 @@
+"""One-off: where adapted OpenCV's localisation errors (best IoU with a person 0.3-0.5) at
+0.1 FPPI sit against the person they frame badly, per saved grid phase (save_phases.py's
+detections.json): offsets of the box's foot point in units of the person's height and
+width, and its height ratio. argv: detections.json"""
+import json, sys
+from pathlib import Path
+
+import numpy as np
+
+from benchmark.footage.errors import _error_rows, _frames_at
+from benchmark.footage.run import open_clip
+from viewadapt.boxes import box_iou
+
+D = Path("../shared/data/pets09_s2l1_view001")
+clip = open_clip([D / "img1"], D / "calibration/View_001.xml", D / "gt/gt.txt", D / "ignore.json")
+frames = list(clip.stream)
+truth = [clip.truth_of(f) for f in frames]
+keys = [str(f.source) for f in frames]
+dets = json.loads(Path(sys.argv[1]).read_text())
+for name, per in dets.items():
+    rows = _error_rows([np.asarray(per[k], float).reshape(-1, 5) for k in keys], truth,
+                       clip.camera.image_size, clip.regions)
+    fr_, thr = _frames_at(rows, 0.1)
+    off = []
+    for d, labels, g, found, nb in fr_:
+        fp = labels == 0
+        if not fp.any() or not len(g):
+            continue
+        iou = box_iou(d[fp, :4], g[:, :4])
+        best, j = iou.max(1), iou.argmax(1)
+        for b, jj, row in zip(best, j, d[fp]):
+            if 0.3 <= b < 0.5:
+                x, y, w, h = g[jj, :4]
+                dx = (row[0] + row[2] / 2 - (x + w / 2)) / w
+                dy = (row[1] + row[3] - (y + h)) / h
+                off.append((dx, dy, row[3] / h, found[jj]))
+    o = np.array(off).reshape(-1, 4)
+    print(name, f"threshold {thr:.3f}, {len(o)} localisation errors")
+    for dx, dy, r, f in o:
+        print(f"   foot dx {dx:+.2f} w, dy {dy:+.2f} h, height x{r:.2f}, person found: {bool(f)}")
