@@ -22,7 +22,7 @@ for name, per in dets.items():
                        clip.camera.image_size, clip.regions)
     fr_, thr = _frames_at(rows, 0.1)
     off = []
-    for d, labels, g, found, nb in fr_:
+    for key, (d, labels, g, found, nb) in zip(keys, fr_):
         fp = labels == 0
         if not fp.any() or not len(g):
             continue
@@ -33,8 +33,9 @@ for name, per in dets.items():
                 x, y, w, h = g[jj, :4]
                 dx = (row[0] + row[2] / 2 - (x + w / 2)) / w
                 dy = (row[1] + row[3] - (y + h)) / h
-                off.append((dx, dy, row[3] / h, found[jj]))
-    o = np.array(off).reshape(-1, 4)
-    print(name, f"threshold {thr:.3f}, {len(o)} localisation errors")
-    for dx, dy, r, f in o:
-        print(f"   foot dx {dx:+.2f} w, dy {dy:+.2f} h, height x{r:.2f}, person found: {bool(f)}")
+                off.append((dx, dy, row[3] / h, found[jj], key, x + w / 2, y + h, h, nb[jj]))
+    print(name, f"threshold {thr:.3f}, {len(off)} localisation errors")
+    for dx, dy, r, f, key, fx, fy, h, n in off:
+        print(f"   foot dx {dx:+.2f} w, dy {dy:+.2f} h, height x{r:.2f}, person found: {bool(f)}"
+              f"; frame {key}, person's foot ({fx:.0f}, {fy:.0f}) px, {h:.0f} px tall, "
+              f"neighbour: {bool(n)}")
