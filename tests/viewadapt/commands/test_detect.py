@@ -503,14 +503,8 @@ def test_a_denser_ground_grid_across_the_view(toy, detect, tmp_path, capfd):
                         / "metadata.json").read_text())
     assert dense["ground_stride"] == [S, S / 2]
     assert 1.5 * meta["windows"] < dense["windows"] < 2.5 * meta["windows"]
-    for bad in ("0", "0.1,-1", "0.1,0.1,0.1", "wide"):
-        capfd.readouterr()
-        with pytest.raises(SystemExit) as exc:
-            main(["detect", "--calibration", str(toy.calibration), "--model", str(toy.model),
-                  "--out", str(tmp_path / "o"), "--ground-stride", bad, str(toy.folder)])
-        err = capfd.readouterr().err.strip().splitlines()[-1]
-        assert exc.value.code == 2 and "cannot read the ground stride" in err, err
-        assert not (tmp_path / "o").exists()
+    _refused(toy, tmp_path, capfd, "--ground-stride", ("0", "0.1,-1", "0.1,0.1,0.1", "wide"),
+             "cannot read the ground stride")
 
 
 def test_min_height_drops_windows_of_shorter_persons(toy, detect, tmp_path, capfd):
@@ -522,11 +516,18 @@ def test_min_height_drops_windows_of_shorter_persons(toy, detect, tmp_path, capf
                         / "metadata.json").read_text())
     assert fewer["min_person_height"] == float(f"{tall:.0f}")
     assert 0 < fewer["windows"] < meta["windows"]
-    for bad in ("-3", "nan", "tall"):
+    _refused(toy, tmp_path, capfd, "--min-height", ("-3", "nan", "tall"),
+             "minimum person height must be >= 0 px")
+
+
+def _refused(toy, tmp_path, capfd, option, values, message):
+    """Each of ``values`` given to ``option`` is argparse's one-line error (exit 2) saying
+    ``message``, and nothing is written."""
+    for bad in values:
         capfd.readouterr()
         with pytest.raises(SystemExit) as exc:
             main(["detect", "--calibration", str(toy.calibration), "--model", str(toy.model),
-                  "--out", str(tmp_path / "o"), "--min-height", bad, str(toy.folder)])
+                  "--out", str(tmp_path / "o"), option, bad, str(toy.folder)])
         err = capfd.readouterr().err.strip().splitlines()[-1]
-        assert exc.value.code == 2 and "minimum person height must be >= 0 px" in err, err
+        assert exc.value.code == 2 and message in err, err
         assert not (tmp_path / "o").exists()
