@@ -23,8 +23,8 @@ import numpy as np
 
 from viewadapt.boxes import box_iou
 
-__all__ = ["ERROR_FPPIS", "HEIGHT_BANDS", "neighbours", "error_breakdown", "error_map",
-           "clip_errors", "error_lines", "map_grid"]
+__all__ = ["ERROR_FPPIS", "HEIGHT_BANDS", "neighbours", "frames_at_fppi", "error_breakdown",
+           "error_map", "clip_errors", "error_lines", "map_grid"]
 
 #: The operating points ``bench footage`` reports the errors at, false positives per image.
 ERROR_FPPIS = (0.1, 1.0)
@@ -70,6 +70,14 @@ def _frames_at(rows, fppi):
     return frames, thr
 
 
+def frames_at_fppi(detections, truth, image_size, *, regions=None, fppi: float = 1.0):
+    """Per frame at the threshold that gives ``fppi`` false positives per image (the
+    protocol's rows, standardised): ``(detections kept, their labels (1 hit, 0 false
+    positive, -1 ignored), ground-truth rows, found flags, neighbour flags)``, and the
+    threshold. Parameters as :func:`error_breakdown`'s."""
+    return _frames_at(_error_rows(detections, truth, image_size, regions), fppi)
+
+
 def error_breakdown(detections, truth, image_size, *, regions=None, fppi: float = 1.0) -> dict:
     """The errors of one method at ``fppi`` false positives per image.
 
@@ -95,7 +103,8 @@ def error_breakdown(detections, truth, image_size, *, regions=None, fppi: float 
         ``background``; ``log_height_ratio_mean`` and ``_sd`` of ``log(h_det / h_gt)``
         over the hits.
     """
-    return _breakdown(*_frames_at(_error_rows(detections, truth, image_size, regions), fppi))
+    return _breakdown(*frames_at_fppi(detections, truth, image_size, regions=regions,
+                                      fppi=fppi))
 
 
 def _breakdown(frames, thr) -> dict:
@@ -143,7 +152,7 @@ def error_map(image, detections, truth, image_size, *, regions=None, fppi: float
     """``image`` (an RGB frame of the clip) dimmed, with every counted person's foot point
     over all frames (green found, red missed at ``fppi``) and the false positives' foot
     points (cyan crosses): a (H, W, 3) uint8 image."""
-    frames, _ = _frames_at(_error_rows(detections, truth, image_size, regions), fppi)
+    frames, _ = frames_at_fppi(detections, truth, image_size, regions=regions, fppi=fppi)
     return _draw(image, frames, truth, title)
 
 

@@ -137,7 +137,8 @@ class FootageRun:
 
 
 def run_footage(clip: Clip, methods, models, *, heights, cache_dir=None, cache_limit_gb=None,
-                tolerance=None, ground_stride=None, progress=None) -> FootageRun:
+                tolerance=None, ground_stride=None, grid_phase=(0.0, 0.0),
+                progress=None) -> FootageRun:
     """Every method on every frame of the clip, in one process, each timed on one core
     (OpenCV and BLAS limited to one thread, :func:`benchmark.frames.runtime.single_thread`).
 
@@ -152,14 +153,15 @@ def run_footage(clip: Clip, methods, models, *, heights, cache_dir=None, cache_l
         Our source detectors (None when no method needs them).
     heights : sequence of float
         Assumed person heights, metres.
-    cache_dir, cache_limit_gb, tolerance, ground_stride
+    cache_dir, cache_limit_gb, tolerance, ground_stride, grid_phase
         :class:`viewadapt.detect.FrameDetector`'s (tolerance, ground_stride None: its
-        defaults).
+        defaults; grid_phase: where the candidate windows' ground grid stands).
     progress : callable or None
         Called once per frame.
     """
     cam = clip.camera
-    kw = dict(person_heights=heights, cache_dir=cache_dir, cache_limit_gb=cache_limit_gb)
+    kw = dict(person_heights=heights, cache_dir=cache_dir, cache_limit_gb=cache_limit_gb,
+              grid_phase=tuple(grid_phase))
     if tolerance is not None:
         kw["tolerance"] = tolerance
     if ground_stride is not None:

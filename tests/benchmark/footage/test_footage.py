@@ -253,3 +253,23 @@ def test_each_method_runs_once_untimed_before_the_timed_frames(toy, monkeypatch)
     # once untimed and once per frame; the ground-filtered pyramid reuses the timed boxes
     assert calls.count("opencv_native") == 3 and calls.count("hog_adapted") == 3
     assert calls.count("opencv_native[ground]") == 1
+
+
+def test_the_runner_places_the_windows_at_a_grid_phase(toy):
+    """``run_footage(grid_phase=)`` moves the candidate windows' ground grid (the adapted
+    detectors' windows), as FrameDetector's ``grid_phase`` does."""
+    from benchmark.footage.run import open_clip, run_footage
+    from benchmark.frames.spec import FrameMethod
+    from viewadapt.detect import FrameDetector
+    from viewadapt.io import SourceDetectors
+
+    clip = open_clip([str(toy.img1)], toy.calibration, toy.gt, max_frames=1)
+    models = SourceDetectors.load(toy.model)
+    m = FrameMethod.parse("hog_adapted")
+    runs = [run_footage(clip, [m], models, heights=(1.75,), cache_dir=toy.cache, grid_phase=ph)
+            for ph in ((0.0, 0.0), (0.5, 0.5))]
+    want = len(FrameDetector(clip.camera, None, grid_phase=(0.5, 0.5),
+                             lens=np.asarray(clip.dist).tolist() if clip.dist is not None
+                             and clip.correction == "windows" else None).windows)
+    assert runs[1].n_windows == want
+    assert not np.array_equal(runs[0].detections[m][0], runs[1].detections[m][0])

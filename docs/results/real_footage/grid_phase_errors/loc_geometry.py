@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmark.footage.errors import _error_rows, _frames_at
+from benchmark.footage.errors import frames_at_fppi
 from benchmark.footage.run import open_clip
 from viewadapt.boxes import box_iou
 
@@ -18,9 +18,8 @@ truth = [clip.truth_of(f) for f in frames]
 keys = [str(f.source) for f in frames]
 dets = json.loads(Path(sys.argv[1]).read_text())
 for name, per in dets.items():
-    rows = _error_rows([np.asarray(per[k], float).reshape(-1, 5) for k in keys], truth,
-                       clip.camera.image_size, clip.regions)
-    fr_, thr = _frames_at(rows, 0.1)
+    fr_, thr = frames_at_fppi([np.asarray(per[k], float).reshape(-1, 5) for k in keys], truth,
+                              clip.camera.image_size, regions=clip.regions, fppi=0.1)
     off = []
     for key, (d, labels, g, found, nb) in zip(keys, fr_):
         fp = labels == 0

@@ -11,13 +11,11 @@ D = Path("../shared/data/pets09_s2l1_view001")
 out = Path(sys.argv[1])
 out.mkdir(parents=True, exist_ok=True)
 m = FrameMethod.parse("opencv_adapted")
-_FM = fr.FrameMethods
 dets = {}
 for text in sys.argv[2:]:
     ph = tuple(float(v) for v in text.split(","))
-    fr.FrameMethods = lambda cam, models, **kw: _FM(cam, models, grid_phase=ph, **kw)
     clip = fr.open_clip([D / "img1"], D / "calibration/View_001.xml", D / "gt/gt.txt",
                         D / "ignore.json")
-    run = fr.run_footage(clip, [m], None, heights=(1.75,))
+    run = fr.run_footage(clip, [m], None, heights=(1.75,), grid_phase=ph)
     dets[f"opencv_adapted@{text}"] = {str(k): d.tolist() for k, d in zip(run.keys, run.detections[m])}
 (out / "detections.json").write_text(json.dumps(dets))

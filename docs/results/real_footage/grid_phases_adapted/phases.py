@@ -19,14 +19,12 @@ D = Path("../shared/data/pets09_s2l1_view001")
 out_path, n, names = Path(sys.argv[1]), int(sys.argv[2]), sys.argv[3:]
 methods = [FrameMethod.parse(x) for x in names]
 models = SourceDetectors.load(shipped_model_path())
-_FM = fr.FrameMethods
 res, matches = {}, {}
 for ph in grid_phases(n):
-    fr.FrameMethods = lambda cam, models, **kw: _FM(cam, models, grid_phase=ph, **kw)
     clip = fr.open_clip([D / "img1"], D / "calibration/View_001.xml", D / "gt/gt.txt",
                         D / "ignore.json")
     stride = os.environ.get("STRIDE")
-    run = fr.run_footage(clip, methods, models, heights=(1.75,),
+    run = fr.run_footage(clip, methods, models, heights=(1.75,), grid_phase=ph,
                          ground_stride=None if stride is None
                          else [float(v) for v in stride.split(",")])
     size = clip.camera.image_size

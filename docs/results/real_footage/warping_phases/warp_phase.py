@@ -13,11 +13,10 @@ out = Path(sys.argv[1])
 out.mkdir(parents=True, exist_ok=True)
 ph = tuple(float(v) for v in sys.argv[2].split(","))
 methods = [FrameMethod.parse("hog_adapted"), FrameMethod.parse("hog_warp")]
-_FM = fr.FrameMethods
-fr.FrameMethods = lambda cam, models, **kw: _FM(cam, models, grid_phase=ph, **kw)
 clip = fr.open_clip([D / "img1"], D / "calibration/View_001.xml", D / "gt/gt.txt",
                     D / "ignore.json")
-run = fr.run_footage(clip, methods, SourceDetectors.load(shipped_model_path()), heights=(1.75,))
+run = fr.run_footage(clip, methods, SourceDetectors.load(shipped_model_path()), heights=(1.75,),
+                     grid_phase=ph)
 (out / "detections.json").write_text(json.dumps(
     {m.name: {str(k): d.tolist() for k, d in zip(run.keys, run.detections[m])} for m in methods}))
 (out / "seconds.json").write_text(json.dumps({m.name: run.seconds[m] for m in methods}))
