@@ -9,8 +9,10 @@ from pathlib import Path
 import numpy as np
 
 from benchmark.footage.errors import ERROR_FPPIS, clip_errors, error_lines, map_grid
+from benchmark.footage.phases import phase_lines, phase_summary, run_phases, window_grid_methods
 from benchmark.footage.report import evaluate_run, paired_differences, summary_lines, summary_rows
 from benchmark.footage.run import FOOTAGE_METHODS, open_clip, run_footage
+from benchmark.frames.phases import grid_phases
 from benchmark.frames.spec import expand_adapted, method_arg
 from viewadapt.commands.detect import (
     DEFAULT_LENS, LENS_CHOICES, add_cache_options, add_ground_stride_option,
@@ -41,20 +43,29 @@ def cmd_bench_footage(args) -> int:
     if args.bootstrap_block < 1:
         raise ValueError(f"--bootstrap-block must be at least 1 frame, got "
                          f"{args.bootstrap_block}")
+    if args.phases < 1:
+        raise ValueError(f"--phases must be at least 1, got {args.phases}")
     methods = expand_adapted(args.methods or list(FOOTAGE_METHODS), args.rules,
                              args.object_models)
+    phases = grid_phases(args.phases)
+    if len(phases) > 1 and not window_grid_methods(methods):
+        raise ValueError("--phases needs a method that scores the candidate windows (an "
+                         "adapted detector or image warping); the pyramids run once")
     clip = open_clip(args.inputs, args.calibration, args.boxes, args.ignore, lens=args.lens,
                      start=args.start, every=args.every, max_frames=args.max_frames)
     needs = any(m.needs_training for m in methods)
     model_path = args.model or shipped_model_path()
     models = SourceDetectors.load(model_path) if needs else None
     t0 = time.perf_counter()
-    with tqdm(total=clip.stream.n_frames, desc="footage", unit="frame", dynamic_ncols=True,
-              disable=args.quiet) as bar:
-        run = run_footage(clip, methods, models, heights=args.heights,
-                          cache_dir=args.cache or (args.out / "cache"),
-                          cache_limit_gb=args.cache_limit, tolerance=args.tolerance,
-                          ground_stride=args.ground_stride, progress=lambda: bar.update(1))
+    run_kw = dict(heights=args.heights, cache_dir=args.cache or (args.out / "cache"),
+                  cache_limit_gb=args.cache_limit, tolerance=args.tolerance,
+                  ground_stride=args.ground_stride)
+    total = None if clip.stream.n_frames is None else clip.stream.n_frames * len(phases)
+    with tqdm(total=total, desc="footage" if len(phases) == 1 else "footage x grid phases",
+              unit="frame", dynamic_ncols=True, disable=args.quiet) as bar:
+        run = run_footage(clip, methods, models, progress=lambda: bar.update(1), **run_kw)
+        phase_dets = run_phases(clip, methods, models, phases, progress=lambda: bar.update(1),
+                                **run_kw) if len(phases) > 1 else {}
     if run.n_frames == 0:
         raise ValueError(f"{clip.stream.name} has no frames to evaluate")
     size = clip.camera.image_size
@@ -62,13 +73,17 @@ def cmd_bench_footage(args) -> int:
     evaluations, matches = evaluate_run(run, size, regions=clip.regions, **kw)
     differences = paired_differences(run, evaluations, matches, **kw)
     lines = summary_lines(run, evaluations, differences)
+    block_frames = evaluations[methods[0]][0]["bootstrap"]["block_frames"]
+    phase = phase_summary(run, phase_dets, evaluations, matches, size, phases,
+                          regions=clip.regions, **kw) if phase_dets else None
+    if phase is not None:
+        lines += phase_lines(phase, evaluations, block_frames)
     n_gt = next(iter(evaluations.values()))[0]["n_gt"]
     n_ign = next(iter(evaluations.values()))[0]["n_gt_ignored"]
     head = [f"# {clip.stream.name}: {run.n_frames} frames, {n_gt} persons counted "
             f"({n_ign} ignored)", "",
             f"Caltech protocol, LAMR over 1e-2..1e0 FPPI; 95% intervals from a circular block "
-            f"bootstrap over {evaluations[methods[0]][0]['bootstrap']['block_frames']}-frame "
-            f"blocks; frames/s in one process"
+            f"bootstrap over {block_frames}-frame blocks; frames/s in one process"
             + {None: "", "windows": "; the lens: candidate windows through it",
                "undistort": "; the lens: frames undistorted first (not timed), boxes "
                             "mapped back"}[clip.correction] + ".", ""]
@@ -101,6 +116,10 @@ def cmd_bench_footage(args) -> int:
         (tmp / "detections.json").write_text(json.dumps(
             {m.name: dict(zip(map(str, run.keys), (_stored(d) for d in run.detections[m])))
              for m in methods}))
+        if phase is not None:
+            pd.DataFrame(phase.rows()).to_csv(tmp / "phases.csv", index=False,
+                                              float_format="%.5f")
+            (tmp / "phases.json").write_text(json.dumps(phase.json(), indent=1))
         plot_det_figure({m.name: c for m, (_, c) in evaluations.items()}, tmp / "det_footage",
                         title=f"{run.n_frames} frames, {n_gt} persons counted")
         (tmp / "run.json").write_text(json.dumps(run_metadata(
@@ -109,6 +128,7 @@ def cmd_bench_footage(args) -> int:
             ignore=None if args.ignore is None else str(args.ignore),
             lens_correction=clip.correction, heights=list(args.heights),
             ground_stride=None if args.ground_stride is None else list(args.ground_stride),
+            grid_phases=[list(p) for p in phases],
             model=str(model_path) if needs else None,
             model_training=models.training if needs else None,
             methods=[m.name for m in methods], n_frames=run.n_frames, windows=run.n_windows,
@@ -119,7 +139,7 @@ def cmd_bench_footage(args) -> int:
     print("\n".join(lines))
     print(f"\nwrote {args.out}/footage_summary.{{md,csv}}, det_footage.{{png,pdf}}, "
           "errors.md, error_map.jpg, evaluations.json, paired_differences.json, "
-          "detections.json, run.json")
+          "detections.json, run.json" + (", phases.{csv,json}" if phase is not None else ""))
     return 0
 
 
@@ -169,6 +189,14 @@ def register_footage(bsub, common) -> None:
                    help="assumed person heights, metres, comma-separated (default 1.75); the "
                         "ground-plane filter keeps boxes within 20%% of one of them")
     add_ground_stride_option(p)
+    p.add_argument("--phases", type=int, default=1, metavar="N",
+                   help="also run the methods that score the candidate windows (adapted, "
+                        "warp) with the windows' ground grid at N x N phases (fractions of "
+                        "its stride): the LAMR moves with where the grid falls. Adds each "
+                        "one's mean, spread and range over the phases and paired "
+                        "differences averaged over them to the report (phases.csv, "
+                        "phases.json); the table above it, the figures and detections stay "
+                        "those of phase (0, 0). The pyramids run once (default 1)")
     p.add_argument("--lens", choices=LENS_CHOICES, default=DEFAULT_LENS,
                    help="with dist in the calibration: as viewadapt detect --lens (default "
                         "auto: windows through the lens, for either object model)")

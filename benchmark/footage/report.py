@@ -21,8 +21,9 @@ from viewadapt.detect.evaluation import (
     evaluation_matches, matches_summary, paired_matches_bootstrap,
 )
 
-__all__ = ["evaluate_run", "paired_differences", "best_unadapted", "footage_targets",
-           "summary_lines", "summary_rows"]
+__all__ = ["evaluate_run", "paired_differences", "comparison_pairs", "best_unadapted",
+           "footage_targets", "target_items", "summary_lines", "summary_rows",
+           "format_interval"]
 
 
 def evaluate_run(run, image_size, *, regions=None, block: int = 10,
@@ -46,25 +47,32 @@ def best_unadapted(evaluations):
 
 def paired_differences(run, evaluations, matches, *, block: int = 10, seed: int = 0) -> list:
     """``(method, reference, result)`` of
-    :func:`~viewadapt.detect.evaluation.paired_matches_bootstrap`: every other method
-    against the best unadapted baseline, each adapted detector against the best unadapted
-    pyramid of the same detector (when that is another one) and against image warping of
-    the same model. ``evaluations, matches``: :func:`evaluate_run`'s."""
+    :func:`~viewadapt.detect.evaluation.paired_matches_bootstrap` for every pair of
+    :func:`comparison_pairs` among the run's methods. ``evaluations, matches``:
+    :func:`evaluate_run`'s."""
+    return [(m, r, paired_matches_bootstrap(matches[m], matches[r], block=block, seed=seed))
+            for m, r in comparison_pairs(list(run.detections), evaluations)]
+
+
+def comparison_pairs(methods, evaluations) -> list:
+    """``(method, reference)`` pairs: each of ``methods`` against the best unadapted
+    baseline of ``evaluations`` (:func:`best_unadapted`), each adapted detector against the
+    best unadapted pyramid of the same detector (when that is another one) and against
+    image warping of the same model (when that is among ``methods``)."""
     pairs = []
     ref = best_unadapted(evaluations)
     if ref is not None:
-        pairs += [(m, ref) for m in run.detections if m != ref]
-    for m in run.detections:
+        pairs += [(m, ref) for m in methods if m != ref]
+    for m in methods:
         if m.how != "adapted":
             continue
         own = best_unadapted({k: v for k, v in evaluations.items() if k.kind == m.kind})
         if own is not None and own != ref:
             pairs.append((m, own))
         warp = FrameMethod(m.kind, "warp")
-        if warp in run.detections:
+        if warp in methods:
             pairs.append((m, warp))
-    return [(m, r, paired_matches_bootstrap(matches[m], matches[r], block=block, seed=seed))
-            for m, r in pairs]
+    return pairs
 
 
 def _fps(run, m) -> float:
@@ -76,6 +84,15 @@ def footage_targets(run, evaluations, differences) -> list:
     adapted Daimler) below the same detector's best ``detectMultiScale`` with the
     ground-plane filter at no fewer frames per second than it at 2x; each adapted detector
     within :data:`WARP_MARGIN` of image warping, its interval's upper end included."""
+    out = target_items(evaluations, differences, run=run)
+    return ["", "## Targets", "", *out] if out else []
+
+
+def target_items(evaluations, differences, *, run=None, lamr=None, note: str = "") -> list:
+    """The bullets of :func:`footage_targets`; ``lamr``: {method: LAMR} replacing the
+    evaluations' for those methods (e.g. means over grid phases, ``note`` saying so);
+    ``run``: with it, the frames-per-second targets too."""
+    lamr = lamr or {}
     out = []
     for kind in PRETRAINED_KINDS:          # OpenCV's INRIA detector, then its Daimler one
         ad = FrameMethod(kind, "adapted")
@@ -84,11 +101,11 @@ def footage_targets(run, evaluations, differences) -> list:
         if ad not in evaluations or not grounded:
             continue
         best = min(grounded, key=lambda m: evaluations[m][0]["lamr"])
-        a, b = evaluations[ad][0]["lamr"], evaluations[best][0]["lamr"]
-        out.append(f"- {ad.name} LAMR {a:.3f} below {best.name}'s {b:.3f}: "
+        a, b = lamr.get(ad, evaluations[ad][0]["lamr"]), evaluations[best][0]["lamr"]
+        out.append(f"- {ad.name} LAMR {a:.3f}{note} below {best.name}'s {b:.3f}: "
                    f"{'met' if a < b else 'NOT met'}")
         two = FrameMethod(kind, "pyramid", upsample=2)
-        if two in run.seconds:
+        if run is not None and two in run.seconds:
             fa, fb = _fps(run, ad), _fps(run, two)
             out.append(f"- {ad.name} at {fa:.1f} frames/s, no fewer than {two.name}'s "
                        f"{fb:.1f}: {'met' if fa >= fb else 'NOT met'}")
@@ -96,13 +113,14 @@ def footage_targets(run, evaluations, differences) -> list:
         if r.how == "warp" and m.how == "adapted":
             hi = d["ci"][1]
             ok = hi is not None and hi <= WARP_MARGIN
-            out.append(f"- {m.name} - {r.name} = {d['difference']:+.3f} LAMR (95% "
-                       f"{_interval(d['ci'])}), upper end within +{WARP_MARGIN:g}: "
+            out.append(f"- {m.name} - {r.name} = {d['difference']:+.3f} LAMR{note} (95% "
+                       f"{format_interval(d['ci'])}), upper end within +{WARP_MARGIN:g}: "
                        f"{'met' if ok else 'NOT met'}")
-    return ["", "## Targets", "", *out] if out else []
+    return out
 
 
-def _interval(ci) -> str:
+def format_interval(ci) -> str:
+    """A paired interval as ``-0.012..+0.034`` (``-`` without one)."""
     lo, hi = ci
     return "-" if lo is None else f"{lo:+.3f}..{hi:+.3f}"
 
@@ -140,7 +158,7 @@ def summary_lines(run, evaluations, differences) -> list:
         lo, hi = r["lamr_ci_low"], r["lamr_ci_high"]
         ci = "" if lo is None else f" ({lo:.3f}..{hi:.3f})"
         dci = (r["difference_ci_low"], r["difference_ci_high"])
-        diff = f"{r['difference']:+.3f} ({_interval(dci)})" if r["reference"] else "-"
+        diff = f"{r['difference']:+.3f} ({format_interval(dci)})" if r["reference"] else "-"
         lines.append(f"| {r['method']} | {r['lamr']:.3f}{ci} | "
                      f"{r['miss_rate_at_0_1_fppi']:.3f} | {r['miss_rate_at_1_fppi']:.3f} | "
                      f"{diff} | {r['frames_per_second']:.2f} |")
@@ -151,11 +169,11 @@ def summary_lines(run, evaluations, differences) -> list:
         lines += ["", "Adapted against the best unadapted pyramid of the same detector "
                       "(paired block bootstrap):", ""]
         lines += [f"- {m.name} - {r.name}: {d['difference']:+.3f} "
-                  f"(95% {_interval(d['ci'])})" for m, r, d in own]
+                  f"(95% {format_interval(d['ci'])})" for m, r, d in own]
     warp = [(m, r, d) for m, r, d in differences if r.how == "warp"]
     if warp:
         lines += ["", "Adapted against image warping of the same model (paired block "
                       "bootstrap):", ""]
         lines += [f"- {m.name} - {r.name}: {d['difference']:+.3f} "
-                  f"(95% {_interval(d['ci'])})" for m, r, d in warp]
+                  f"(95% {format_interval(d['ci'])})" for m, r, d in warp]
     return lines + footage_targets(run, evaluations, differences)
