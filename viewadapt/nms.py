@@ -7,12 +7,13 @@ box covers ``[x, x + w) x [y, y + h)`` and its area is ``w * h`` (no "+1" pixel 
 from __future__ import annotations
 
 import functools
+import math
 
 import numpy as np
 
 from .boxes import check_boxes, check_scores
 
-__all__ = ["non_maximum_suppression", "detections_from_scores"]
+__all__ = ["non_maximum_suppression", "detections_from_scores", "voted_boxes"]
 
 _OVERLAPS = ("union", "min")
 
@@ -167,7 +168,8 @@ def _maxg_kernel():
 
 def detections_from_scores(boxes, scores, *, threshold: float = 0.0,
                            nms_threshold: float = 0.5, overlap: str = "union",
-                           max_candidates: int = 2000, return_index: bool = False):
+                           max_candidates: int = 2000, return_index: bool = False,
+                           vote: float = 0.0):
     """Threshold, keep the best ``max_candidates``, non-maximum suppression.
 
     Parameters
@@ -177,6 +179,10 @@ def detections_from_scores(boxes, scores, *, threshold: float = 0.0,
     scores : (N,) array_like
     return_index : bool
         Also return which of the ``N`` boxes each detection is.
+    vote : float
+        Box voting's temperature (:func:`voted_boxes`): each kept box replaced by the
+        weighted mean of the candidates overlapping it; 0 (default): the kept boxes as
+        they are.
 
     Returns
     -------
@@ -193,4 +199,117 @@ def detections_from_scores(boxes, scores, *, threshold: float = 0.0,
     else:
         sel = keep[non_maximum_suppression(b[keep], s[keep], nms_threshold, overlap=overlap)]
     dets = np.c_[b[sel], s[sel]] if sel.size else np.zeros((0, 5))
+    if vote and sel.size:
+        dets[:, :4] = voted_boxes(b, s, sel, keep, tau=vote, overlap_threshold=nms_threshold,
+                                  overlap=overlap)
     return (dets, sel.astype(np.int64)) if return_index else dets
+
+
+def voted_boxes(boxes, scores, kept, candidates, *, tau: float,
+                overlap_threshold: float = 0.5, overlap: str = "union") -> np.ndarray:
+    """Box voting: each kept box as the weighted mean of the candidates overlapping it.
+
+    Each kept box ``i`` becomes the mean of the candidate boxes ``j`` (itself included)
+    whose overlap with it exceeds ``overlap_threshold`` (the suppression's own test,
+    :func:`non_maximum_suppression`), weighted by ``exp((s_j - s_i) / tau)``: neighbours
+    scoring nearly as high pull the box towards them, much weaker ones hardly count, and
+    a candidate scoring higher (one another detection suppressed) pulls it more than its
+    own box does. Scores are left as they are. A box the detector's strongest window
+    frames off-centre is so moved towards the person its neighbours frame (Gidaris and
+    Komodakis 2015, Sec. 4, weight each overlapping box by its score; here by a
+    temperature on the score difference, since SVM scores are not probabilities).
+
+    Parameters
+    ----------
+    boxes : (N, 4) array_like
+        ``(x, y, w, h)``.
+    scores : (N,) array_like
+    kept, candidates : (D,), (C,) int array_like
+        Indices into ``boxes`` of the boxes kept by suppression and of the candidates they
+        vote with (the thresholded boxes suppression ran on; ``kept`` among them).
+    tau : float
+        Temperature, in score units (> 0).
+    overlap_threshold : float
+    overlap : {"union", "min"}
+
+    Returns
+    -------
+    (D, 4) ndarray, the voted boxes of ``kept``.
+
+    References
+    ----------
+    S. Gidaris and N. Komodakis, "Object detection via a multi-region & semantic
+    segmentation-aware CNN model", ICCV 2015.
+    """
+    tau = float(tau)
+    if not (np.isfinite(tau) and tau > 0):
+        raise ValueError(f"the box voting temperature must be a number > 0, got {tau!r}")
+    if overlap not in _OVERLAPS:
+        raise ValueError(f"overlap must be one of {_OVERLAPS}, got {overlap!r}")
+    b = np.ascontiguousarray(boxes, np.float64).reshape(-1, 4)
+    s = np.ascontiguousarray(scores, np.float64).ravel()
+    kept = np.ascontiguousarray(kept, np.int64).ravel()
+    cand = np.asarray(candidates, np.int64).ravel()
+    cand = np.ascontiguousarray(cand[np.argsort(b[cand, 0], kind="stable")])  # by left edge
+    out = np.empty((len(kept), 4))
+    _vote_kernel()(b, s, kept, cand, float(overlap_threshold), overlap == "min", 1.0 / tau,
+                   out)
+    return out
+
+
+def _voted_boxes(b, s, kept, cand, threshold, over_min, inv_tau, out):  # pragma: no cover
+    """:func:`voted_boxes`' loop (compiled by :func:`_vote_kernel`): ``cand`` sorted by
+    left edge, so each kept box reads only the candidates whose left edge lies within the
+    widest candidate's width of its own; the overlap as :func:`_greedy_maxg` computes it.
+    The weights ``exp(s_j / tau - top)``, ``top`` the largest ``s_j / tau`` voting, are
+    ``exp((s_j - s_i) / tau)`` normalised (the same mean, without overflow)."""
+    nc = cand.shape[0]
+    left = np.empty(nc)
+    votes = np.zeros(nc, np.bool_)
+    wmax = 0.0
+    for k in range(nc):
+        left[k] = b[cand[k], 0]
+        wmax = max(wmax, b[cand[k], 2])
+    for r in range(kept.shape[0]):
+        i = kept[r]
+        ax1, ay1 = b[i, 0], b[i, 1]
+        ax2, ay2 = ax1 + b[i, 2], ay1 + b[i, 3]
+        aa = b[i, 2] * b[i, 3]
+        lo = np.searchsorted(left, ax1 - wmax, side="left")
+        hi = np.searchsorted(left, ax2, side="right")
+        top = s[i] * inv_tau               # the kept box always votes for itself
+        own = False
+        for k in range(lo, hi):
+            j = cand[k]
+            iw = min(ax2, b[j, 0] + b[j, 2]) - max(ax1, b[j, 0])
+            ih = min(ay2, b[j, 1] + b[j, 3]) - max(ay1, b[j, 1])
+            inter = max(iw, 0.0) * max(ih, 0.0)
+            area = b[j, 2] * b[j, 3]
+            den = min(aa, area) if over_min else aa + area - inter
+            ovr = inter / den if den > 0 else 0.0
+            votes[k] = j == i or ovr > threshold
+            own = own or j == i
+            if votes[k]:
+                top = max(top, s[j] * inv_tau)
+        tw = x = y = w = h = 0.0
+        if not own:
+            tw = math.exp(s[i] * inv_tau - top)
+            x, y, w, h = tw * ax1, tw * ay1, tw * b[i, 2], tw * b[i, 3]
+        for k in range(lo, hi):
+            if votes[k]:
+                j = cand[k]
+                wt = math.exp(s[j] * inv_tau - top)
+                tw += wt
+                x += wt * b[j, 0]
+                y += wt * b[j, 1]
+                w += wt * b[j, 2]
+                h += wt * b[j, 3]
+        out[r, 0], out[r, 1], out[r, 2], out[r, 3] = x / tw, y / tw, w / tw, h / tw
+
+
+@functools.cache
+def _vote_kernel():
+    """:func:`_voted_boxes` compiled (numba loads on first use, as :func:`_maxg_kernel`)."""
+    from numba import njit
+
+    return njit(cache=True, nogil=True, boundscheck=False)(_voted_boxes)

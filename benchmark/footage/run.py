@@ -137,7 +137,7 @@ class FootageRun:
 
 
 def run_footage(clip: Clip, methods, models, *, heights, cache_dir=None, cache_limit_gb=None,
-                tolerance=None, ground_stride=None, grid_phase=(0.0, 0.0),
+                tolerance=None, ground_stride=None, grid_phase=(0.0, 0.0), box_voting=0.0,
                 progress=None) -> FootageRun:
     """Every method on every frame of the clip, in one process, each timed on one core
     (OpenCV and BLAS limited to one thread, :func:`benchmark.frames.runtime.single_thread`).
@@ -153,9 +153,10 @@ def run_footage(clip: Clip, methods, models, *, heights, cache_dir=None, cache_l
         Our source detectors (None when no method needs them).
     heights : sequence of float
         Assumed person heights, metres.
-    cache_dir, cache_limit_gb, tolerance, ground_stride, grid_phase
+    cache_dir, cache_limit_gb, tolerance, ground_stride, grid_phase, box_voting
         :class:`viewadapt.detect.FrameDetector`'s (tolerance, ground_stride None: its
-        defaults; grid_phase: where the candidate windows' ground grid stands).
+        defaults; grid_phase: where the candidate windows' ground grid stands;
+        box_voting: applied to every method's boxes, the pyramids' too).
     progress : callable or None
         Called once per frame.
     """
@@ -166,6 +167,8 @@ def run_footage(clip: Clip, methods, models, *, heights, cache_dir=None, cache_l
         kw["tolerance"] = tolerance
     if ground_stride is not None:
         kw["ground_stride"] = list(ground_stride)
+    if box_voting:
+        kw["box_voting"] = float(box_voting)
     if clip.correction == "windows":
         kw["lens"] = np.asarray(clip.dist).tolist()
     undistort = Undistortion(cam.K, clip.dist, cam.image_size) \

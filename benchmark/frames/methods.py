@@ -250,10 +250,11 @@ def dataset_provenance(ds) -> dict:
 # ------------------------------------------------------------------------------ methods
 
 
-def _nms(boxes, scores, threshold, kind):
-    """Threshold and NMS with the setting of the adapted detector ``kind``."""
+def _nms(boxes, scores, threshold, kind, vote=0.0):
+    """Threshold and NMS with the setting of the adapted detector ``kind`` (``vote``: box
+    voting's temperature, 0 none)."""
     return detections_from_scores(boxes, scores, threshold=threshold, overlap=kind.nms_overlap,
-                                  nms_threshold=kind.nms_threshold)
+                                  nms_threshold=kind.nms_threshold, vote=vote)
 
 
 class FrameMethods:
@@ -307,18 +308,20 @@ class FrameMethods:
         check_frame(image, self.adapted.size)
         m = frame_method(method)
         kind = m.detector
+        vote = self.adapted.box_voting          # every method's boxes alike
         if m.how == "adapted":
             return self.detector(m.rule, m.object_model, m.fold).detect(image, kind.name)
         if m.how == "warp":
             s = warp_scores(image, self.windows.homographies, self.models, kind)
-            return _nms(person_boxes(self.windows.homographies), s, self.thr[kind.name], kind)
+            return _nms(person_boxes(self.windows.homographies), s, self.thr[kind.name], kind,
+                        vote)
         if m.kind in PRETRAINED_KINDS:
-            dets = opencv_detect(image, upsample=m.upsample, detector=m.kind)
+            dets = opencv_detect(image, upsample=m.upsample, detector=m.kind, vote=vote)
         else:
             detect = {"pyramid": hog_pyramid_detect if kind is HOG_DETECTOR
                       else acf_pyramid_detect, "pyramid_fast": acf_pyramid_fast_detect}[m.how]
             dets = detect(image, self.models, upsample=m.upsample,
-                          threshold=self.thr[kind.name])
+                          threshold=self.thr[kind.name], vote=vote)
         return self.on_ground(dets) if m.ground else dets
 
     def on_ground(self, detections) -> np.ndarray:
@@ -352,13 +355,14 @@ def warp_scores(image, homographies, models, kind, *, chunk: int = 512) -> np.nd
 
 
 def opencv_detect(image, *, upsample: int = 4, hit_threshold: float = -0.5,
-                  detector: str = "opencv") -> np.ndarray:
+                  detector: str = "opencv", vote: float = 0.0) -> np.ndarray:
     """``cv2.HOGDescriptor.detectMultiScale`` with the default people detector (``detector
     = "daimler"``: the 48x96 Daimler detector, set up as OpenCV's own example sets it up).
 
     Grouping off (``groupThreshold=0``) so that every window's score feeds our NMS and the
     DET curve; boxes mapped back to the frame and shrunk to the person (OpenCV's windows
     have the INRIA 16-px margins; Daimler's window is the same window scaled by 3/4).
+    ``vote``: box voting's temperature after our NMS (:func:`viewadapt.nms.voted_boxes`).
     """
     import cv2
 
@@ -383,7 +387,7 @@ def opencv_detect(image, *, upsample: int = 4, hit_threshold: float = -0.5,
     x0, y0, x1, y1 = PERSON_BOX_WINDOW
     boxes = np.stack([r[:, 0] + (x0 + 0.5) * s, r[:, 1] + (y0 + 0.5) * s, (x1 - x0) * s,
                       (y1 - y0) * s], 1)
-    return _nms(boxes, np.asarray(weights, float).ravel(), hit_threshold, HOG_DETECTOR)
+    return _nms(boxes, np.asarray(weights, float).ravel(), hit_threshold, HOG_DETECTOR, vote)
 
 
 #: Relative height mismatch beyond which :func:`ground_plane_filter` drops a box.

@@ -76,14 +76,15 @@ def level_boxes(cy, cx, cell, scale):
                      np.full_like(by, (y1 - y0) / scale)], 1)
 
 
-def _nms(boxes, scores, threshold, kind):
-    """Threshold and NMS with the setting of the adapted detector ``kind``."""
+def _nms(boxes, scores, threshold, kind, vote=0.0):
+    """Threshold and NMS with the setting of the adapted detector ``kind`` (``vote``: box
+    voting's temperature, :func:`viewadapt.nms.voted_boxes`; 0 none)."""
     return detections_from_scores(boxes, scores, threshold=threshold, overlap=kind.nms_overlap,
-                                  nms_threshold=kind.nms_threshold)
+                                  nms_threshold=kind.nms_threshold, vote=vote)
 
 
 def hog_pyramid_detect(image, models, *, upsample: int = 4, step: float = 1.05,
-                       threshold: float = 0.0) -> np.ndarray:
+                       threshold: float = 0.0, vote: float = 0.0) -> np.ndarray:
     """The unadapted HOG/SVM slid over an image pyramid of the upsampled frame.
 
     Every level's block-normalised 8-px cells (:func:`viewadapt.detect.hog_frame_features`)
@@ -111,7 +112,7 @@ def hog_pyramid_detect(image, models, *, upsample: int = 4, step: float = 1.05,
     if not boxes:
         return np.zeros((0, 5))
     return _nms(np.concatenate(boxes), np.concatenate(scores).astype(float), threshold,
-                HOG_DETECTOR)
+                HOG_DETECTOR, vote)
 
 
 def dense_cascade_scores(model, C, positions):
@@ -343,7 +344,7 @@ def acf_fast_pyramid_levels(image, *, upsample: int = 4, per_octave: int = 4,
     return out
 
 
-def _detect_levels(levels, model, threshold):
+def _detect_levels(levels, model, threshold, vote=0.0):
     """Soft cascade at every block of every level; thresholded, NMS'd detections."""
     boxes, scores = [], []
     for lv in levels:
@@ -360,11 +361,11 @@ def _detect_levels(levels, model, threshold):
             scores.append(sc[keep])
     if not boxes:
         return np.zeros((0, 5))
-    return _nms(np.concatenate(boxes), np.concatenate(scores), threshold, ACF_DETECTOR)
+    return _nms(np.concatenate(boxes), np.concatenate(scores), threshold, ACF_DETECTOR, vote)
 
 
 def acf_pyramid_detect(image, models, *, upsample: int = 4, per_octave: int = 4,
-                       threshold: float = 0.0) -> np.ndarray:
+                       threshold: float = 0.0, vote: float = 0.0) -> np.ndarray:
     """The unadapted ACF detector over an image pyramid of the upsampled frame.
 
     Channels computed at every level (:func:`acf_pyramid_levels`, ``per_octave`` levels
@@ -376,11 +377,12 @@ def acf_pyramid_detect(image, models, *, upsample: int = 4, per_octave: int = 4,
     (D, 5) ndarray ``(x, y, w, h, score)``, by decreasing score.
     """
     levels = acf_pyramid_levels(image, upsample=upsample, per_octave=per_octave)
-    return _detect_levels(levels, models.acf, threshold)
+    return _detect_levels(levels, models.acf, threshold, vote)
 
 
 def acf_pyramid_fast_detect(image, models, *, upsample: int = 4, per_octave: int = 4,
-                            lambdas=ACF_PYRAMID_LAMBDAS, threshold: float = 0.0) -> np.ndarray:
+                            lambdas=ACF_PYRAMID_LAMBDAS, threshold: float = 0.0,
+                            vote: float = 0.0) -> np.ndarray:
     """The unadapted ACF detector over Dollár's fast feature pyramid of the upsampled frame.
 
     :func:`acf_pyramid_detect` with the channels of :func:`acf_fast_pyramid_levels`:
@@ -399,4 +401,4 @@ def acf_pyramid_fast_detect(image, models, *, upsample: int = 4, per_octave: int
     """
     levels = acf_fast_pyramid_levels(image, upsample=upsample, per_octave=per_octave,
                                      lambdas=lambdas)
-    return _detect_levels(levels, models.acf, threshold)
+    return _detect_levels(levels, models.acf, threshold, vote)

@@ -302,3 +302,63 @@ def test_detections_from_scores_names_the_kept_boxes():
     np.testing.assert_array_equal(dets[:, 4], scores[idx])
     none, idx = detections_from_scores(boxes, scores, threshold=10.0, return_index=True)
     assert none.shape == (0, 5) and idx.shape == (0,)
+
+
+# --- box voting -------------------------------------------------------------------------
+
+def test_box_voting_is_the_weighted_mean_of_the_overlapping_candidates():
+    """A kept box moves to the mean of itself and the candidates overlapping it, each
+    weighted by exp((s_j - s_kept) / tau); a far box and the scores do not move."""
+    from viewadapt.nms import detections_from_scores
+
+    boxes = np.array([[0, 0, 10, 20], [2, 0, 10, 20], [1, 0, 10, 20], [50, 0, 10, 20.]])
+    scores = np.array([2.0, 1.5, 1.7, 1.0])
+    tau = 0.5
+    dets, kept = detections_from_scores(boxes, scores, threshold=0.0, vote=tau,
+                                        return_index=True)
+    assert kept.tolist() == [0, 3]
+    w = np.exp((scores[:3] - 2.0) / tau)
+    np.testing.assert_allclose(dets[0, :4], w @ boxes[:3] / w.sum())
+    np.testing.assert_array_equal(dets[1, :4], boxes[3])
+    np.testing.assert_array_equal(dets[:, 4], [2.0, 1.0])
+
+
+def test_box_voting_off_cold_and_below_the_threshold():
+    """vote 0 is plain suppression; scores never move; a very small temperature takes each
+    kept box to the best-scoring candidate overlapping it (itself, unless a candidate
+    another detection suppressed scores higher); candidates below the threshold never
+    vote."""
+    from viewadapt.nms import detections_from_scores
+
+    rng = np.random.default_rng(3)
+    boxes = np.c_[rng.uniform(0, 100, (300, 2)), rng.uniform(10, 40, (300, 2))]
+    scores = rng.normal(size=300)
+    plain, kept = detections_from_scores(boxes, scores, threshold=-0.5, return_index=True)
+    np.testing.assert_array_equal(detections_from_scores(boxes, scores, threshold=-0.5,
+                                                         vote=0.0), plain)
+    voted = detections_from_scores(boxes, scores, threshold=-0.5, vote=1.0)
+    assert not np.allclose(voted[:, :4], plain[:, :4])
+    np.testing.assert_array_equal(voted[:, 4], plain[:, 4])
+    cold = detections_from_scores(boxes, scores, threshold=-0.5, vote=1e-9)
+    cand = np.flatnonzero(scores > -0.5)
+    for row, i in zip(cold, kept):
+        x0 = np.maximum(boxes[cand, 0], boxes[i, 0])
+        x1 = np.minimum(boxes[cand, 0] + boxes[cand, 2], boxes[i, 0] + boxes[i, 2])
+        y0 = np.maximum(boxes[cand, 1], boxes[i, 1])
+        y1 = np.minimum(boxes[cand, 1] + boxes[cand, 3], boxes[i, 1] + boxes[i, 3])
+        inter = np.clip(x1 - x0, 0, None) * np.clip(y1 - y0, 0, None)
+        iou = inter / (boxes[cand, 2] * boxes[cand, 3] + boxes[i, 2] * boxes[i, 3] - inter)
+        near = cand[iou > 0.5]
+        np.testing.assert_allclose(row[:4], boxes[near[np.argmax(scores[near])]], atol=1e-6)
+    # a strong box just below the threshold does not vote
+    b = np.array([[0, 0, 10, 20], [3, 0, 10, 20.]])
+    d = detections_from_scores(b, np.array([1.0, 0.9]), threshold=0.95, vote=1.0)
+    np.testing.assert_array_equal(d[0, :4], b[0])
+
+
+@pytest.mark.parametrize("tau", [0.0, -1.0, float("nan"), float("inf")])
+def test_box_voting_refuses_a_bad_temperature(tau):
+    from viewadapt.nms import voted_boxes
+
+    with pytest.raises(ValueError, match="temperature must be a number > 0"):
+        voted_boxes(np.zeros((1, 4)), np.zeros(1), [0], [0], tau=tau)

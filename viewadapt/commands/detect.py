@@ -11,7 +11,7 @@ import numpy as np
 
 from viewadapt.boxes import mapped_boxes
 from viewadapt.camera.distortion import Undistortion, distort_points
-from viewadapt.detect.detector import DEFAULT_THRESHOLD, FrameDetector
+from viewadapt.detect.detector import DEFAULT_THRESHOLD, FrameDetector, check_box_voting
 from viewadapt.detect.evaluation import (
     BOOTSTRAP_BLOCK, BOOTSTRAP_DRAWS, evaluation_matches, frame_outcome, matches_summary,
     matches_threshold_at_fppi,
@@ -34,8 +34,9 @@ from viewadapt.objectmodel import OBJECT_MODELS
 from viewadapt.remap import ANGLE_RULES
 
 __all__ = ["LENS_CHOICES", "DEFAULT_LENS", "register", "cmd_detect", "check_frame_selection",
-           "person_heights", "ground_stride", "add_ground_stride_option", "cache_limit",
-           "add_cache_options", "lens_correction", "boxes_in_input_pixels"]
+           "person_heights", "ground_stride", "add_ground_stride_option", "box_voting",
+           "add_box_voting_option", "cache_limit", "add_cache_options", "lens_correction",
+           "boxes_in_input_pixels"]
 
 
 #: How ``detect`` handles a calibration's lens distortion (``--lens``); ``auto`` maps the
@@ -95,6 +96,25 @@ def add_ground_stride_option(p) -> None:
                         "ways, the paper's). A lateral stride of half (e.g. 0.1458,0.0729) "
                         "doubles the windows across the view, for more time per frame "
                         "(docs/real_footage.md has the measurement)")
+
+
+def box_voting(text):
+    """argparse type: box voting's temperature (a number >= 0)."""
+    try:
+        return check_box_voting(float(text))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"cannot read the box voting temperature {text!r} "
+                                         "(a number >= 0, 0 for none)") from None
+
+
+def add_box_voting_option(p) -> None:
+    """``--box-voting``, shared by ``detect`` and ``bench footage``."""
+    p.add_argument("--box-voting", type=box_voting, default=0.0, metavar="TAU",
+                   help="after non-maximum suppression, each box becomes the mean of the "
+                        "candidate boxes overlapping it, weighted by exp(score difference / "
+                        "TAU); scores are kept. Centres boxes that the strongest window "
+                        "frames off a person (docs/real_footage.md has the measurement; "
+                        "1.0 is the value measured there). 0 (default): none")
 
 
 def min_height(text):
@@ -183,7 +203,7 @@ def _metadata(args, det, stream, writer, dist, correction, annotate, *, imported
         person_heights=list(det.params["person_heights"]), min_person_height=args.min_height,
         ground_stride=list(check_ground_stride(det.params.get("ground_stride",
                                                                GROUND_STRIDE_M))),
-        windows=len(det.windows),
+        windows=len(det.windows), box_voting=det.box_voting,
         upsample_below=det.upsample_below(args.detector),
         input=stream.describe(), frames=writer.n_frames, detections=writer.n_detections,
         annotate=annotate, annotate_threshold=args.annotate_threshold,
@@ -307,6 +327,7 @@ def cmd_detect(args) -> int:
     options = dict(person_heights=args.heights, min_person_height=args.min_height,
                    **({} if args.ground_stride is None
                       else {"ground_stride": list(args.ground_stride)}),
+                   **({"box_voting": args.box_voting} if args.box_voting else {}),
                    cache_dir=args.cache or (args.out / "cache"),
                    cache_limit_gb=args.cache_limit,
                    upsample_below=args.upsample_below,
@@ -470,6 +491,7 @@ def register(sub, common) -> None:
                         "as 1.65,1.75,1.85 also tolerates a calibration whose tilt is a "
                         "little off, for more windows and false positives")
     add_ground_stride_option(p)
+    add_box_voting_option(p)
     p.add_argument("--min-height", type=min_height, default=MIN_PERSON_HEIGHT_PX, metavar="PX",
                    help="persons shorter than this in the frame get no candidate window "
                         f"(default {MIN_PERSON_HEIGHT_PX:g} px; 0 = down to the horizon)")

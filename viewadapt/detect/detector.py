@@ -29,10 +29,22 @@ from .windows import (
     windows_through_lens,
 )
 
-__all__ = ["DEFAULT_THRESHOLD", "FrameDetections", "FrameDetector"]
+__all__ = ["DEFAULT_THRESHOLD", "FrameDetections", "FrameDetector", "check_box_voting"]
 #: Score threshold of the detections kept for non-maximum suppression: low, so that a DET
 #: curve reaches high false-positive rates.
 DEFAULT_THRESHOLD = -1.0
+
+
+def check_box_voting(value, name: str = "box_voting") -> float:
+    """Box voting's temperature as a float (0: none); a ValueError naming ``name`` when it
+    is not a finite number >= 0."""
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        v = float("nan")
+    if isinstance(value, bool) or not np.isfinite(v) or v < 0:
+        raise ValueError(f"{name} must be a number >= 0 (0: no box voting), got {value!r}")
+    return v
 
 
 class FrameDetections(NamedTuple):
@@ -115,6 +127,12 @@ class FrameDetector:
         Whether the kinds that have a per-window normalisation stage (``hog``, ``opencv``,
         ``daimler``; :class:`~viewadapt.detect.renorm.RenormStage`) run it (default); False:
         their folded operators alone (:meth:`DetectorKind.fold`).
+    box_voting : float
+        Box voting's temperature after non-maximum suppression
+        (:func:`viewadapt.nms.voted_boxes`): each detection's box becomes the mean of the
+        candidate windows' boxes overlapping it, weighted by ``exp(score difference /
+        box_voting)``; scores, windows and ground positions stay the kept window's. 0
+        (default): the kept window's box.
     """
 
     def __init__(self, camera: Camera, models: SourceDetectors, *,
@@ -125,7 +143,8 @@ class FrameDetector:
                  upsample_below: float | None = None, thresholds=None,
                  rule: str = "covariant", object_model: str = "plane", lens=None,
                  grid_phase=(0.0, 0.0), min_person_height: float = MIN_PERSON_HEIGHT_PX,
-                 kinds=None, stage: bool = True, ground_stride=None):
+                 kinds=None, stage: bool = True, ground_stride=None,
+                 box_voting: float = 0.0):
         if not isinstance(camera, Camera) or camera.image_size is None:
             raise ValueError("camera must be a Camera with its image_size (width, height)")
         self.camera = camera
@@ -148,6 +167,7 @@ class FrameDetector:
                 raise ValueError(f"kinds[{name!r}] must be a detector kind called {name!r}")
             self.kinds[name] = k
         self.stage = bool(stage)
+        self.box_voting = check_box_voting(box_voting)
         self.thresholds = {k: DEFAULT_THRESHOLD for k in DETECTOR_KINDS | PRETRAINED_KINDS} \
             | dict(thresholds or {})
         for k in self.thresholds:
@@ -275,5 +295,5 @@ class FrameDetector:
         kind = detector_kind(kind).name
         img = check_frame(image, self.size)
         dets, window = self.operator(kind).detect(img, threshold=self.thresholds[kind],
-                                                  return_index=True)
+                                                  return_index=True, vote=self.box_voting)
         return FrameDetections(dets, window, self.windows.ground_xy[window].reshape(-1, 2))

@@ -185,9 +185,10 @@ class SnappedBoxes:
     nms_overlap, nms_threshold = "union", 0.5
 
     def detect(self, image, *, threshold: float = 0.0, nms_threshold: float | None = None,
-               max_candidates: int = 2000, return_index: bool = False):
+               max_candidates: int = 2000, return_index: bool = False, vote: float = 0.0):
         """Features, scores and non-maximum suppression on one frame (``nms_threshold`` by
-        default the operator's).
+        default the operator's; ``vote``: box voting's temperature,
+        :func:`viewadapt.nms.voted_boxes`, 0 none).
 
         Returns
         -------
@@ -199,7 +200,7 @@ class SnappedBoxes:
         return detections_from_scores(
             self._cached_boxes(), s, threshold=threshold, overlap=self.nms_overlap,
             nms_threshold=self.nms_threshold if nms_threshold is None else nms_threshold,
-            max_candidates=max_candidates, return_index=return_index)
+            max_candidates=max_candidates, return_index=return_index, vote=vote)
 
     def boxes(self) -> np.ndarray:
         """(N, 4) person boxes ``(x, y, w, h)`` of the scored (snapped) windows, in the

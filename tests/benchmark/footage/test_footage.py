@@ -190,6 +190,25 @@ def test_a_denser_ground_grid(toy, tmp_path):
     assert 1.5 * runs["paper"]["windows"] < runs["dense"]["windows"]
 
 
+def test_box_voting_reaches_every_method(toy, tmp_path):
+    """``--box-voting``: every method's boxes are voted (the adapted detector's and the
+    pyramid's alike), their scores are not; recorded in run.json."""
+    runs = {}
+    for name, argv in (("plain", ()), ("voted", ("--box-voting", "1"))):
+        out = tmp_path / name
+        assert _footage(toy, out, "--methods", "hog_pyramid", "hog_adapted",
+                        "--max-frames", "3", *argv) == 0
+        runs[name] = json.loads((out / "detections.json").read_text())
+        assert json.loads((out / "run.json").read_text())["box_voting"] == (
+            1.0 if argv else 0.0)
+    for m in ("hog_pyramid", "hog_adapted"):
+        a = np.concatenate([np.reshape(v, (-1, 5)) for v in runs["plain"][m].values()])
+        b = np.concatenate([np.reshape(v, (-1, 5)) for v in runs["voted"][m].values()])
+        assert len(a) == len(b) > 0
+        np.testing.assert_array_equal(a[:, 4], b[:, 4])
+        assert not np.allclose(a[:, :4], b[:, :4]), m
+
+
 def test_the_daimler_detector_against_its_own_pyramids(toy, tmp_path, capsys):
     """OpenCV's Daimler detector runs as OpenCV's INRIA one does; each adapted detector is
     paired with the best unadapted baseline and with its own detector's best pyramid."""

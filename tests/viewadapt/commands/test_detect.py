@@ -507,6 +507,24 @@ def test_a_denser_ground_grid_across_the_view(toy, detect, tmp_path, capfd):
              "cannot read the ground stride")
 
 
+def test_box_voting_moves_boxes_not_scores(toy, detect, tmp_path, capfd):
+    """``--box-voting TAU``: the same detections and scores, boxes moved towards the
+    candidates overlapping them, recorded in metadata.json; with --jobs the workers vote
+    too; a bad value is argparse's one-line error."""
+    plain = detect("folder", toy.folder)
+    voted = detect("voted", toy.folder, "--box-voting", "1")
+    assert json.loads((plain / "metadata.json").read_text())["box_voting"] == 0
+    assert json.loads((voted / "metadata.json").read_text())["box_voting"] == 1
+    a, b = pd.read_csv(plain / "detections.csv"), pd.read_csv(voted / "detections.csv")
+    assert len(a) == len(b) > 0
+    np.testing.assert_array_equal(a["score"], b["score"])
+    assert not np.allclose(a[["x", "y"]], b[["x", "y"]])
+    two = detect("voted_jobs2", "--box-voting", "1", "--jobs", 2, toy.folder)
+    assert (two / "detections.csv").read_bytes() == (voted / "detections.csv").read_bytes()
+    _refused(toy, tmp_path, capfd, "--box-voting", ("-1", "nan", "hot"),
+             "cannot read the box voting temperature")
+
+
 def test_min_height_drops_windows_of_shorter_persons(toy, detect, tmp_path, capfd):
     meta = json.loads((detect("folder", toy.folder) / "metadata.json").read_text())
     from viewadapt.detect import FrameDetector
