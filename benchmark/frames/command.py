@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
-from viewadapt.commands.detect import add_cache_options, person_heights
+from viewadapt.commands.detect import add_box_voting_option, add_cache_options, person_heights
 from viewadapt.detect import (
     CELLS_PER_SOURCE_CELL, DEFAULT_FRAME_VIEW, FRAME_VIEW_CHOICES, HOG_TOLERANCE, UPSAMPLE_BELOW,
 )
@@ -49,7 +49,7 @@ def _group_by_camera(frames):
 
 def _detect_camera(group, models, methods, heights, cache_dir, cache_limit_gb, tolerance,
                    cells_per_source_cell, upsample_below, grid_phase=(0.0, 0.0),
-                   progress=None):
+                   box_voting=0.0, progress=None):
     """Every method (:class:`~benchmark.frames.spec.FrameMethod`) on the frames of one camera,
     the candidate windows at ``grid_phase`` (through the camera's lens when its frames
     record one, as ``viewadapt detect`` maps them): (detections, seconds, windows), by
@@ -60,7 +60,8 @@ def _detect_camera(group, models, methods, heights, cache_dir, cache_limit_gb, t
     fd = FrameMethods(group[0].camera, models, person_heights=heights, cache_dir=cache_dir,
                        cache_limit_gb=cache_limit_gb, tolerance=tolerance,
                        cells_per_source_cell=cells_per_source_cell,
-                       upsample_below=upsample_below, grid_phase=grid_phase, lens=lens)
+                       upsample_below=upsample_below, grid_phase=grid_phase, lens=lens,
+                       **({"box_voting": box_voting} if box_voting else {}))
     for m in methods:                           # offline precomputation, not timed per frame
         fd.prepare(m)
     dets = {m: [] for m in methods}
@@ -81,7 +82,7 @@ def run_frames_benchmark(data, *, methods, seed=0, quick=False, max_frames=None,
                          cache_limit_gb=DEFAULT_CACHE_LIMIT_GB, models=None, progress=True,
                          tolerance=HOG_TOLERANCE, cells_per_source_cell=None,
                          upsample_below=None, jobs=1, frame_view=DEFAULT_FRAME_VIEW,
-                         recipe=DEFAULT_RECIPE, phases=1):
+                         recipe=DEFAULT_RECIPE, phases=1, box_voting=0.0):
     """Detect with every method (``methods``: :class:`~benchmark.frames.spec.FrameMethod` s)
     on every frame.
 
@@ -92,7 +93,8 @@ def run_frames_benchmark(data, *, methods, seed=0, quick=False, max_frames=None,
     (:func:`benchmark.frames.phases.grid_phases`), and their ``lamr`` is the mean over the
     phases (``lamr_phases``: each phase's, the default grid's first); their curves,
     detections and seconds are the default grid's. The other methods do not read the
-    windows and run once.
+    windows and run once. ``box_voting``: every method's boxes voted after non-maximum
+    suppression (:class:`viewadapt.detect.FrameDetector`'s; 0 none).
 
     Returns
     -------
@@ -131,7 +133,7 @@ def run_frames_benchmark(data, *, methods, seed=0, quick=False, max_frames=None,
     kw = dict(models=models, heights=heights, cache_dir=cache_dir,
               cache_limit_gb=cache_limit_gb, tolerance=tolerance,
               cells_per_source_cell=cells_per_source_cell,
-              upsample_below=upsample_below)
+              upsample_below=upsample_below, box_voting=box_voting)
     n_jobs = 1 if jobs is None else int(jobs)
     if n_jobs != 1 and len(tasks) > 1:
         par = Parallel(n_jobs=n_jobs, return_as="generator")
@@ -158,13 +160,14 @@ def run_frames_benchmark(data, *, methods, seed=0, quick=False, max_frames=None,
                                     for d in phase_dets[m][1:]]
             results[m].update(lamr=float(np.mean(lamrs)), lamr_phases=lamrs)
     info = dict(n_frames=len(order), windows_per_camera=[o[2] for o in first],
-                n_gt=int(sum(len(f.gt) for f in order)), grid_phases=phase_list)
+                n_gt=int(sum(len(f.gt) for f in order)), grid_phases=phase_list,
+                box_voting=float(box_voting))
     return results, models, dets, order, info, phase_dets
 
 
-def _earlier_results(out: Path, data: Path) -> dict:
-    """``out``'s earlier run on ``data``: :class:`~benchmark.frames.spec.FrameMethod` ->
-    (frame key -> detections, s / frame)."""
+def _earlier_results(out: Path, data: Path, box_voting: float = 0.0) -> dict:
+    """``out``'s earlier run on ``data`` with the same box voting:
+    :class:`~benchmark.frames.spec.FrameMethod` -> (frame key -> detections, s / frame)."""
     from benchmark.data import read_json
 
     run, det = out / "run.json", out / "detections.json"
@@ -175,6 +178,9 @@ def _earlier_results(out: Path, data: Path) -> dict:
     if Path(old.get("data", "")).resolve() != Path(data).resolve():
         raise ValueError(f"--keep-other-methods: {out} holds results on {old.get('data')}, "
                          f"not on {data}")
+    if float(old.get("box_voting", 0.0)) != float(box_voting):
+        raise ValueError(f"--keep-other-methods: {out} holds results with --box-voting "
+                         f"{old.get('box_voting', 0.0):g}, not {box_voting:g}")
     import pandas as pd
 
     table = pd.read_csv(out / "frames_summary.csv")
@@ -223,7 +229,8 @@ def cmd_bench_frames(args) -> int:
                          "run holds the default grid's detections only)")
     methods = expand_adapted(args.methods or list(DEFAULT_METHODS), args.rules,
                              args.object_models)
-    earlier = _earlier_results(args.out, args.data) if args.keep_other_methods else {}
+    earlier = _earlier_results(args.out, args.data, args.box_voting) \
+        if args.keep_other_methods else {}
     models = SourceDetectors.load(args.model) if args.model else None
     seeds = [args.seed + i for i in range(args.seeds)]
     t0 = time.perf_counter()
@@ -232,7 +239,7 @@ def cmd_bench_frames(args) -> int:
               tolerance=args.tolerance,
               cells_per_source_cell=args.cells_per_source_cell,
               upsample_below=args.upsample_below, jobs=args.jobs, frame_view=args.frame_view,
-              recipe=args.recipe, phases=args.phases)
+              recipe=args.recipe, phases=args.phases, box_voting=args.box_voting)
     if len(seeds) > 1:
         print(f"seed {seeds[0]} (1 of {len(seeds)})", flush=True)
     results, models, dets, frames, info, phase_dets = run_frames_benchmark(
@@ -469,6 +476,7 @@ def register(sub, common) -> None:
                         "seeds.png); the accuracy targets are then judged on the seed "
                         "means. The DET figure and detections are the first seed's; "
                         "OpenCV, which trains nothing, runs once (default 1)")
+    add_box_voting_option(p)
     p.add_argument("--phases", type=int, default=1,
                    help="run the methods that score the candidate windows (adapted, "
                         "warp) with the windows' ground grid at N x N phases (fractions "

@@ -121,3 +121,26 @@ def test_bench_frames_phases_bad_input(toy, tmp_path, capsys, extra):
     assert _main(["bench", "frames", "--data", str(data), "--out", str(out), "--model",
                   str(model), "--methods", "hog_adapted", *extra]) == 2
     assert "--phases" in capsys.readouterr().err and not out.exists()
+
+
+def test_bench_frames_box_voting(toy, tmp_path, capsys):
+    """``--box-voting``: the same detections and scores, boxes voted, recorded in run.json;
+    an earlier run with other voting is not mixed in by --keep-other-methods."""
+    data, model = toy
+    dets = {}
+    for name, argv in (("plain", []), ("voted", ["--box-voting", "1"])):
+        out = tmp_path / name
+        assert _main(["bench", "frames", "--data", str(data), "--out", str(out), "--model",
+                      str(model), "--methods", "hog_adapted", *argv]) == 0
+        dets[name] = json.loads((out / "detections.json").read_text())["hog_adapted"]
+        assert json.loads((out / "run.json").read_text())["box_voting"] == (1.0 if argv else 0)
+    a = np.concatenate([np.reshape(v, (-1, 5)) for v in dets["plain"].values()])
+    b = np.concatenate([np.reshape(v, (-1, 5)) for v in dets["voted"].values()])
+    assert len(a) == len(b) > 0
+    np.testing.assert_array_equal(a[:, 4], b[:, 4])
+    assert not np.allclose(a[:, :4], b[:, :4])
+    capsys.readouterr()
+    assert _main(["bench", "frames", "--data", str(data), "--out", str(tmp_path / "plain"),
+                  "--model", str(model), "--methods", "hog_warp", "--keep-other-methods",
+                  "--box-voting", "1", "--overwrite"]) == 2
+    assert "--box-voting 0, not 1" in capsys.readouterr().err
