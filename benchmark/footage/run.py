@@ -162,13 +162,11 @@ def run_footage(clip: Clip, methods, models, *, heights, cache_dir=None, cache_l
     """
     cam = clip.camera
     kw = dict(person_heights=heights, cache_dir=cache_dir, cache_limit_gb=cache_limit_gb,
-              grid_phase=tuple(grid_phase))
+              grid_phase=tuple(grid_phase), box_voting=box_voting)
     if tolerance is not None:
         kw["tolerance"] = tolerance
     if ground_stride is not None:
         kw["ground_stride"] = list(ground_stride)
-    if box_voting:
-        kw["box_voting"] = float(box_voting)
     if clip.correction == "windows":
         kw["lens"] = np.asarray(clip.dist).tolist()
     undistort = Undistortion(cam.K, clip.dist, cam.image_size) \

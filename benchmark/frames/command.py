@@ -61,7 +61,7 @@ def _detect_camera(group, models, methods, heights, cache_dir, cache_limit_gb, t
                        cache_limit_gb=cache_limit_gb, tolerance=tolerance,
                        cells_per_source_cell=cells_per_source_cell,
                        upsample_below=upsample_below, grid_phase=grid_phase, lens=lens,
-                       **({"box_voting": box_voting} if box_voting else {}))
+                       box_voting=box_voting)
     for m in methods:                           # offline precomputation, not timed per frame
         fd.prepare(m)
     dets = {m: [] for m in methods}

@@ -44,7 +44,7 @@ import numpy as np
 
 from benchmark.frames.pyramids import (
     ACF_PYRAMID_LAMBDAS, acf_pyramid_detect, acf_pyramid_fast_detect, hog_pyramid_detect,
-    pyramid_scales,
+    kind_nms, pyramid_scales,
 )
 from benchmark.frames.spec import frame_method
 from benchmark.recipes import DEFAULT_RECIPE
@@ -54,7 +54,6 @@ from viewadapt.detect import (
 )
 from viewadapt.geometry import WINDOW_HEIGHT, Camera
 from viewadapt.io import SourceDetectors
-from viewadapt.nms import detections_from_scores
 
 __all__ = ["FrameRecord", "load_frames", "train_source_detectors", "source_training_windows",
            "dataset_provenance",
@@ -250,13 +249,6 @@ def dataset_provenance(ds) -> dict:
 # ------------------------------------------------------------------------------ methods
 
 
-def _nms(boxes, scores, threshold, kind, vote=0.0):
-    """Threshold and NMS with the setting of the adapted detector ``kind`` (``vote``: box
-    voting's temperature, 0 none)."""
-    return detections_from_scores(boxes, scores, threshold=threshold, overlap=kind.nms_overlap,
-                                  nms_threshold=kind.nms_threshold, vote=vote)
-
-
 class FrameMethods:
     """Every method of the frames benchmark on one camera: the adapted detectors of
     :class:`viewadapt.detect.FrameDetector` (one per angle rule and object model asked
@@ -313,8 +305,8 @@ class FrameMethods:
             return self.detector(m.rule, m.object_model, m.fold).detect(image, kind.name)
         if m.how == "warp":
             s = warp_scores(image, self.windows.homographies, self.models, kind)
-            return _nms(person_boxes(self.windows.homographies), s, self.thr[kind.name], kind,
-                        vote)
+            return kind_nms(person_boxes(self.windows.homographies), s, self.thr[kind.name],
+                            kind, vote)
         if m.kind in PRETRAINED_KINDS:
             dets = opencv_detect(image, upsample=m.upsample, detector=m.kind, vote=vote)
         else:
@@ -387,7 +379,8 @@ def opencv_detect(image, *, upsample: int = 4, hit_threshold: float = -0.5,
     x0, y0, x1, y1 = PERSON_BOX_WINDOW
     boxes = np.stack([r[:, 0] + (x0 + 0.5) * s, r[:, 1] + (y0 + 0.5) * s, (x1 - x0) * s,
                       (y1 - y0) * s], 1)
-    return _nms(boxes, np.asarray(weights, float).ravel(), hit_threshold, HOG_DETECTOR, vote)
+    return kind_nms(boxes, np.asarray(weights, float).ravel(), hit_threshold, HOG_DETECTOR,
+                    vote)
 
 
 #: Relative height mismatch beyond which :func:`ground_plane_filter` drops a box.

@@ -33,8 +33,8 @@ from viewadapt.detect import (
 from viewadapt.geometry import WINDOW_HEIGHT, WINDOW_WIDTH
 from viewadapt.nms import detections_from_scores
 
-__all__ = ["pyramid_scales", "level_boxes", "hog_pyramid_detect", "dense_cascade_scores",
-           "dense_cascade_scores_reference",
+__all__ = ["pyramid_scales", "level_boxes", "kind_nms", "hog_pyramid_detect",
+           "dense_cascade_scores", "dense_cascade_scores_reference",
            "PyramidLevel", "ACF_PYRAMID_LAMBDAS", "acf_pyramid_levels",
            "acf_fast_pyramid_levels", "smooth_channel_maps", "acf_pyramid_detect",
            "acf_pyramid_fast_detect"]
@@ -76,7 +76,7 @@ def level_boxes(cy, cx, cell, scale):
                      np.full_like(by, (y1 - y0) / scale)], 1)
 
 
-def _nms(boxes, scores, threshold, kind, vote=0.0):
+def kind_nms(boxes, scores, threshold, kind, vote=0.0):
     """Threshold and NMS with the setting of the adapted detector ``kind`` (``vote``: box
     voting's temperature, :func:`viewadapt.nms.voted_boxes`; 0 none)."""
     return detections_from_scores(boxes, scores, threshold=threshold, overlap=kind.nms_overlap,
@@ -111,7 +111,7 @@ def hog_pyramid_detect(image, models, *, upsample: int = 4, step: float = 1.05,
             scores.append(res[cy, cx])
     if not boxes:
         return np.zeros((0, 5))
-    return _nms(np.concatenate(boxes), np.concatenate(scores).astype(float), threshold,
+    return kind_nms(np.concatenate(boxes), np.concatenate(scores).astype(float), threshold,
                 HOG_DETECTOR, vote)
 
 
@@ -361,7 +361,8 @@ def _detect_levels(levels, model, threshold, vote=0.0):
             scores.append(sc[keep])
     if not boxes:
         return np.zeros((0, 5))
-    return _nms(np.concatenate(boxes), np.concatenate(scores), threshold, ACF_DETECTOR, vote)
+    return kind_nms(np.concatenate(boxes), np.concatenate(scores), threshold, ACF_DETECTOR,
+                    vote)
 
 
 def acf_pyramid_detect(image, models, *, upsample: int = 4, per_octave: int = 4,

@@ -327,7 +327,7 @@ def cmd_detect(args) -> int:
     options = dict(person_heights=args.heights, min_person_height=args.min_height,
                    **({} if args.ground_stride is None
                       else {"ground_stride": list(args.ground_stride)}),
-                   **({"box_voting": args.box_voting} if args.box_voting else {}),
+                   box_voting=args.box_voting,
                    cache_dir=args.cache or (args.out / "cache"),
                    cache_limit_gb=args.cache_limit,
                    upsample_below=args.upsample_below,

@@ -178,13 +178,13 @@ class FrameDetector:
                 and not isinstance(min_person_height, bool) and 0 <= min_person_height < 1e4):
             raise ValueError(f"min_person_height must be a number of pixels >= 0, got "
                              f"{min_person_height!r}")
-        stride = GROUND_STRIDE_M if ground_stride is None else ground_stride
+        stride = GROUND_STRIDE_M if ground_stride is None else check_ground_stride(ground_stride)
         self.windows = select_candidate_windows(camera, self.size,
                                                 person_heights=self.params["person_heights"],
                                                 grid_phase=grid_phase, stride=stride,
                                                 min_person_height_px=min_person_height)
         if ground_stride is not None:   # (only then: the cache keys of before stay valid)
-            self.params["ground_stride"] = list(check_ground_stride(ground_stride))
+            self.params["ground_stride"] = list(stride)
         self.params["grid_phase"] = [float(v) for v in grid_phase]
         self.params["min_person_height"] = float(min_person_height)
         if lens is not None:

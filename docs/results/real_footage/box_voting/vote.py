@@ -5,7 +5,8 @@ kept box becomes the mean of the thresholded candidates whose overlap with it ex
 NMS threshold (its own overlap kind), weighted by exp((s_j - s_kept) / tau); scores and
 window indices unchanged. Patched into every caller of viewadapt.nms.detections_from_scores
 (adapted detectors, image warping, pyramids, OpenCV's detectMultiScale through _nms), then
-the CLI runs (the product has the same since: viewadapt.nms.voted_boxes, --box-voting). Usage: VOTE=tau python vote.py <viewadapt CLI args...>  (VOTE unset or 0:
+the CLI runs (the product has the same since: viewadapt.nms.voted_boxes, --box-voting).
+Usage: VOTE=tau python vote.py <viewadapt CLI args...>  (VOTE unset or 0:
 plain NMS); or imported (patch(tau)) by other one-offs."""
 import os
 import sys
@@ -53,11 +54,10 @@ def voted(tau):
 
 
 def patch(tau):
-    import benchmark.frames.methods as fm
-    import benchmark.frames.pyramids as py
+    import benchmark.frames.pyramids as py   # (its kind_nms serves the methods module too)
     import viewadapt.detect.templates as tp
     f = voted(float(tau))
-    for mod in (nms, fm, py, tp):
+    for mod in (nms, py, tp):
         mod.detections_from_scores = f
 
 
