@@ -22,6 +22,7 @@ from benchmark.frames.runtime import single_thread
 from benchmark.frames.spec import FrameMethod
 from viewadapt.camera.distortion import Undistortion
 from viewadapt.commands.detect import boxes_in_input_pixels, lens_correction
+from viewadapt.detect import DEFAULT_BOX_VOTING
 from viewadapt.io import FrameBoxes, open_frames, read_boxes, read_ignore_regions
 from viewadapt.io.calibration import read_calibration_file
 
@@ -137,7 +138,8 @@ class FootageRun:
 
 
 def run_footage(clip: Clip, methods, models, *, heights, cache_dir=None, cache_limit_gb=None,
-                tolerance=None, ground_stride=None, grid_phase=(0.0, 0.0), box_voting=0.0,
+                tolerance=None, ground_stride=None, grid_phase=(0.0, 0.0),
+                box_voting=DEFAULT_BOX_VOTING,
                 progress=None) -> FootageRun:
     """Every method on every frame of the clip, in one process, each timed on one core
     (OpenCV and BLAS limited to one thread, :func:`benchmark.frames.runtime.single_thread`).

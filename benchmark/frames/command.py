@@ -12,7 +12,7 @@ import numpy as np
 
 from viewadapt.commands.detect import add_box_voting_option, add_cache_options, person_heights
 from viewadapt.detect import (
-    CELLS_PER_SOURCE_CELL, DEFAULT_FRAME_VIEW, FRAME_VIEW_CHOICES, HOG_TOLERANCE, UPSAMPLE_BELOW,
+    CELLS_PER_SOURCE_CELL, DEFAULT_BOX_VOTING, DEFAULT_FRAME_VIEW, FRAME_VIEW_CHOICES, HOG_TOLERANCE, UPSAMPLE_BELOW,
 )
 from viewadapt.detect.kinds import OPENCV_FOLD_CELLS_PER_SOURCE_CELL, PRETRAINED_UPSAMPLE_BELOW
 from viewadapt.detect.layers import check_upsample_below
@@ -49,7 +49,7 @@ def _group_by_camera(frames):
 
 def _detect_camera(group, models, methods, heights, cache_dir, cache_limit_gb, tolerance,
                    cells_per_source_cell, upsample_below, grid_phase=(0.0, 0.0),
-                   box_voting=0.0, progress=None):
+                   box_voting=DEFAULT_BOX_VOTING, progress=None):
     """Every method (:class:`~benchmark.frames.spec.FrameMethod`) on the frames of one camera,
     the candidate windows at ``grid_phase`` (through the camera's lens when its frames
     record one, as ``viewadapt detect`` maps them): (detections, seconds, windows), by
@@ -82,7 +82,8 @@ def run_frames_benchmark(data, *, methods, seed=0, quick=False, max_frames=None,
                          cache_limit_gb=DEFAULT_CACHE_LIMIT_GB, models=None, progress=True,
                          tolerance=HOG_TOLERANCE, cells_per_source_cell=None,
                          upsample_below=None, jobs=1, frame_view=DEFAULT_FRAME_VIEW,
-                         recipe=DEFAULT_RECIPE, phases=1, box_voting=0.0):
+                         recipe=DEFAULT_RECIPE, phases=1,
+                         box_voting=DEFAULT_BOX_VOTING):
     """Detect with every method (``methods``: :class:`~benchmark.frames.spec.FrameMethod` s)
     on every frame.
 
@@ -94,7 +95,7 @@ def run_frames_benchmark(data, *, methods, seed=0, quick=False, max_frames=None,
     phases (``lamr_phases``: each phase's, the default grid's first); their curves,
     detections and seconds are the default grid's. The other methods do not read the
     windows and run once. ``box_voting``: every method's boxes voted after non-maximum
-    suppression (:class:`viewadapt.detect.FrameDetector`'s; 0 none).
+    suppression (:class:`viewadapt.detect.FrameDetector`'s temperature; 0 none).
 
     Returns
     -------

@@ -210,7 +210,8 @@ def _adapted_row(det, kind, frames, repeat):
 
     def nms():
         return detections_from_scores(boxes, s, threshold=thr, overlap=op.nms_overlap,
-                                      nms_threshold=op.nms_threshold)
+                                      nms_threshold=op.nms_threshold,
+                                      vote=det.adapted.box_voting)
 
     tn = _best(nms, max(repeat, 25))[0]
     # end to end: the median of ``repeat`` passes over the frames (two passes, the median

@@ -11,7 +11,8 @@ import numpy as np
 
 from viewadapt.boxes import mapped_boxes
 from viewadapt.camera.distortion import Undistortion, distort_points
-from viewadapt.detect.detector import DEFAULT_THRESHOLD, FrameDetector, check_box_voting
+from viewadapt.detect.detector import (DEFAULT_BOX_VOTING, DEFAULT_THRESHOLD, FrameDetector,
+                                      check_box_voting)
 from viewadapt.detect.evaluation import (
     BOOTSTRAP_BLOCK, BOOTSTRAP_DRAWS, evaluation_matches, frame_outcome, matches_summary,
     matches_threshold_at_fppi,
@@ -109,12 +110,13 @@ def box_voting(text):
 
 def add_box_voting_option(p) -> None:
     """``--box-voting``, shared by ``detect`` and ``bench footage``."""
-    p.add_argument("--box-voting", type=box_voting, default=0.0, metavar="TAU",
+    p.add_argument("--box-voting", type=box_voting, default=DEFAULT_BOX_VOTING, metavar="TAU",
                    help="after non-maximum suppression, each box becomes the mean of the "
                         "candidate boxes overlapping it, weighted by exp(score difference / "
-                        "TAU); scores are kept. Centres boxes that the strongest window "
-                        "frames off a person (docs/real_footage.md has the measurement; "
-                        "1.0 is the value measured there). 0 (default): none")
+                        f"TAU); scores are kept (default {DEFAULT_BOX_VOTING:g}). Centres "
+                        "boxes that the strongest window frames off a person "
+                        "(docs/real_footage.md has the measurement). 0: none, each box the "
+                        "kept window's")
 
 
 def min_height(text):

@@ -95,7 +95,7 @@ from .kinds import (
     DetectorKind, HOG_DETECTOR, ACF_DETECTOR, OPENCV_DETECTOR, DAIMLER_DETECTOR, DETECTOR_KINDS,
     PRETRAINED_KINDS, hog_kind, opencv_kind, detector_kind,
 )
-from .detector import DEFAULT_THRESHOLD, FrameDetections, FrameDetector
+from .detector import DEFAULT_BOX_VOTING, DEFAULT_THRESHOLD, FrameDetections, FrameDetector
 from .training import FRAME_VIEW_CHOICES, DEFAULT_FRAME_VIEW, check_frame_view, train_on_windows
 from .stream import DetectorSpec, detect_stream
 from .evaluation import standardize_boxes, ground_truth_rows, evaluate_detections
@@ -135,6 +135,7 @@ __all__ = [
     "frame_view_copies", "DetectorKind", "HOG_DETECTOR", "ACF_DETECTOR", "OPENCV_DETECTOR",
     "DAIMLER_DETECTOR", "DETECTOR_KINDS", "PRETRAINED_KINDS", "hog_kind", "opencv_kind",
     "detector_kind",
+    "DEFAULT_BOX_VOTING",
     "DEFAULT_THRESHOLD",
     "FrameDetections", "FrameDetector", "FRAME_VIEW_CHOICES", "DEFAULT_FRAME_VIEW",
     "check_frame_view", "train_on_windows", "DetectorSpec", "detect_stream",

@@ -29,10 +29,14 @@ from .windows import (
     windows_through_lens,
 )
 
-__all__ = ["DEFAULT_THRESHOLD", "FrameDetections", "FrameDetector", "check_box_voting"]
+__all__ = ["DEFAULT_THRESHOLD", "DEFAULT_BOX_VOTING", "FrameDetections", "FrameDetector",
+           "check_box_voting"]
 #: Score threshold of the detections kept for non-maximum suppression: low, so that a DET
 #: curve reaches high false-positive rates.
 DEFAULT_THRESHOLD = -1.0
+#: Box voting's temperature by default (:func:`viewadapt.nms.voted_boxes`, after Gidaris &
+#: Komodakis 2015); 0 turns voting off.
+DEFAULT_BOX_VOTING = 1.0
 
 
 def check_box_voting(value, name: str = "box_voting") -> float:
@@ -131,8 +135,8 @@ class FrameDetector:
         Box voting's temperature after non-maximum suppression
         (:func:`viewadapt.nms.voted_boxes`): each detection's box becomes the mean of the
         candidate windows' boxes overlapping it, weighted by ``exp(score difference /
-        box_voting)``; scores, windows and ground positions stay the kept window's. 0
-        (default): the kept window's box.
+        box_voting)``; scores, windows and ground positions stay the kept window's.
+        Default :data:`DEFAULT_BOX_VOTING`; 0: the kept window's box.
     """
 
     def __init__(self, camera: Camera, models: SourceDetectors, *,
@@ -144,7 +148,7 @@ class FrameDetector:
                  rule: str = "covariant", object_model: str = "plane", lens=None,
                  grid_phase=(0.0, 0.0), min_person_height: float = MIN_PERSON_HEIGHT_PX,
                  kinds=None, stage: bool = True, ground_stride=None,
-                 box_voting: float = 0.0):
+                 box_voting: float = DEFAULT_BOX_VOTING):
         if not isinstance(camera, Camera) or camera.image_size is None:
             raise ValueError("camera must be a Camera with its image_size (width, height)")
         self.camera = camera

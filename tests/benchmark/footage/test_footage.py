@@ -191,16 +191,17 @@ def test_a_denser_ground_grid(toy, tmp_path):
 
 
 def test_box_voting_reaches_every_method(toy, tmp_path):
-    """``--box-voting``: every method's boxes are voted (the adapted detector's and the
-    pyramid's alike), their scores are not; recorded in run.json."""
+    """Box voting (the default; ``--box-voting 0`` none): every method's boxes are voted
+    (the adapted detector's and the pyramid's alike), their scores are not; recorded in
+    run.json."""
     runs = {}
-    for name, argv in (("plain", ()), ("voted", ("--box-voting", "1"))):
+    for name, argv in (("plain", ("--box-voting", "0")), ("voted", ())):
         out = tmp_path / name
         assert _footage(toy, out, "--methods", "hog_pyramid", "hog_adapted",
                         "--max-frames", "3", *argv) == 0
         runs[name] = json.loads((out / "detections.json").read_text())
         assert json.loads((out / "run.json").read_text())["box_voting"] == (
-            1.0 if argv else 0.0)
+            0.0 if argv else 1.0)
     for m in ("hog_pyramid", "hog_adapted"):
         a = np.concatenate([np.reshape(v, (-1, 5)) for v in runs["plain"][m].values()])
         b = np.concatenate([np.reshape(v, (-1, 5)) for v in runs["voted"][m].values()])

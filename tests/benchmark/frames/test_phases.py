@@ -124,16 +124,17 @@ def test_bench_frames_phases_bad_input(toy, tmp_path, capsys, extra):
 
 
 def test_bench_frames_box_voting(toy, tmp_path, capsys):
-    """``--box-voting``: the same detections and scores, boxes voted, recorded in run.json;
-    an earlier run with other voting is not mixed in by --keep-other-methods."""
+    """Box voting (the default; ``--box-voting 0`` none): the same detections and scores,
+    boxes voted, recorded in run.json; an earlier run with other voting is not mixed in by
+    --keep-other-methods."""
     data, model = toy
     dets = {}
-    for name, argv in (("plain", []), ("voted", ["--box-voting", "1"])):
+    for name, argv in (("plain", ["--box-voting", "0"]), ("voted", [])):
         out = tmp_path / name
         assert _main(["bench", "frames", "--data", str(data), "--out", str(out), "--model",
                       str(model), "--methods", "hog_adapted", *argv]) == 0
         dets[name] = json.loads((out / "detections.json").read_text())["hog_adapted"]
-        assert json.loads((out / "run.json").read_text())["box_voting"] == (1.0 if argv else 0)
+        assert json.loads((out / "run.json").read_text())["box_voting"] == (0 if argv else 1.0)
     a = np.concatenate([np.reshape(v, (-1, 5)) for v in dets["plain"].values()])
     b = np.concatenate([np.reshape(v, (-1, 5)) for v in dets["voted"].values()])
     assert len(a) == len(b) > 0

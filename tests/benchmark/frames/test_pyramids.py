@@ -126,7 +126,8 @@ def test_method_is_known_and_dispatched(frame, models):
     fm = FrameMethods(frame.camera, models, thresholds={"hog": 0.0, "acf": -1e9})
     got = fm.detect(m, frame.image())
     np.testing.assert_array_equal(got, acf_pyramid_fast_detect(frame.image(), models,
-                                                               threshold=-1e9))
+                                                               threshold=-1e9,
+                                                               vote=fm.adapted.box_voting))
 
 
 def test_bench_frames_accepts_the_method(toy, models, tmp_path):

@@ -159,10 +159,13 @@ def test_ground_positions_are_those_of_the_windows(toy):
     """FrameDetector.detect_on_ground gives the operator's thresholded, suppressed window
     scores (and detect the same boxes), each with the ground point of its window -- which
     is where the feet of that window's person project, and close to where the toy person
-    whose box it found stands."""
+    whose box it found stands. Without box voting each box is its window's; with it (the
+    default) the detections, scores and ground points are the same."""
     spec = DetectorSpec.create(toy.cam, toy.model, "hog", cache_dir=toy.cache,
-                               thresholds={"hog": -0.5})
+                               thresholds={"hog": -0.5}, box_voting=0.0)
     det = spec.make()
+    voting = DetectorSpec.create(toy.cam, toy.model, "hog", cache_dir=toy.cache,
+                                 thresholds={"hog": -0.5}).make()
     coco = json.loads((toy.data / "frames_coco.json").read_text())
     errors = []
     for f in toy.frames:
@@ -177,6 +180,10 @@ def test_ground_positions_are_those_of_the_windows(toy):
         # each box is its window's (snapped) person box, each ground point its window's
         assert np.array_equal(det.operator("hog").boxes()[found.window], found.boxes[:, :4])
         assert np.array_equal(found.ground_xy, det.windows.ground_xy[found.window])
+        voted = voting.detect_on_ground(img, "hog")
+        assert np.array_equal(voted.window, found.window)
+        assert np.array_equal(voted.ground_xy, found.ground_xy)
+        assert np.array_equal(voted.boxes[:, 4], found.boxes[:, 4])
         feet = np.array([toy.cam.project(np.r_[g, 0.0]) for g in found.ground_xy])
         assert np.allclose(feet, det.windows.feet[found.window], atol=1e-6)
         anns = [a for a in coco["annotations"] if a["image_id"] == f.image_id]
@@ -508,18 +515,18 @@ def test_a_denser_ground_grid_across_the_view(toy, detect, tmp_path, capfd):
 
 
 def test_box_voting_moves_boxes_not_scores(toy, detect, tmp_path, capfd):
-    """``--box-voting TAU``: the same detections and scores, boxes moved towards the
-    candidates overlapping them, recorded in metadata.json; with --jobs the workers vote
-    too; a bad value is argparse's one-line error."""
-    plain = detect("folder", toy.folder)
-    voted = detect("voted", toy.folder, "--box-voting", "1")
+    """``--box-voting TAU`` (default 1, 0 none): the same detections and scores, boxes
+    moved towards the candidates overlapping them, recorded in metadata.json; with --jobs
+    the workers vote too; a bad value is argparse's one-line error."""
+    plain = detect("plain", toy.folder, "--box-voting", "0")
+    voted = detect("folder", toy.folder)
     assert json.loads((plain / "metadata.json").read_text())["box_voting"] == 0
     assert json.loads((voted / "metadata.json").read_text())["box_voting"] == 1
     a, b = pd.read_csv(plain / "detections.csv"), pd.read_csv(voted / "detections.csv")
     assert len(a) == len(b) > 0
     np.testing.assert_array_equal(a["score"], b["score"])
     assert not np.allclose(a[["x", "y"]], b[["x", "y"]])
-    two = detect("voted_jobs2", "--box-voting", "1", "--jobs", 2, toy.folder)
+    two = detect("voted_jobs2", "--jobs", 2, toy.folder)
     assert (two / "detections.csv").read_bytes() == (voted / "detections.csv").read_bytes()
     _refused(toy, tmp_path, capfd, "--box-voting", ("-1", "nan", "hot"),
              "cannot read the box voting temperature")
