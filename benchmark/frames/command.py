@@ -12,7 +12,8 @@ import numpy as np
 
 from viewadapt.commands.detect import add_box_voting_option, add_cache_options, person_heights
 from viewadapt.detect import (
-    CELLS_PER_SOURCE_CELL, DEFAULT_BOX_VOTING, DEFAULT_FRAME_VIEW, FRAME_VIEW_CHOICES, HOG_TOLERANCE, UPSAMPLE_BELOW,
+    CELLS_PER_SOURCE_CELL, DEFAULT_BOX_VOTING, DEFAULT_FRAME_VIEW, FRAME_VIEW_CHOICES,
+    HOG_TOLERANCE, UPSAMPLE_BELOW,
 )
 from viewadapt.detect.kinds import OPENCV_FOLD_CELLS_PER_SOURCE_CELL, PRETRAINED_UPSAMPLE_BELOW
 from viewadapt.detect.layers import check_upsample_below
