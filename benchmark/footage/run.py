@@ -27,7 +27,7 @@ from viewadapt.io import FrameBoxes, open_frames, read_boxes, read_ignore_region
 from viewadapt.io.calibration import read_calibration_file
 
 __all__ = ["FOOTAGE_METHODS", "Clip", "open_clip", "add_clip_arguments", "FootageRun",
-           "run_footage"]
+           "run_footage", "stored_detections"]
 
 #: The methods ``bench footage`` runs by default, in its order: OpenCV's own
 #: ``detectMultiScale`` at 1x, 2x and 4x without and with the ground-plane filter (the
@@ -73,6 +73,19 @@ class Clip:
         """The ground truth of one frame (empty for a frame the file does not list)."""
         key = frame.source if self.stream.paths is not None else frame.index
         return self.truth.get(key, FrameBoxes.empty())
+
+    def stored_truth(self, keys) -> list:
+        """The ground truth of the frames that the keys of a ``bench footage``
+        ``detections.json`` name (a folder's frames by name, a video's by index), in the
+        keys' order, without reading the frames."""
+        video = self.stream.paths is None
+        return [self.truth.get(int(k) if video else k, FrameBoxes.empty()) for k in keys]
+
+
+def stored_detections(stored, keys) -> list:
+    """One method's detections as ``detections.json`` holds them (frame key -> rows), as
+    (D, 5) arrays in the order of ``keys`` (none for a key it does not list)."""
+    return [np.asarray(stored.get(k, []), float).reshape(-1, 5) for k in keys]
 
 
 def open_clip(inputs, calibration, boxes, ignore=None, *, lens: str = "auto",

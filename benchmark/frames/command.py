@@ -167,7 +167,7 @@ def run_frames_benchmark(data, *, methods, seed=0, quick=False, max_frames=None,
     return results, models, dets, order, info, phase_dets
 
 
-def _earlier_results(out: Path, data: Path, box_voting: float = 0.0) -> dict:
+def _earlier_results(out: Path, data: Path, box_voting: float) -> dict:
     """``out``'s earlier run on ``data`` with the same box voting:
     :class:`~benchmark.frames.spec.FrameMethod` -> (frame key -> detections, s / frame)."""
     from benchmark.data import read_json

@@ -112,7 +112,7 @@ def hog_pyramid_detect(image, models, *, upsample: int = 4, step: float = 1.05,
     if not boxes:
         return np.zeros((0, 5))
     return kind_nms(np.concatenate(boxes), np.concatenate(scores).astype(float), threshold,
-                HOG_DETECTOR, vote)
+                    HOG_DETECTOR, vote)
 
 
 def dense_cascade_scores(model, C, positions):

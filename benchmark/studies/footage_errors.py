@@ -29,8 +29,7 @@ def main(argv=None) -> int:
     import cv2
     import pandas as pd
 
-    from benchmark.footage.run import add_clip_arguments, open_clip
-    from viewadapt.io import FrameBoxes
+    from benchmark.footage.run import add_clip_arguments, open_clip, stored_detections
     from viewadapt.io.files import atomic_output_dir, check_output_dir, run_metadata
 
     ap = argparse.ArgumentParser(prog="python -m benchmark.studies.footage_errors",
@@ -60,13 +59,11 @@ def main(argv=None) -> int:
     clip = open_clip(args.inputs, args.calibration, args.boxes, args.ignore)
     size = clip.camera.image_size
     keys = list(stored[methods[0]])                 # the run's frames, in its order
-    video = clip.stream.paths is None               # a video's frames are keyed by index
-    truth = [clip.truth.get(int(k) if video else k, FrameBoxes.empty()) for k in keys]
+    truth = clip.stored_truth(keys)
     first = next(iter(clip.stream)).image
     results, maps = {}, []
     for m in methods:
-        dets = [np.asarray(stored[m].get(k, []), float).reshape(-1, 5) for k in keys]
-        results[m], view = clip_errors(first, dets, truth, size, regions=clip.regions,
+        results[m], view = clip_errors(first, stored_detections(stored[m], keys), truth, size, regions=clip.regions,
                                        fppis=args.fppi, title=f"{m} @ {args.fppi[-1]:g} FPPI")
         maps.append(view)
     lines = error_lines(results, args.fppi)

@@ -6,24 +6,20 @@ hog_warp, from `viewadapt bench footage --methods hog_adapted hog_warp --box-vot
 import json, sys
 from pathlib import Path
 
-import numpy as np
-
-from benchmark.footage.run import open_clip
+from benchmark.footage.run import open_clip, stored_detections
 from viewadapt.detect.evaluation import evaluation_matches, matches_lamr, paired_groups_bootstrap
 
 D = Path("../shared/data/pets09_s2l1_view001")
 clip = open_clip([D / "img1"], D / "calibration/View_001.xml", D / "gt/gt.txt", D / "ignore.json")
-frames = list(clip.stream)
-truth = [clip.truth_of(f) for f in frames]
-keys = [str(f.source) for f in frames]
 size = clip.camera.image_size
 matches = {}
 for setting, path in (("plain", sys.argv[2]), ("voted", sys.argv[3])):
     d = json.loads(Path(path).read_text())
+    keys = list(d["hog_adapted"])                   # the run's frames, in its order
+    truth = clip.stored_truth(keys)
     for m in ("hog_adapted", "hog_warp"):
-        matches[setting, m] = evaluation_matches(
-            [np.asarray(d[m][k], float).reshape(-1, 5) for k in keys], truth, size,
-            regions=clip.regions)[0]
+        matches[setting, m] = evaluation_matches(stored_detections(d[m], keys), truth, size,
+                                                 regions=clip.regions)[0]
 res = {f"{s} {m}": matches_lamr(v) for (s, m), v in matches.items()}
 for m in ("hog_adapted", "hog_warp"):
     res[f"{m}: voted - plain"] = paired_groups_bootstrap([matches["voted", m]],
