@@ -109,7 +109,7 @@ def box_voting(text):
 
 
 def add_box_voting_option(p) -> None:
-    """``--box-voting``, shared by ``detect`` and ``bench footage``."""
+    """``--box-voting``, shared by ``detect``, ``bench footage`` and ``bench frames``."""
     p.add_argument("--box-voting", type=box_voting, default=DEFAULT_BOX_VOTING, metavar="TAU",
                    help="after non-maximum suppression, each box becomes the mean of the "
                         "candidate boxes overlapping it, weighted by exp(score difference / "
