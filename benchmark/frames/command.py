@@ -10,12 +10,14 @@ from pathlib import Path
 
 import numpy as np
 
-from viewadapt.commands.detect import add_box_voting_option, add_cache_options, person_heights
+from viewadapt.commands.detect import (
+    add_box_voting_option, add_cache_options, add_upsample_below_option, person_heights,
+)
 from viewadapt.detect import (
     CELLS_PER_SOURCE_CELL, DEFAULT_BOX_VOTING, DEFAULT_FRAME_VIEW, FRAME_VIEW_CHOICES,
-    HOG_TOLERANCE, UPSAMPLE_BELOW,
+    HOG_TOLERANCE,
 )
-from viewadapt.detect.kinds import OPENCV_FOLD_CELLS_PER_SOURCE_CELL, PRETRAINED_UPSAMPLE_BELOW
+from viewadapt.detect.kinds import OPENCV_FOLD_CELLS_PER_SOURCE_CELL
 from viewadapt.detect.layers import check_upsample_below
 from viewadapt.geometry import PERSON_HEIGHT_M
 from viewadapt.io import DEFAULT_CACHE_LIMIT_GB, plot_det_figure
@@ -462,12 +464,7 @@ def register(sub, common) -> None:
                         "window's frame cell size (default: each detector's own, "
                         f"{CELLS_PER_SOURCE_CELL:g}; {OPENCV_FOLD_CELLS_PER_SOURCE_CELL:g} for "
                         "opencv's fold, which its stage rescores)")
-    p.add_argument("--upsample-below", type=float, default=None,
-                   help="windows of persons smaller than 96 x this many px read the frame "
-                        "upsampled 2x; 0 = never (default: each detector's own, "
-                        f"{UPSAMPLE_BELOW:g} for hog and acf, i.e. {96 * UPSAMPLE_BELOW:.0f} px; "
-                        f"{PRETRAINED_UPSAMPLE_BELOW:g} for opencv and daimler, trained on "
-                        "their windows alone)")
+    add_upsample_below_option(p)
     p.add_argument("--model", type=Path, default=None,
                    help="reuse trained source detectors (models/source_detectors.npz of "
                         "an earlier run) instead of training")

@@ -18,7 +18,7 @@ from viewadapt.detect.evaluation import (
     matches_threshold_at_fppi,
 )
 from viewadapt.detect.kinds import DETECTOR_KINDS, PRETRAINED_KINDS, PRETRAINED_UPSAMPLE_BELOW
-from viewadapt.detect.layers import UPSAMPLE_BELOW
+from viewadapt.detect.layers import UPSAMPLE_BELOW, check_upsample_below
 from viewadapt.detect.stream import DetectorSpec, detect_stream, pretrained_kinds
 from viewadapt.detect.windows import GROUND_STRIDE_M, MIN_PERSON_HEIGHT_PX, check_ground_stride
 from viewadapt.geometry import PERSON_HEIGHT_M
@@ -117,6 +117,26 @@ def add_box_voting_option(p) -> None:
                         "boxes that the strongest window frames off a person "
                         "(docs/real_footage.md has the measurement). 0: none, each box the "
                         "kept window's")
+
+
+def upsample_below(text):
+    """argparse type: the person scale below which windows read the frame upsampled
+    (a number >= 0)."""
+    try:
+        return check_upsample_below(text, "the upsampling threshold")
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"cannot read the upsampling threshold {text!r} (a "
+                                         "number >= 0, 0 for never)") from None
+
+
+def add_upsample_below_option(p) -> None:
+    """``--upsample-below``, shared by ``detect`` and ``bench frames``."""
+    p.add_argument("--upsample-below", type=upsample_below, default=None, metavar="S",
+                   help="windows of persons smaller than 96 x S px read the frame "
+                        "upsampled 2x; 0 = never (default: each detector's own, "
+                        f"{UPSAMPLE_BELOW:g} for hog and acf, i.e. {96 * UPSAMPLE_BELOW:.0f} px; "
+                        f"{PRETRAINED_UPSAMPLE_BELOW:g} for opencv and daimler, trained on "
+                        "their windows alone)")
 
 
 def min_height(text):
@@ -498,12 +518,7 @@ def register(sub, common) -> None:
                    help="persons shorter than this in the frame get no candidate window "
                         f"(default {MIN_PERSON_HEIGHT_PX:g} px; 0 = down to the horizon)")
     add_cache_options(p)
-    p.add_argument("--upsample-below", type=float, default=None,
-                   help="windows of persons smaller than 96 x this many px read the frame "
-                        "upsampled 2x; 0 = never (default: the detector's own, "
-                        f"{UPSAMPLE_BELOW:g} for hog and acf, i.e. {96 * UPSAMPLE_BELOW:.0f} px; "
-                        f"{PRETRAINED_UPSAMPLE_BELOW:g} for opencv and daimler, trained on "
-                        "their windows alone)")
+    add_upsample_below_option(p)
     p.add_argument("--boxes", type=Path, default=None,
                    help="optional ground truth to evaluate against: CSV with frame,x,y,w,h"
                         "[,occlusion,ignore], COCO JSON, MOTChallenge gt.txt or CAVIAR XML, in "

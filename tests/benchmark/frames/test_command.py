@@ -125,7 +125,7 @@ def test_rerun_some_methods_keeping_the_others(toy, bench, tmp_path):
     assert not (tmp_path / "none").exists()
 
 
-def test_detect_cli(toy, bench, tmp_path):
+def test_detect_cli(toy, bench, tmp_path, capsys):
     frames = load_frames(toy)
     cam = frames[0].camera
     calib = _calibration_file(cam, tmp_path / "calib.json")
@@ -183,13 +183,19 @@ def test_detect_cli(toy, bench, tmp_path):
     assert _main(["detect", "--calibration", str(calib), "--model",
                   str(bench / "models" / "source_detectors.npz"), "--out", str(bad),
                   str(small)]) == 2
-    assert _main(["detect", "--calibration", str(calib), "--model",
+    # --upsample-below below 0 or not a number: argparse's one-line error (exit 2)
+    for argv in (["detect", "--calibration", str(calib), "--model",
                   str(bench / "models" / "source_detectors.npz"), "--out", str(bad),
-                  "--upsample-below", "-1", str(frames[0].path)]) == 2
-    assert not bad.exists()
-    assert _main(["bench", "frames", "--data", str(toy), "--out", str(bad), "--quick",
+                  "--upsample-below", "-1", str(frames[0].path)],
+                 ["bench", "frames", "--data", str(toy), "--out", str(bad), "--quick",
                   "--model", str(bench / "models" / "source_detectors.npz"),
-                  "--upsample-below", "nan", "--methods", "hog_adapted"]) == 2
+                  "--upsample-below", "nan", "--methods", "hog_adapted"]):
+        capsys.readouterr()
+        with pytest.raises(SystemExit) as exc:
+            _main(argv)
+        err = capsys.readouterr().err.strip().splitlines()[-1]
+        assert exc.value.code == 2 and "cannot read the upsampling threshold" in err, err
+    assert not bad.exists()
     with pytest.raises(SystemExit):                          # argparse: usage and exit 2
         _main(["bench", "frames", "--data", str(toy), "--out", str(bad),
                "--cache-limit", "-1"])
