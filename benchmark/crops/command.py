@@ -291,7 +291,8 @@ def cmd_sweep(args) -> int:
         run_path = Path(args.out) / "run.json"
         run = _read_run(run_path) if run_path.is_file() else _run_json(ds, args)
         run["recipe"] = args.recipe.to_dict()
-        run["sweep"] = {"detector": args.detector, "source": args.source, "step": args.step,
+        run["sweep"] = {"detector": args.detector, "source": args.source,
+                        "target": float(cfg.target), "step": args.step,
                         "sigma": args.sigma, "seconds": round(time.perf_counter() - t0, 1),
                         "incomplete_dataset": incomplete}
         (tmp / "run.json").write_text(json.dumps(run, indent=2, default=str))

@@ -13,6 +13,7 @@ from viewadapt.metrics import det_curve_windows
 from benchmark.crops.summarize import PAPER_MISS_RATES, PAPER_SWEEP, PAPER_SWEEP_UNADAPTED
 
 __all__ = ["plot_det", "plot_sweep", "sweep_table", "paper_sweep_table", "PAPER_SWEEP_METHOD",
+           "PAPER_SWEEP_TARGET", "is_paper_target", "sweep_target",
            "plot_score_shift", "write_report",
            "elevation_label", "closing_summary"]
 
@@ -29,6 +30,12 @@ def elevation_label(e) -> str:
         if abs(e - frac * np.pi) < 1e-6:
             return name
     return f"{e:.3f}"
+
+
+def _radians(e) -> str:
+    """An elevation in words: ``π/4 (0.785 rad)``, or ``0.600 rad`` off the named ones."""
+    label = elevation_label(e)
+    return f"{label} ({e:.3f} rad)" if label != f"{e:.3f}" else f"{e:.3f} rad"
 
 
 def _mpl():
@@ -80,7 +87,8 @@ _MODEL_STYLE = {"plane": "-", "body": "--"}
 def plot_sweep(summary: pd.DataFrame, *, true_elevation=np.pi / 4, title=""):
     """Miss rate at 1e-2 fppw against the estimated target elevation (Fig. 6): one curve per
     angle rule (colour) and object model (line style), the prior-averaged curve dotted, and
-    the paper's own curve and unadapted level in grey (``PAPER_SWEEP``)."""
+    -- for the paper's true elevation, pi/4 -- the paper's own curve and unadapted level in
+    grey (``PAPER_SWEEP``)."""
     plt = _mpl()
     fig, ax = plt.subplots(figsize=(7.2, 4.4))
     un = summary[summary["method"] == "unadapted"]["mr_at_fppw_0.01"]
@@ -95,10 +103,11 @@ def plot_sweep(summary: pd.DataFrame, *, true_elevation=np.pi / 4, title=""):
     if len(un):
         ax.axhline(float(un.iloc[0]), color="#c0392b", ls="-", lw=1.0,
                    label=f"unadapted ({float(un.iloc[0]):.2f})")
-    pe, pm = np.array(PAPER_SWEEP).T
-    ax.plot(pe, pm, color="0.6", lw=0.9, label="paper, Fig. 6 (their data)")
-    ax.axhline(PAPER_SWEEP_UNADAPTED, color="0.6", ls="--", lw=0.8,
-               label=f"paper's unadapted ({PAPER_SWEEP_UNADAPTED:.2f})")
+    if is_paper_target(true_elevation):
+        pe, pm = np.array(PAPER_SWEEP).T
+        ax.plot(pe, pm, color="0.6", lw=0.9, label="paper, Fig. 6 (their data)")
+        ax.axhline(PAPER_SWEEP_UNADAPTED, color="0.6", ls="--", lw=0.8,
+                   label=f"paper's unadapted ({PAPER_SWEEP_UNADAPTED:.2f})")
     ax.axvline(true_elevation, color="0.4", ls=":", lw=1.2, label="true target elevation")
     ax.set_xlabel("estimated target elevation (rad)")
     ax.set_ylabel("miss rate @ fppw = 10⁻²")
@@ -144,6 +153,28 @@ def sweep_table(summary: pd.DataFrame, true_elevation: float = np.pi / 4) -> pd.
 
 
 PAPER_SWEEP_METHOD = "paper (Wang et al. 2017, Fig. 6)"
+#: the true target elevation of the paper's Fig. 6 (its sweep tests at pi/4 only)
+PAPER_SWEEP_TARGET = np.pi / 4
+
+
+def is_paper_target(true_elevation) -> bool:
+    """Whether a sweep's true elevation is the paper's Fig. 6's (pi/4), so that the paper's
+    curve belongs beside it."""
+    return bool(abs(float(true_elevation) - PAPER_SWEEP_TARGET) < 1e-6)
+
+
+def sweep_target(run: dict) -> float:
+    """The true target elevation a ``bench sweep`` run recorded (``run["sweep"]["target"]``);
+    pi/4, the default, for runs written before it was recorded."""
+    sweep = run.get("sweep") if isinstance(run, dict) else None
+    target = sweep.get("target") if isinstance(sweep, dict) else None
+    if target is None:
+        return float(PAPER_SWEEP_TARGET)
+    if isinstance(target, bool) or not isinstance(target, (int, float)) \
+            or not 0 <= target < np.pi / 2:
+        raise ValueError(f"run.json: the sweep's target elevation is {target!r}, not an "
+                         "elevation in [0, pi/2) radians")
+    return float(target)
 
 
 def paper_sweep_table() -> pd.DataFrame:
@@ -225,7 +256,8 @@ def write_report(out: Path) -> Path:
                   "the same for every method that trains.", ""]
     if (out / "summary.csv").is_file():
         s = pd.read_csv(out / "summary.csv")
-        lines += ["## Miss rate at 10⁻² fppw, target π/4", "",
+        targets = ", ".join(elevation_label(t) for t in sorted(set(s["target_elevation"])))
+        lines += [f"## Miss rate at 10⁻² fppw, target {targets}", "",
                   "Pooled over the nine person/scene-disjoint folds; 95% interval from a "
                   "bootstrap over test persons; mean ± std over folds; LAMR over 10⁻³–10⁰ fppw. "
                   "Paper: Wang et al. 2017, Fig. 5 (HOG/SVM on their SketchUp data).", "",
@@ -256,21 +288,26 @@ def write_report(out: Path) -> Path:
         lines += ["![score shift](score_shift.png)", ""]
     if (out / "sweep_summary.csv").is_file():
         sw = pd.read_csv(out / "sweep_summary.csv")
-        tab = sweep_table(sw)
+        target = sweep_target(run)
+        paper = is_paper_target(target)
+        tab = sweep_table(sw, target)
         lines += ["## Robustness to the elevation estimate (Fig. 6)", "",
                   "Per angle rule and object model on the same folds and fold models: the best "
-                  "estimate, the miss rate there and at the true π/4, the largest estimate "
-                  "still better than unadapted (crossing), the crossing interpolated between "
-                  "that estimate and the next, and their distances above the truth. The last "
-                  "row is the paper's own Fig. 6 data (HOG/SVM, their renders) read by the "
-                  "same rules.", ""]
+                  f"estimate, the miss rate there and at the true {_radians(target)}, the "
+                  "largest estimate still better than unadapted "
+                  "(crossing), the crossing interpolated between that estimate and the next, "
+                  "and their distances above the truth."
+                  + (" The last row is the paper's own Fig. 6 data (HOG/SVM, their renders) "
+                     "read by the same rules." if paper else
+                     " The paper swept only a true π/4: no row of its data."), ""]
         if len(tab):
-            lines += [f"Unadapted: {tab['unadapted'].iloc[0]:.3f} (paper: "
-                      f"{PAPER_SWEEP_UNADAPTED:.3f}).", "",
+            lines += [f"Unadapted: {tab['unadapted'].iloc[0]:.3f}"
+                      + (f" (paper: {PAPER_SWEEP_UNADAPTED:.3f})." if paper else "."), "",
                       "| method | rule | model | best estimate | best MR | MR at truth | "
                       "crossing | above truth | interpolated | above truth |",
                       "|---|---|---|---|---|---|---|---|---|---|"]
-            for _, r in pd.concat([tab, paper_sweep_table()], ignore_index=True).iterrows():
+            rows = [tab, paper_sweep_table()] if paper else [tab]
+            for _, r in pd.concat(rows, ignore_index=True).iterrows():
                 lines.append(f"| {r['method']} | {r['rule']} | {r['object_model']} | "
                              f"{r['best_estimate']:.2f} | {r['best_mr']:.3f} | "
                              f"{r['mr_at_true']:.3f} | {_fmt(r['crossing'], 2)} | "

@@ -21,7 +21,9 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from benchmark.crops.report import paper_sweep_table, sweep_table
+from viewadapt.io.bounded import read_json_object
+
+from benchmark.crops.report import is_paper_target, paper_sweep_table, sweep_table, sweep_target
 from benchmark.crops.summarize import operating_threshold
 
 __all__ = ["person_hits", "person_weights", "bootstrap_miss_rates", "sweep_intervals", "main"]
@@ -117,7 +119,7 @@ def sweep_intervals(scores: pd.DataFrame, *, true_elevation: float = np.pi / 4,
     return out
 
 
-def _lines(tab: pd.DataFrame, run: Path) -> list[str]:
+def _lines(tab: pd.DataFrame, run: Path, true_elevation: float) -> list[str]:
     def iv(r, col, nd=2):
         return f"{r[col]:.{nd}f} ({r[col + '_low']:.{nd}f}–{r[col + '_high']:.{nd}f})"
 
@@ -126,8 +128,10 @@ def _lines(tab: pd.DataFrame, run: Path) -> list[str]:
              "resamples of them (95 % percentile intervals); unadapted miss rate "
              f"{tab['unadapted'].iloc[0]:.3f}. Crossing: the largest estimate still better "
              "than unadapted; interpolated: where the curve reaches unadapted between it and "
-             "the next estimate. The paper's own Fig. 6 data by the same rules (no interval: "
-             "its scores are not published) is the last row.", "",
+             f"the next estimate; the true elevation {true_elevation:.3f} rad."
+             + (" The paper's own Fig. 6 data by the same rules (no interval: its scores are "
+                "not published) is the last row." if is_paper_target(true_elevation) else
+                " (The paper swept only a true pi/4: no row of its data.)"), "",
              "| method | best estimate (rad) | best MR | MR at truth | crossing (rad) | "
              "above truth (rad) | interpolated (rad) | above truth (rad) | "
              "draws with a crossing |",
@@ -137,6 +141,8 @@ def _lines(tab: pd.DataFrame, run: Path) -> list[str]:
                      f"{iv(r, 'mr_at_true', 3)} | {iv(r, 'crossing')} | "
                      f"{iv(r, 'band_above_truth')} | {iv(r, 'crossing_interp')} | "
                      f"{iv(r, 'band_interp')} | {r['crossing_defined']:.2f} |")
+    if not is_paper_target(true_elevation):
+        return lines
     p = paper_sweep_table().iloc[0]
     lines.append(f"| {p['method']} | {p['best_estimate']:.2f} | {p['best_mr']:.3f} | "
                  f"{p['mr_at_true']:.3f} | {p['crossing']:.2f} | {p['band_above_truth']:.2f} | "
@@ -150,8 +156,9 @@ def main(argv=None) -> int:
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("run", type=Path, help="a `viewadapt bench sweep` output directory")
     ap.add_argument("--out", type=Path, default=None, help="where to write (default RUN)")
-    ap.add_argument("--target", type=float, default=np.pi / 4,
-                    help="the true target elevation, rad (default pi/4)")
+    ap.add_argument("--target", type=float, default=None,
+                    help="the true target elevation, rad (default: the one RUN/run.json "
+                         "records; pi/4 for runs that record none)")
     ap.add_argument("--boot", type=int, default=1000, help="resamples (default 1000)")
     ap.add_argument("--seed", type=int, default=0)
     args = ap.parse_args(argv)
@@ -159,7 +166,11 @@ def main(argv=None) -> int:
         path = args.run / "sweep_scores.parquet"
         if not path.is_file():
             raise ValueError(f"{args.run} holds no sweep_scores.parquet (not a bench sweep run)")
-        tab = sweep_intervals(pd.read_parquet(path), true_elevation=args.target,
+        target = args.target
+        if target is None:
+            run = args.run / "run.json"
+            target = sweep_target(read_json_object(run, "run.json") if run.is_file() else {})
+        tab = sweep_intervals(pd.read_parquet(path), true_elevation=target,
                               n_boot=args.boot, seed=args.seed)
     except ValueError as exc:
         print(f"error: {exc}")
@@ -167,7 +178,7 @@ def main(argv=None) -> int:
     out = args.out or args.run
     out.mkdir(parents=True, exist_ok=True)
     tab.to_csv(out / "sweep_intervals.csv", index=False, float_format="%.4f")
-    lines = _lines(tab, args.run)
+    lines = _lines(tab, args.run, target)
     (out / "sweep_intervals.md").write_text("\n".join(lines) + "\n")
     print("\n".join(lines))
     return 0

@@ -87,6 +87,9 @@ def test_results_schema_and_files(results):
     assert "det_hog.png" in report and "sweep.png" in report and "0.787" in report
     sw = pd.read_csv(results / "sweep_summary.csv")
     assert sw["estimate"].max() < np.pi / 2 and "unadapted" in set(sw["method"])
+    # the sweep records its true elevation (the report and the intervals read it)
+    assert json.loads((results / "run.json").read_text())["sweep"]["target"] == \
+        pytest.approx(np.pi / 4)
     # adapting to the source's own elevation is the identity: same level as unadapted,
     # and the sweep's unadapted level is the cross-validation's (same folds, same pooling)
     un = sw.loc[sw["method"] == "unadapted", "mr_at_fppw_0.01"].iloc[0]

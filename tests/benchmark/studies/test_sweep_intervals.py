@@ -121,3 +121,39 @@ def test_person_bootstrap_draws_persons_and_pairs_the_rows():
     # the same draw for both rows: row 1's miss rate is person 0's share of that draw
     np.testing.assert_allclose(mr[1:, 1], w[:, 0] / 5)
     np.testing.assert_allclose(mr[1:, 0], 0)
+
+
+def test_the_true_elevation_comes_from_the_run_and_the_papers_row_only_at_pi_4(tmp_path):
+    """Without ``--target`` the study reads the true elevation the sweep recorded in
+    run.json (pi/4 for a run recording none); the report does the same; the paper's Fig. 6
+    row and curve appear only beside a sweep of its true elevation, pi/4."""
+    import json
+
+    from benchmark.crops.report import sweep_target, write_report
+    from benchmark.crops.sweep import sweep_summary
+
+    scores = _scores()
+    run = tmp_path / "run"
+    run.mkdir()
+    scores.to_parquet(run / "sweep_scores.parquet")
+    sweep_summary(scores.assign(fold="f0")).to_csv(run / "sweep_summary.csv", index=False)
+    (run / "run.json").write_text(json.dumps({"sweep": {"target": TRUE}}))
+    assert main([str(run), "--boot", "20"]) == 0
+    text = (run / "sweep_intervals.md").read_text()
+    row = pd.read_csv(run / "sweep_intervals.csv").set_index("method").loc["adapted"]
+    assert row["band_above_truth"] == pytest.approx(0.9 - TRUE)     # measured from 0.6
+    assert "paper (Wang" not in text and "no row of its data" in text
+    report = write_report(run).read_text()
+    assert "at the true 0.600 rad" in report and "paper (Wang" not in report
+    # the recorded truth decides "MR at truth": the adapted curve's best point, 0.6
+    best = sweep_table(sweep_summary(scores.assign(fold="f0")), TRUE).iloc[0]
+    assert f"| {best['best_estimate']:.2f} | {best['best_mr']:.3f} | {best['mr_at_true']:.3f} |" \
+        in report
+    # a run that records no target is a pi/4 sweep, with the paper's row
+    (run / "run.json").write_text(json.dumps({"sweep": {}}))
+    assert sweep_target(json.loads((run / "run.json").read_text())) == pytest.approx(np.pi / 4)
+    assert main([str(run), "--boot", "20"]) == 0
+    assert "paper (Wang" in (run / "sweep_intervals.md").read_text()
+    assert "paper (Wang" in write_report(run).read_text()
+    with pytest.raises(ValueError, match="target elevation is 'high'"):
+        sweep_target({"sweep": {"target": "high"}})
