@@ -9,10 +9,10 @@ from pathlib import Path
 import numpy as np
 
 from benchmark.footage.errors import ERROR_FPPIS, clip_errors, error_lines, map_grid
-from benchmark.footage.phases import phase_lines, phase_summary, run_phases, window_grid_methods
+from benchmark.footage.phases import phase_lines, phase_summary, run_phases
 from benchmark.footage.report import evaluate_run, paired_differences, summary_lines, summary_rows
 from benchmark.footage.run import FOOTAGE_METHODS, open_clip, run_footage
-from benchmark.frames.phases import grid_phases
+from benchmark.frames.phases import frame_shifts, grid_phases
 from benchmark.frames.spec import expand_adapted, method_arg
 from viewadapt.commands.detect import (
     DEFAULT_LENS, LENS_CHOICES, add_box_voting_option, add_cache_options,
@@ -48,10 +48,7 @@ def cmd_bench_footage(args) -> int:
         raise ValueError(f"--phases must be at least 1, got {args.phases}")
     methods = expand_adapted(args.methods or list(FOOTAGE_METHODS), args.rules,
                              args.object_models)
-    phases = grid_phases(args.phases)
-    if len(phases) > 1 and not window_grid_methods(methods):
-        raise ValueError("--phases needs a method that scores the candidate windows (an "
-                         "adapted detector or image warping); the pyramids run once")
+    phases, shifts = grid_phases(args.phases), frame_shifts(args.phases)
     clip = open_clip(args.inputs, args.calibration, args.boxes, args.ignore, lens=args.lens,
                      start=args.start, every=args.every, max_frames=args.max_frames)
     needs = any(m.needs_training for m in methods)
@@ -65,7 +62,8 @@ def cmd_bench_footage(args) -> int:
     with tqdm(total=total, desc="footage" if len(phases) == 1 else "footage x grid phases",
               unit="frame", dynamic_ncols=True, disable=args.quiet) as bar:
         run = run_footage(clip, methods, models, progress=lambda: bar.update(1), **run_kw)
-        phase_dets = run_phases(clip, methods, models, phases, progress=lambda: bar.update(1),
+        phase_dets = run_phases(clip, methods, models, phases, shifts,
+                                progress=lambda: bar.update(1),
                                 **run_kw) if len(phases) > 1 else {}
     if run.n_frames == 0:
         raise ValueError(f"{clip.stream.name} has no frames to evaluate")
@@ -75,7 +73,7 @@ def cmd_bench_footage(args) -> int:
     differences = paired_differences(run, evaluations, matches, **kw)
     lines = summary_lines(run, evaluations, differences)
     block_frames = evaluations[methods[0]][0]["bootstrap"]["block_frames"]
-    phase = phase_summary(run, phase_dets, evaluations, matches, size, phases,
+    phase = phase_summary(run, phase_dets, evaluations, matches, size, phases, shifts,
                           regions=clip.regions, **kw) if phase_dets else None
     if phase is not None:
         lines += phase_lines(phase, evaluations, block_frames)
@@ -129,7 +127,8 @@ def cmd_bench_footage(args) -> int:
             ignore=None if args.ignore is None else str(args.ignore),
             lens_correction=clip.correction, heights=list(args.heights),
             ground_stride=None if args.ground_stride is None else list(args.ground_stride),
-            grid_phases=[list(p) for p in phases], box_voting=args.box_voting,
+            grid_phases=[list(p) for p in phases], frame_shifts=[list(p) for p in shifts],
+            box_voting=args.box_voting,
             model=str(model_path) if needs else None,
             model_training=models.training if needs else None,
             methods=[m.name for m in methods], n_frames=run.n_frames, windows=run.n_windows,
@@ -192,13 +191,15 @@ def register_footage(bsub, common) -> None:
     add_ground_stride_option(p)
     add_box_voting_option(p)
     p.add_argument("--phases", type=int, default=1, metavar="N",
-                   help="also run the methods that score the candidate windows (adapted, "
-                        "warp) with the windows' ground grid at N x N phases (fractions of "
-                        "its stride): the LAMR moves with where the grid falls. Adds each "
-                        "one's mean, spread and range over the phases and paired "
-                        "differences averaged over them to the report (phases.csv, "
-                        "phases.json); the table above it, the figures and detections stay "
-                        "those of phase (0, 0). The pyramids run once (default 1)")
+                   help="also run every method with its window grid at N x N phases: "
+                        "the methods that score the candidate windows (adapted, warp) with "
+                        "the windows' ground grid at fractions of its stride, the pyramids "
+                        "on the frame moved by 0..N-1 whole pixels each way; a LAMR moves "
+                        "with where the grid falls. Adds each one's mean, spread and range "
+                        "over the phases and paired differences averaged over them to the "
+                        "report (phases.csv, phases.json); the table above it, the figures "
+                        "and detections stay those of phase (0, 0). Costs N x N runs of "
+                        "every method (default 1)")
     p.add_argument("--lens", choices=LENS_CHOICES, default=DEFAULT_LENS,
                    help="with dist in the calibration: as viewadapt detect --lens (default "
                         "auto: windows through the lens, for either object model)")

@@ -1,15 +1,15 @@
-"""``bench footage --phases N``: the window-grid methods at N x N phases of the ground grid.
+"""``bench footage --phases N``: every method at N x N phases of its window grid.
 
-Where the ground grid of candidate windows falls is arbitrary (``grid_phase`` of
-:class:`viewadapt.detect.FrameDetector`), yet a clip's LAMR moves with it: a window a
-fraction of a stride to the side can be the one a person's strongest score lands on.
-The methods that score the candidate windows (adapted detectors and image warping,
-:attr:`~benchmark.frames.spec.FrameMethod.on_window_grid`) are therefore also run with the
-grid at the ``N x N`` phases of :func:`benchmark.frames.phases.grid_phases` (the default
-grid first); their LAMR is reported as the mean over the phases, and their paired
+Where the grid of windows falls is arbitrary, yet a clip's LAMR moves with it: a window a
+fraction of a stride to the side can be the one a person's strongest score lands on. The
+methods that score the candidate windows (adapted detectors and image warping,
+:attr:`~benchmark.frames.spec.FrameMethod.on_window_grid`) run with their ground grid at the
+``N x N`` phases of :func:`benchmark.frames.phases.grid_phases`; the pyramids, which slide
+their own windows over the frame, run on the frame moved by the ``N x N`` whole-pixel shifts
+of :func:`benchmark.frames.phases.frame_shifts` -- the default grid and the unshifted frame
+first. Each method's LAMR is reported as the mean over its phases, and the paired
 differences average over the phases with every phase of both sides on the same resampled
-blocks of frames (:func:`viewadapt.detect.evaluation.paired_groups_bootstrap`). The
-pyramids slide their own windows over the frame and run once.
+blocks of frames (:func:`viewadapt.detect.evaluation.paired_groups_bootstrap`).
 """
 
 from __future__ import annotations
@@ -22,17 +22,13 @@ from benchmark.footage.report import (
 from benchmark.footage.run import run_footage
 from viewadapt.detect.evaluation import evaluation_matches, matches_lamr, paired_groups_bootstrap
 
-__all__ = ["window_grid_methods", "run_phases", "PhaseSummary", "phase_summary", "phase_lines"]
+__all__ = ["run_phases", "PhaseSummary", "phase_summary", "phase_lines"]
 
 
-def window_grid_methods(methods) -> list:
-    """The methods whose detections move with the candidate windows' ground grid."""
-    return [m for m in methods if m.on_window_grid]
-
-
-def run_phases(clip, methods, models, phases, *, progress=None, **kw) -> dict:
-    """Detections of the window-grid methods of ``methods`` at each phase of ``phases``
-    after the first (the default grid's run is the caller's).
+def run_phases(clip, methods, models, phases, shifts, *, progress=None, **kw) -> dict:
+    """Detections of every method at each phase after the first (the default grid's and
+    the unshifted frame's run is the caller's): the window-grid methods at ``phases[k]``,
+    the pyramids on the frame moved by ``shifts[k]``.
 
     Parameters
     ----------
@@ -41,6 +37,8 @@ def run_phases(clip, methods, models, phases, *, progress=None, **kw) -> dict:
     models : SourceDetectors or None
     phases : sequence of (float, float)
         :func:`benchmark.frames.phases.grid_phases`' output.
+    shifts : sequence of (int, int)
+        :func:`benchmark.frames.phases.frame_shifts`' output, as long as ``phases``.
     progress : callable or None
         Called once per frame of each phase's run.
     **kw
@@ -50,11 +48,13 @@ def run_phases(clip, methods, models, phases, *, progress=None, **kw) -> dict:
     -------
     dict FrameMethod -> list (one per phase after the first) of per-frame (D, 5) arrays
     """
-    moving = window_grid_methods(methods)
-    out = {m: [] for m in moving}
-    for ph in list(phases)[1:]:
-        run = run_footage(clip, moving, models, grid_phase=ph, progress=progress, **kw)
-        for m in moving:
+    if len(shifts) != len(phases):
+        raise ValueError(f"{len(phases)} grid phases but {len(shifts)} frame shifts")
+    out = {m: [] for m in methods}
+    for ph, sh in list(zip(phases, shifts))[1:]:
+        run = run_footage(clip, methods, models, grid_phase=ph, frame_shift=sh,
+                          progress=progress, **kw)
+        for m in methods:
             out[m].append(run.detections[m])
     return out
 
@@ -65,39 +65,53 @@ class PhaseSummary:
     Attributes
     ----------
     lamr : dict FrameMethod -> list of float
-        Each window-grid method's LAMR at every phase, the default grid first.
+        Each method's LAMR at every phase, the default grid (unshifted frame) first.
     differences : list of (FrameMethod, FrameMethod, dict)
         ``(method, reference, result)`` of
         :func:`~viewadapt.detect.evaluation.paired_groups_bootstrap`: the mean over the
-        phases of the method minus that of the reference (one run for a pyramid).
+        phases of the method minus that of the reference.
     phases : list of (float, float)
+        The window-grid methods' grid phases.
+    shifts : list of (int, int)
+        The pyramids' frame shifts, px.
     """
 
-    def __init__(self, lamr, differences, phases):
-        self.lamr, self.differences, self.phases = lamr, differences, list(phases)
+    def __init__(self, lamr, differences, phases, shifts):
+        self.lamr, self.differences = lamr, differences
+        self.phases, self.shifts = list(phases), list(shifts)
 
     def mean(self, m) -> float:
         return float(np.mean(self.lamr[m]))
 
     def rows(self) -> list:
-        """One dict per method and phase (``phases.csv``)."""
-        return [dict(method=m.name, phase_forward=a, phase_left=b, lamr=v)
-                for m, vs in self.lamr.items() for (a, b), v in zip(self.phases, vs)]
+        """One dict per method and phase (``phases.csv``): a window-grid method's grid phase
+        (``phase_forward``, ``phase_left``, fractions of the stride) or a pyramid's frame
+        shift (``shift_x``, ``shift_y``, px)."""
+        out = []
+        for m, vs in self.lamr.items():
+            for k, v in enumerate(vs):
+                where = dict(phase_forward=self.phases[k][0], phase_left=self.phases[k][1]) \
+                    if m.on_window_grid else dict(shift_x=self.shifts[k][0],
+                                                  shift_y=self.shifts[k][1])
+                out.append(dict(method=m.name, **where, lamr=v))
+        return out
 
     def json(self) -> dict:
-        """``phases.json``: the phases, each method's LAMR at each, and the differences."""
+        """``phases.json``: the phases and shifts, each method's LAMR at each, and the
+        differences."""
         return dict(grid_phases=[list(p) for p in self.phases],
+                    frame_shifts=[list(p) for p in self.shifts],
                     lamr={m.name: vs for m, vs in self.lamr.items()},
                     differences=[dict(method=m.name, reference=r.name, **d)
                                  for m, r, d in self.differences])
 
 
-def phase_summary(run, phase_detections, evaluations, matches, image_size, phases, *,
+def phase_summary(run, phase_detections, evaluations, matches, image_size, phases, shifts, *,
                   regions=None, block: int = 10, seed: int = 0) -> PhaseSummary:
-    """The window-grid methods' LAMR at every phase and their paired differences averaged
-    over the phases: against the best unadapted baseline, each adapted detector against
-    the best pyramid of the same detector (when that is another one) and against image
-    warping of the same model (both averaged over the phases).
+    """Every method's LAMR at every phase and the paired differences averaged over the
+    phases: against the best unadapted baseline, each adapted detector against the best
+    pyramid of the same detector (when that is another one) and against image warping of
+    the same model.
 
     ``run``, ``evaluations``, ``matches``: the default grid's
     (:func:`~benchmark.footage.run.run_footage`,
@@ -116,7 +130,7 @@ def phase_summary(run, phase_detections, evaluations, matches, image_size, phase
     pairs = comparison_pairs(list(per_phase), evaluations)
     differences = [(m, r, paired_groups_bootstrap(group(m), group(r), block=block, seed=seed))
                    for m, r in pairs]
-    return PhaseSummary(lamr, differences, phases)
+    return PhaseSummary(lamr, differences, phases, shifts)
 
 
 def phase_lines(summary: PhaseSummary, evaluations, block_frames: int) -> list:
@@ -125,10 +139,13 @@ def phase_lines(summary: PhaseSummary, evaluations, block_frames: int) -> list:
     n = len(summary.phases)
     ref = best_unadapted(evaluations)
     to_ref = {m: d for m, r, d in summary.differences if r == ref}
+    shifts = sorted({s for xy in summary.shifts for s in xy})
     lines = ["", f"## Over {n} grid phases", "",
-             "The methods that score the candidate windows, with the windows' ground grid at "
-             f"{n} phases (fractions of its stride, the default grid first): their LAMR "
-             "moves with where the grid falls. Mean over the phases; paired differences "
+             "Every method with its window grid at "
+             f"{n} phases, the default first: the methods that score the candidate windows "
+             "with their ground grid at fractions of its stride, the pyramids on the frame "
+             f"moved by {shifts[0]}-{shifts[-1]} whole pixels each way (a LAMR moves with "
+             "where the grid falls). Mean over the phases; paired differences "
              "average over the phases, every phase of both sides on the same resampled "
              f"{block_frames}-frame blocks.", "",
              f"| method | LAMR, mean over {n} phases | sd | range | default grid | "

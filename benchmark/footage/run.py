@@ -151,7 +151,7 @@ class FootageRun:
 
 
 def run_footage(clip: Clip, methods, models, *, heights, cache_dir=None, cache_limit_gb=None,
-                tolerance=None, ground_stride=None, grid_phase=(0.0, 0.0),
+                tolerance=None, ground_stride=None, grid_phase=(0.0, 0.0), frame_shift=(0, 0),
                 box_voting=DEFAULT_BOX_VOTING,
                 progress=None) -> FootageRun:
     """Every method on every frame of the clip, in one process, each timed on one core
@@ -172,6 +172,10 @@ def run_footage(clip: Clip, methods, models, *, heights, cache_dir=None, cache_l
         :class:`viewadapt.detect.FrameDetector`'s (tolerance, ground_stride None: its
         defaults; grid_phase: where the candidate windows' ground grid stands;
         box_voting: applied to every method's boxes, the pyramids' too).
+    frame_shift : (int, int)
+        Whole pixels the frame is moved under the pyramids
+        (:meth:`benchmark.frames.methods.FrameMethods.detect`); the window-grid methods
+        move with ``grid_phase`` instead.
     progress : callable or None
         Called once per frame.
     """
@@ -195,16 +199,19 @@ def run_footage(clip: Clip, methods, models, *, heights, cache_dir=None, cache_l
         out.prepare_seconds[m] = time.perf_counter() - t
     with single_thread():
         for i, frame in enumerate(clip.stream):
-            _run_frame(frame, clip, fm, methods, undistort, out, warm_up=i == 0)
+            _run_frame(frame, clip, fm, methods, undistort, out, warm_up=i == 0,
+                       frame_shift=frame_shift)
             if progress is not None:
                 progress()
     return out
 
 
-def _run_frame(frame, clip, fm, methods, undistort, out, *, warm_up: bool = False) -> None:
+def _run_frame(frame, clip, fm, methods, undistort, out, *, warm_up: bool = False,
+               frame_shift=(0, 0)) -> None:
     """Every method on one frame of the clip, each timed, into ``out``; ``warm_up``: each
     method first runs once on the frame untimed (the first call of a compiled kernel loads
-    it, which is not the per-frame cost)."""
+    it, which is not the per-frame cost); ``frame_shift``: the pyramids' (see
+    :func:`run_footage`)."""
     cam = clip.camera
     if (frame.image.shape[1], frame.image.shape[0]) != tuple(cam.image_size):
         raise ValueError(f"frame {frame.source} is {frame.image.shape[1]}x"
@@ -217,15 +224,16 @@ def _run_frame(frame, clip, fm, methods, undistort, out, *, warm_up: bool = Fals
         out.undistort_seconds += time.perf_counter() - t
     raw = {}
     for m in methods:
+        shift = (0, 0) if m.on_window_grid else frame_shift
         if warm_up:
-            fm.detect(m, image)
+            fm.detect(m, image, frame_shift=shift)
         t = time.perf_counter()
         base = replace(m, ground=False) if m.ground else None
         if base in raw:
             dets = fm.on_ground(raw[base][0])
             extra = raw[base][1]
         else:
-            dets = fm.detect(m, image)
+            dets = fm.detect(m, image, frame_shift=shift)
             extra = 0.0
         seconds = time.perf_counter() - t
         raw[m] = (dets, seconds)

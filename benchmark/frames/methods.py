@@ -46,6 +46,7 @@ from benchmark.frames.pyramids import (
     ACF_PYRAMID_LAMBDAS, acf_pyramid_detect, acf_pyramid_fast_detect, hog_pyramid_detect,
     kind_nms, pyramid_scales,
 )
+from benchmark.frames.phases import shifted_frame, unshifted_boxes
 from benchmark.frames.spec import frame_method
 from benchmark.recipes import DEFAULT_RECIPE
 from viewadapt.detect import (
@@ -294,26 +295,36 @@ class FrameMethods:
         if m.how == "adapted":
             self.detector(m.rule, m.object_model, m.fold).operator(m.kind)
 
-    def detect(self, method, image) -> np.ndarray:
+    def detect(self, method, image, *, frame_shift=(0, 0)) -> np.ndarray:
         """(D, 5) detections ``(x, y, w, h, score)`` of ``method`` (a
-        :class:`~benchmark.frames.spec.FrameMethod` or its name) on ``image``."""
+        :class:`~benchmark.frames.spec.FrameMethod` or its name) on ``image``.
+        ``frame_shift`` (``(dx, dy)`` whole pixels, pyramids only): the pyramid slides its
+        windows over the frame moved that far (:func:`benchmark.frames.phases.shifted_frame`),
+        its boxes mapped back before the ground-plane filter."""
         check_frame(image, self.adapted.size)
         m = frame_method(method)
         kind = m.detector
         vote = self.adapted.box_voting          # every method's boxes alike
+        shift = tuple(int(v) for v in frame_shift)
+        if shift != (0, 0) and m.on_window_grid:
+            raise ValueError(f"{m.name} scores the candidate windows: their grid moves with "
+                             "grid_phase, not with a frame shift")
         if m.how == "adapted":
             return self.detector(m.rule, m.object_model, m.fold).detect(image, kind.name)
         if m.how == "warp":
             s = warp_scores(image, self.windows.homographies, self.models, kind)
             return kind_nms(person_boxes(self.windows.homographies), s, self.thr[kind.name],
                             kind, vote)
+        canvas = shifted_frame(image, shift)
         if m.kind in PRETRAINED_KINDS:
-            dets = opencv_detect(image, upsample=m.upsample, detector=m.kind, vote=vote)
+            dets = opencv_detect(canvas, upsample=m.upsample, detector=m.kind, vote=vote)
         else:
             detect = {"pyramid": hog_pyramid_detect if kind is HOG_DETECTOR
                       else acf_pyramid_detect, "pyramid_fast": acf_pyramid_fast_detect}[m.how]
-            dets = detect(image, self.models, upsample=m.upsample,
+            dets = detect(canvas, self.models, upsample=m.upsample,
                           threshold=self.thr[kind.name], vote=vote)
+        if shift != (0, 0):
+            dets = unshifted_boxes(dets, shift)
         return self.on_ground(dets) if m.ground else dets
 
     def on_ground(self, detections) -> np.ndarray:

@@ -16,7 +16,7 @@ import numpy as np
 from viewadapt.detect import ground_truth_rows, standardize_boxes
 from viewadapt.metrics import accumulate_frames, log_average_miss_rate, match_detections
 
-__all__ = ["grid_phases", "frame_matches", "matches_lamr", "paired_lamr_difference",
+__all__ = ["grid_phases", "frame_shifts", "shifted_frame", "unshifted_boxes", "frame_matches", "matches_lamr", "paired_lamr_difference",
            "phase_mean_difference"]
 
 
@@ -27,6 +27,41 @@ def grid_phases(n: int) -> list:
     if n < 1:
         raise ValueError(f"the number of grid phases per axis must be at least 1, got {n}")
     return [(i / n, j / n) for i in range(n) for j in range(n)]
+
+
+def frame_shifts(n: int) -> list:
+    """The ``n x n`` whole-pixel shifts ``(dx, dy)`` (0 to ``n - 1`` each way) of the frame
+    under a sliding-window pyramid (:func:`shifted_frame`), in the order of
+    :func:`grid_phases` (no shift first): where a pyramid's own window grid falls, as the
+    grid phases are where the candidate windows' ground grid falls. At OpenCV's 2x
+    upsampling one pixel is a quarter of ``detectMultiScale``'s finest 8-px stride."""
+    if n < 1:
+        raise ValueError(f"the number of frame shifts per axis must be at least 1, got {n}")
+    return [(i, j) for i in range(n) for j in range(n)]
+
+
+def shifted_frame(image, shift) -> np.ndarray:
+    """``image`` on a canvas ``dx`` px wider and ``dy`` px taller, the frame at its bottom
+    right and its first columns and rows replicated to the left and above: every pixel of the
+    frame is kept, ``dx, dy`` px further from the origin (boxes found on it map back by
+    :func:`unshifted_boxes`)."""
+    import cv2
+
+    dx, dy = (int(v) for v in shift)
+    if dx < 0 or dy < 0:
+        raise ValueError(f"a frame shift is whole pixels >= 0, got {tuple(shift)}")
+    if dx == dy == 0:
+        return image
+    return cv2.copyMakeBorder(np.ascontiguousarray(image), dy, 0, dx, 0, cv2.BORDER_REPLICATE)
+
+
+def unshifted_boxes(detections, shift) -> np.ndarray:
+    """(D, 5) boxes ``(x, y, w, h, score)`` found on :func:`shifted_frame`'s canvas, in the
+    frame's own pixels."""
+    d = np.array(detections, np.float64).reshape(-1, 5)
+    d[:, 0] -= shift[0]
+    d[:, 1] -= shift[1]
+    return d
 
 
 def frame_matches(detections, frames) -> list:

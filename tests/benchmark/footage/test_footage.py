@@ -229,38 +229,46 @@ def test_the_daimler_detector_against_its_own_pyramids(toy, tmp_path, capsys):
     assert ("daimler_adapted", own) in pairs and f"daimler_adapted - {own}" in printed
 
 
-def test_the_window_grid_methods_over_grid_phases(toy, tmp_path, capsys):
+def test_every_method_over_grid_phases(toy, tmp_path, capsys):
     """``--phases 2``: the adapted and warping methods also run at the grid's three other
-    phases, the pyramids once; the report's means and paired differences are over the
-    phases, the default grid's phase being the table's run."""
+    phases and the pyramids on the frame moved by (0, 1), (1, 0), (1, 1) px; the report's
+    means and paired differences are over the phases, the default grid's (unshifted
+    frame's) run being the table's."""
     out = tmp_path / "phases"
     assert _footage(toy, out, "--methods", *METHODS, "--phases", "2", "--max-frames", "4",
                     "--bootstrap-block", "2") == 0
     printed = capsys.readouterr().out
     ph = json.loads((out / "phases.json").read_text())
     assert ph["grid_phases"] == [[0, 0], [0, 0.5], [0.5, 0], [0.5, 0.5]]
-    moving = ["hog_adapted", "hog_warp", "opencv_adapted"]
-    assert list(ph["lamr"]) == moving
+    assert ph["frame_shifts"] == [[0, 0], [0, 1], [1, 0], [1, 1]]
+    assert list(ph["lamr"]) == METHODS
     table = pd.read_csv(out / "footage_summary.csv").set_index("method")
-    for m in moving:
+    for m in METHODS:
         assert len(ph["lamr"][m]) == 4
         assert ph["lamr"][m][0] == pytest.approx(table.loc[m, "lamr"], abs=1e-5)
     ref = table.loc[["opencv_native", "opencv_native[ground]"], "lamr"].idxmin()
     diffs = {(d["method"], d["reference"]): d for d in ph["differences"]}
-    assert set(diffs) == {(m, ref) for m in moving} | {("hog_adapted", "hog_warp")}
-    for m in moving:
-        assert diffs[m, ref]["difference"] == pytest.approx(
-            np.mean(ph["lamr"][m]) - table.loc[ref, "lamr"], abs=1e-5)
-    assert diffs["hog_adapted", "hog_warp"]["difference"] == pytest.approx(
-        np.mean(ph["lamr"]["hog_adapted"]) - np.mean(ph["lamr"]["hog_warp"]), abs=1e-9)
+    assert {(m, ref) for m in METHODS if m != ref} | {("hog_adapted", "hog_warp")} \
+        == set(diffs)
+    for m in METHODS:                  # both sides averaged over their phases
+        if m != ref:
+            assert diffs[m, ref]["difference"] == pytest.approx(
+                np.mean(ph["lamr"][m]) - np.mean(ph["lamr"][ref]), abs=1e-5)
     rows = pd.read_csv(out / "phases.csv")
-    assert len(rows) == 12 and set(rows["method"]) == set(moving)
+    assert len(rows) == 4 * len(METHODS) and set(rows["method"]) == set(METHODS)
+    pyr = rows[rows["method"].str.startswith("opencv_native")]
+    assert pyr["phase_forward"].isna().all() and set(pyr["shift_x"]) == {0, 1}
+    grid = rows[~rows["method"].str.startswith("opencv_native")]
+    assert grid["shift_x"].isna().all() and set(grid["phase_left"]) == {0, 0.5}
     assert "## Over 4 grid phases" in printed and "(phase mean)" in printed
-    assert json.loads((out / "run.json").read_text())["grid_phases"] == ph["grid_phases"]
+    assert "moved by 0-1 whole pixels" in printed
+    run = json.loads((out / "run.json").read_text())
+    assert run["grid_phases"] == ph["grid_phases"] and run["frame_shifts"] == ph["frame_shifts"]
 
 
 def test_each_phase_runs_at_its_own_grid(toy):
-    """run_phases gives each phase's detections as the runner at that phase gives them."""
+    """run_phases gives each phase's detections as the runner at that grid phase (the
+    window-grid methods) or frame shift (the pyramids) gives them."""
     from benchmark.footage.phases import run_phases
     from benchmark.footage.run import open_clip, run_footage
     from benchmark.frames.spec import FrameMethod
@@ -268,16 +276,20 @@ def test_each_phase_runs_at_its_own_grid(toy):
 
     clip = open_clip([str(toy.img1)], toy.calibration, toy.gt, max_frames=1)
     models = SourceDetectors.load(toy.model)
-    methods = [FrameMethod.parse(m) for m in ("opencv_native", "hog_adapted")]
-    phases = [(0.0, 0.0), (0.5, 0.5)]
-    got = run_phases(clip, methods, models, phases, heights=(1.75,), cache_dir=toy.cache)
-    assert list(got) == [methods[1]] and len(got[methods[1]]) == 1
-    want = run_footage(clip, methods[1:], models, heights=(1.75,), cache_dir=toy.cache,
-                       grid_phase=phases[1]).detections[methods[1]]
-    default = run_footage(clip, methods[1:], models, heights=(1.75,),
-                          cache_dir=toy.cache).detections[methods[1]]
-    np.testing.assert_array_equal(got[methods[1]][0][0], want[0])
-    assert not np.array_equal(want[0], default[0])
+    methods = [FrameMethod.parse(m) for m in ("hog_pyramid", "hog_adapted")]
+    phases, shifts = [(0.0, 0.0), (0.5, 0.5)], [(0, 0), (3, 2)]
+    got = run_phases(clip, methods, models, phases, shifts, heights=(1.75,),
+                     cache_dir=toy.cache)
+    assert list(got) == methods and all(len(v) == 1 for v in got.values())
+    kw = dict(heights=(1.75,), cache_dir=toy.cache)
+    want = run_footage(clip, methods, models, grid_phase=phases[1], frame_shift=shifts[1],
+                       **kw).detections
+    default = run_footage(clip, methods, models, **kw).detections
+    for m in methods:
+        np.testing.assert_array_equal(got[m][0][0], want[m][0])
+        assert not np.array_equal(want[m][0], default[m][0]), m
+    with pytest.raises(ValueError, match="2 grid phases but 1 frame shifts"):
+        run_phases(clip, methods, models, phases, shifts[:1], **kw)
 
 
 @pytest.mark.parametrize("argv, message", [
@@ -286,8 +298,6 @@ def test_each_phase_runs_at_its_own_grid(toy):
      "--bootstrap-block must be at least 1"),
     (["--methods", "opencv_native", "--every", "0"], "--every must be at least 1"),
     (["--methods", "hog_adapted", "--phases", "0"], "--phases must be at least 1"),
-    (["--methods", "opencv_native", "--phases", "2"],
-     "--phases needs a method that scores the candidate windows"),
 ])
 def test_bad_input_is_one_line(toy, tmp_path, capfd, argv, message):
     assert _footage(toy, tmp_path / "bad", *argv) == 2
@@ -313,9 +323,9 @@ def test_each_method_runs_once_untimed_before_the_timed_frames(toy, monkeypatch)
     calls = []
     detect = FrameMethods.detect
 
-    def counted(self, method, image):
+    def counted(self, method, image, **kw):
         calls.append(method.name)
-        return detect(self, method, image)
+        return detect(self, method, image, **kw)
 
     monkeypatch.setattr(FrameMethods, "detect", counted)
     methods = [FrameMethod.parse(m) for m in ("opencv_native", "opencv_native[ground]",

@@ -145,3 +145,49 @@ def test_bench_frames_box_voting(toy, tmp_path, capsys):
                   "--model", str(model), "--methods", "hog_warp", "--keep-other-methods",
                   "--box-voting", "1", "--overwrite"]) == 2
     assert "--box-voting 0, not 1" in capsys.readouterr().err
+
+
+def test_frame_shifts_keep_every_pixel_and_map_boxes_back():
+    """The pyramids' phases: the frame on a larger canvas, its first columns and rows
+    replicated, nothing cut; boxes found there map back by the shift."""
+    from benchmark.frames.phases import frame_shifts, shifted_frame, unshifted_boxes
+
+    assert frame_shifts(2) == [(0, 0), (0, 1), (1, 0), (1, 1)]
+    assert len(frame_shifts(4)) == len(grid_phases(4)) and frame_shifts(4)[0] == (0, 0)
+    img = np.arange(5 * 7 * 3, dtype=np.uint8).reshape(5, 7, 3)
+    assert shifted_frame(img, (0, 0)) is img
+    canvas = shifted_frame(img, (3, 2))
+    assert canvas.shape == (7, 10, 3)
+    np.testing.assert_array_equal(canvas[2:, 3:], img)
+    np.testing.assert_array_equal(canvas[:2, 3:], np.broadcast_to(img[:1], (2, 7, 3)))
+    np.testing.assert_array_equal(canvas[2:, :3], np.repeat(img[:, :1], 3, axis=1))
+    boxes = np.array([[10.0, 20.0, 30.0, 60.0, 0.5]])
+    np.testing.assert_array_equal(unshifted_boxes(boxes, (3, 2)),
+                                  [[7.0, 18.0, 30.0, 60.0, 0.5]])
+    with pytest.raises(ValueError, match="whole pixels >= 0"):
+        shifted_frame(img, (-1, 0))
+    with pytest.raises(ValueError, match="at least 1"):
+        frame_shifts(0)
+
+
+def test_a_frame_shift_moves_the_pyramids_only(toy):
+    """FrameMethods.detect(frame_shift=...): a pyramid's boxes on the moved frame, mapped
+    back (so they differ from the unmoved frame's, in the frame's own pixels); a method on
+    the candidate windows refuses it (its grid moves with grid_phase)."""
+    from benchmark.frames.methods import FrameMethods
+    from viewadapt.io import SourceDetectors
+
+    data, model = toy
+    frame = load_frames(data)[0]
+    fm = FrameMethods(frame.camera, SourceDetectors.load(model), person_heights=(1.75,))
+    image = frame.image()
+    plain = fm.detect("hog_pyramid", image)
+    moved = fm.detect("hog_pyramid", image, frame_shift=(16, 24))
+    assert len(plain) and len(moved) and not np.array_equal(plain, moved)
+    # boxes stay on the frame's persons: the best box of each run overlaps the other's
+    from viewadapt.boxes import box_iou
+
+    best = plain[np.argmax(plain[:, 4]), :4]
+    assert box_iou(best[None], moved[:, :4]).max() > 0.5
+    with pytest.raises(ValueError, match="not with a frame shift"):
+        fm.detect("hog_adapted", image, frame_shift=(1, 0))
