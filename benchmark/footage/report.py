@@ -90,7 +90,8 @@ def footage_targets(run, evaluations, differences) -> list:
 
 def target_items(evaluations, differences, *, run=None, lamr=None, note: str = "") -> list:
     """The bullets of :func:`footage_targets`; ``lamr``: {method: LAMR} replacing the
-    evaluations' for those methods (e.g. means over grid phases, ``note`` saying so);
+    evaluations' for those methods, the baselines' too (e.g. means over grid phases,
+    ``note`` saying so);
     ``run``: with it, the frames-per-second targets too."""
     lamr = lamr or {}
     out = []
@@ -100,8 +101,11 @@ def target_items(evaluations, differences, *, run=None, lamr=None, note: str = "
                     and m.ground]
         if ad not in evaluations or not grounded:
             continue
-        best = min(grounded, key=lambda m: evaluations[m][0]["lamr"])
-        a, b = lamr.get(ad, evaluations[ad][0]["lamr"]), evaluations[best][0]["lamr"]
+        def value(m):
+            return lamr.get(m, evaluations[m][0]["lamr"])
+
+        best = min(grounded, key=value)
+        a, b = value(ad), value(best)
         out.append(f"- {ad.name} LAMR {a:.3f}{note} below {best.name}'s {b:.3f}: "
                    f"{'met' if a < b else 'NOT met'}")
         two = FrameMethod(kind, "pyramid", upsample=2)

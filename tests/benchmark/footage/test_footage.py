@@ -266,6 +266,22 @@ def test_every_method_over_grid_phases(toy, tmp_path, capsys):
     assert run["grid_phases"] == ph["grid_phases"] and run["frame_shifts"] == ph["frame_shifts"]
 
 
+def test_the_targets_on_phase_means_take_the_baselines_means_too():
+    """target_items with ``lamr`` (phase means): the best ground-filtered pyramid is chosen,
+    and stated, by its phase mean, not by its default grid's LAMR."""
+    from benchmark.footage.report import target_items
+    from benchmark.frames.spec import FrameMethod
+
+    ad, one, two = (FrameMethod.parse(n) for n in ("opencv_adapted", "opencv_native[ground]",
+                                                    "opencv_2x[ground]"))
+    evaluations = {ad: [{"lamr": 0.20}], one: [{"lamr": 0.175}], two: [{"lamr": 0.18}]}
+    plain = target_items(evaluations, [])
+    assert plain == ["- opencv_adapted LAMR 0.200 below opencv_native[ground]'s 0.175: NOT met"]
+    means = {ad: 0.16, one: 0.19, two: 0.17}
+    assert target_items(evaluations, [], lamr=means, note=" (phase mean)") == [
+        "- opencv_adapted LAMR 0.160 (phase mean) below opencv_2x[ground]'s 0.170: met"]
+
+
 def test_each_phase_runs_at_its_own_grid(toy):
     """run_phases gives each phase's detections as the runner at that grid phase (the
     window-grid methods) or frame shift (the pyramids) gives them."""
