@@ -52,11 +52,11 @@ def _group_by_camera(frames):
 
 def _detect_camera(group, models, methods, heights, cache_dir, cache_limit_gb, tolerance,
                    cells_per_source_cell, upsample_below, grid_phase=(0.0, 0.0),
-                   box_voting=DEFAULT_BOX_VOTING, progress=None):
+                   frame_shift=(0, 0), box_voting=DEFAULT_BOX_VOTING, progress=None):
     """Every method (:class:`~benchmark.frames.spec.FrameMethod`) on the frames of one camera,
     the candidate windows at ``grid_phase`` (through the camera's lens when its frames
-    record one, as ``viewadapt detect`` maps them): (detections, seconds, windows), by
-    method."""
+    record one, as ``viewadapt detect`` maps them), the pyramids on the frames moved by
+    ``frame_shift``: (detections, seconds, windows), by method."""
     from benchmark.frames.methods import FrameMethods
 
     lens = None if group[0].dist is None else group[0].dist.tolist()
@@ -73,7 +73,8 @@ def _detect_camera(group, models, methods, heights, cache_dir, cache_limit_gb, t
         img = f.image()
         for m in methods:
             t = time.perf_counter()
-            dets[m].append(fd.detect(m, img))
+            dets[m].append(fd.detect(m, img, frame_shift=(0, 0) if m.on_window_grid
+                                     else frame_shift))
             secs[m] += time.perf_counter() - t
         if progress is not None:
             progress.update(1)
@@ -91,31 +92,30 @@ def run_frames_benchmark(data, *, methods, seed=0, quick=False, max_frames=None,
     on every frame.
 
     Cameras are processed in parallel with ``jobs`` worker processes (joblib); the
-    seconds per frame are measured inside each worker. With ``phases`` > 1 the methods
-    that score the candidate windows (``on_window_grid``) run again with the windows'
-    ground grid at each of the ``phases x phases`` grid phases
-    (:func:`benchmark.frames.phases.grid_phases`), and their ``lamr`` is the mean over the
-    phases (``lamr_phases``: each phase's, the default grid's first); their curves,
-    detections and seconds are the default grid's. The other methods do not read the
-    windows and run once. ``box_voting``: every method's boxes voted after non-maximum
+    seconds per frame are measured inside each worker. With ``phases`` > 1 every method
+    runs again at each of ``phases x phases`` phases of its window grid -- the methods that
+    score the candidate windows (``on_window_grid``) with the windows' ground grid at
+    :func:`benchmark.frames.phases.grid_phases`, the pyramids on the frames moved by
+    :func:`benchmark.frames.phases.frame_shifts` -- and its ``lamr`` is the mean over the
+    phases (``lamr_phases``: each phase's, the default's first); curves, detections and
+    seconds are the default's. ``box_voting``: every method's boxes voted after non-maximum
     suppression (:class:`viewadapt.detect.FrameDetector`'s temperature; 0 none).
 
     Returns
     -------
     (results, models, detections, frames, info, phase_detections)
         ``results``, ``detections`` and ``phase_detections`` by method; ``phase_detections``:
-        {method: per phase, per frame detections} of the methods run at every phase (empty
-        with one phase).
+        {method: per phase, per frame detections} (empty with one phase).
     """
     from joblib import Parallel, delayed
     from tqdm.auto import tqdm
 
     from benchmark.data import load_dataset
-    from benchmark.frames.phases import grid_phases
+    from benchmark.frames.phases import frame_shifts, grid_phases
     from benchmark.frames.methods import evaluate_method, load_frames, train_source_detectors
 
     check_upsample_below(upsample_below, "--upsample-below")
-    phase_list = grid_phases(phases)
+    phase_list, shift_list = grid_phases(phases), frame_shifts(phases)
     frames = load_frames(data)
     if max_frames:
         frames = frames[:max_frames]
@@ -130,10 +130,12 @@ def run_frames_benchmark(data, *, methods, seed=0, quick=False, max_frames=None,
             print(f"  trained in {time.perf_counter() - t0:.0f} s", flush=True)
     groups = _group_by_camera(frames)
     order = [f for g in groups for f in g]
-    moving = [m for m in methods if m.on_window_grid] if phases > 1 else []
-    # (group, phase, methods): every method on the default grid, then the moving ones
-    tasks = [(g, phase_list[0], methods) for g in groups] + [
-        (g, ph, moving) for ph in phase_list[1:] for g in groups if moving]
+    moving = list(methods) if phases > 1 else []
+    # (group, (grid phase, frame shift), methods): every method at the default, then at
+    # each other phase
+    where = list(zip(phase_list, shift_list))
+    tasks = [(g, where[0], methods) for g in groups] + [
+        (g, ph, moving) for ph in where[1:] for g in groups if moving]
     kw = dict(models=models, heights=heights, cache_dir=cache_dir,
               cache_limit_gb=cache_limit_gb, tolerance=tolerance,
               cells_per_source_cell=cells_per_source_cell,
@@ -141,20 +143,22 @@ def run_frames_benchmark(data, *, methods, seed=0, quick=False, max_frames=None,
     n_jobs = 1 if jobs is None else int(jobs)
     if n_jobs != 1 and len(tasks) > 1:
         par = Parallel(n_jobs=n_jobs, return_as="generator")
-        out = list(tqdm(par(delayed(_detect_camera)(g, methods=ms, grid_phase=ph, **kw)
-                            for g, ph, ms in tasks),
+        out = list(tqdm(par(delayed(_detect_camera)(g, methods=ms, grid_phase=ph,
+                                                    frame_shift=sh, **kw)
+                            for g, (ph, sh), ms in tasks),
                         total=len(tasks), desc="cameras" if len(phase_list) == 1 or not moving
                         else "cameras x grid phases", unit="task", disable=not progress))
     else:
         with tqdm(total=sum(len(g) for g, _, _ in tasks), desc="frames", unit="frame",
                   disable=not progress) as bar:
-            out = [_detect_camera(g, methods=ms, grid_phase=ph, progress=bar, **kw)
-                   for g, ph, ms in tasks]
+            out = [_detect_camera(g, methods=ms, grid_phase=ph, frame_shift=sh,
+                                  progress=bar, **kw)
+                   for g, (ph, sh), ms in tasks]
     first = out[:len(groups)]
     dets = {m: [d for o in first for d in o[0][m]] for m in methods}
     secs = {m: sum(o[1][m] for o in first) for m in methods}
     phase_dets = {m: [[d for (_, p, _), o in zip(tasks, out) if p == ph for d in o[0][m]]
-                      for ph in phase_list] for m in moving}
+                      for ph in where] for m in moving}
     results = {}
     for m in methods:
         ev = evaluate_method(dets[m], order)
@@ -165,6 +169,7 @@ def run_frames_benchmark(data, *, methods, seed=0, quick=False, max_frames=None,
             results[m].update(lamr=float(np.mean(lamrs)), lamr_phases=lamrs)
     info = dict(n_frames=len(order), windows_per_camera=[o[2] for o in first],
                 n_gt=int(sum(len(f.gt) for f in order)), grid_phases=phase_list,
+                frame_shifts=shift_list,
                 box_voting=float(box_voting))
     return results, models, dets, order, info, phase_dets
 
@@ -285,7 +290,8 @@ def cmd_bench_frames(args) -> int:
         lines += accuracy_targets(results, lamrs)
         if phase_dets:
             lines += phase_gap_lines(phase_dets, frames, seed=args.seed)
-            (tmp / "phases.csv").write_text(phase_table(results, info["grid_phases"]))
+            (tmp / "phases.csv").write_text(phase_table(results, info["grid_phases"],
+                                                        info["frame_shifts"]))
             plot_seed_figure({f"{a:g}, {b:g}": {m: results[m]["lamr_phases"][i]
                                                 for m in phase_dets}
                               for i, (a, b) in enumerate(info["grid_phases"])},
@@ -477,13 +483,13 @@ def register(sub, common) -> None:
                         "OpenCV, which trains nothing, runs once (default 1)")
     add_box_voting_option(p)
     p.add_argument("--phases", type=int, default=1,
-                   help="run the methods that score the candidate windows (adapted, "
-                        "warp) with the windows' ground grid at N x N phases (fractions "
-                        "of its stride) and report their mean LAMR, its spread and the "
-                        "adapted - warping gap with a paired bootstrap interval "
-                        "(phases.csv). The LAMR moves with where the grid falls; the "
-                        "pyramids and OpenCV slide their own windows and run once "
-                        "(default 1: the default grid only)")
+                   help="run every method with its window grid at N x N phases -- the "
+                        "methods that score the candidate windows (adapted, warp) with the "
+                        "windows' ground grid at fractions of its stride, the pyramids and "
+                        "OpenCV on the frames moved by 0..N-1 whole pixels each way -- and "
+                        "report their mean LAMR, its spread and the adapted - warping gap "
+                        "with a paired bootstrap interval (phases.csv). The LAMR moves with "
+                        "where the grid falls (default 1: the default grid only)")
     p.add_argument("--keep-other-methods", action="store_true",
                    help="run only --methods and keep the other methods' results of the "
                         "earlier run in --out on the same --data (e.g. rerun the adapted "

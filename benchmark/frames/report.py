@@ -35,20 +35,23 @@ def summary_table(results, methods, *, seed_note: str = "", n_phases: int = 1) -
         r = results[m]
         if "lamr_phases" in r:
             sd, default = f"{np.std(r['lamr_phases'], ddof=1):.3f}", r["lamr_phases"][0]
-        else:                   # the pyramids and OpenCV: not on the windows' grid
+        else:                   # no per-phase LAMRs
             sd, default = "-", r["lamr"]
         lines.append(f"| {m.name} | {r['lamr']:.3f} | {sd} | {default:.3f} | "
                      f"{r['seconds_per_frame']:.3f} |")
     return lines
 
 
-def phase_table(results, phases) -> str:
-    """CSV text: ``method, phase_forward, phase_left, lamr`` for every method run at each of
-    ``phases`` (fractions of the ground grid's stride, as ``grid_phase``)."""
-    rows = ["method,phase_forward,phase_left,lamr\n"]
+def phase_table(results, phases, shifts) -> str:
+    """CSV text: ``method, phase_forward, phase_left, shift_x, shift_y, lamr`` for every method
+    run at each phase: a method on the candidate windows at ``phases`` (fractions of the
+    ground grid's stride, as ``grid_phase``), a pyramid on the frames moved by ``shifts``
+    (whole pixels); the other pair of columns empty."""
+    rows = ["method,phase_forward,phase_left,shift_x,shift_y,lamr\n"]
     for m, r in results.items():
-        for (a, b), v in zip(phases, r.get("lamr_phases", ())):
-            rows.append(f"{m.name},{a:g},{b:g},{v:.5f}\n")
+        for (a, b), (x, y), v in zip(phases, shifts, r.get("lamr_phases", ())):
+            where = f"{a:g},{b:g},," if m.on_window_grid else f",,{x},{y}"
+            rows.append(f"{m.name},{where},{v:.5f}\n")
     return "".join(rows)
 
 

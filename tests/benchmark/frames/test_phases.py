@@ -52,23 +52,23 @@ def test_phase_runs_move_the_windows_and_average(toy, tmp_path):
     one, *_, none = run_frames_benchmark(data, **kw)
     res, _, dets, frames, info, phase_dets = run_frames_benchmark(data, phases=2, **kw)
     assert none == {} and info["grid_phases"] == grid_phases(2)
-    assert set(phase_dets) == {ad, wp}                              # opencv runs once
-    for m in (ad, wp):
+    assert info["frame_shifts"] == [(0, 0), (0, 1), (1, 0), (1, 1)]
+    assert set(phase_dets) == {ad, wp, cv}          # opencv on the frames moved 0-1 px
+    for m in (ad, wp, cv):
         lamrs = res[m]["lamr_phases"]
         assert len(lamrs) == 4 and res[m]["lamr"] == pytest.approx(np.mean(lamrs))
         # the default grid is the one-phase run's, detection for detection
         assert lamrs[0] == one[m]["lamr"]
         assert all(np.array_equal(a, b) for a, b in zip(phase_dets[m][0], dets[m]))
-        # another phase scores other windows
+    for m in (ad, wp):      # another phase scores other windows
         assert any(a.shape != b.shape or not np.allclose(a, b)
                    for a, b in zip(phase_dets[m][1], phase_dets[m][0]))
-    assert res[cv]["lamr"] == one[cv]["lamr"]
-    assert "lamr_phases" not in res[cv]
     # the tables
     md = "\n".join(summary_table(res, list(res), n_phases=4))
     assert "mean over 4 grid phases" in md and "| opencv_native |" in md
-    csv = phase_table(res, info["grid_phases"]).splitlines()
-    assert csv[0] == "method,phase_forward,phase_left,lamr" and len(csv) == 1 + 8
+    csv = phase_table(res, info["grid_phases"], info["frame_shifts"]).splitlines()
+    assert csv[0] == "method,phase_forward,phase_left,shift_x,shift_y,lamr" and len(csv) == 13
+    assert csv[-1].startswith("opencv_native,,,1,1,") and csv[1].startswith("hog_adapted,0,0,,,")
     gap = phase_gap_lines(phase_dets, frames, n_boot=20)
     assert len(gap) == 4 and gap[-1].startswith("- hog_adapted - hog_warp: ")
 
@@ -95,7 +95,7 @@ def test_bench_frames_phases_end_to_end(toy, tmp_path):
                   "hog_adapted", "hog_warp", "opencv_native"]) == 0
     summary = pd.read_csv(out / "frames_summary.csv").set_index("method")
     phases = pd.read_csv(out / "phases.csv")
-    assert sorted(set(phases["method"])) == ["hog_adapted", "hog_warp"]
+    assert sorted(set(phases["method"])) == ["hog_adapted", "hog_warp", "opencv_native"]
     for m in ("hog_adapted", "hog_warp"):
         rows = phases[phases["method"] == m]
         assert len(rows) == 4 and summary.loc[m, "grid_phases"] == 4
@@ -105,12 +105,20 @@ def test_bench_frames_phases_end_to_end(toy, tmp_path):
         # the curve is the default grid's, with its own LAMR
         curve = json.loads((out / "det_curves.json").read_text())[m]
         assert curve["lamr"] == pytest.approx(default.item(), abs=1e-4)
-    assert summary.loc["opencv_native", "grid_phases"] == 1
+    # OpenCV on the frames moved by 0..1 px: its LAMR the mean over the four
+    shifted = phases[phases["method"] == "opencv_native"]
+    assert shifted["phase_forward"].isna().all() and len(shifted) == 4
+    assert sorted(zip(shifted["shift_x"], shifted["shift_y"])) == [(0, 0), (0, 1), (1, 0),
+                                                                   (1, 1)]
+    assert summary.loc["opencv_native", "grid_phases"] == 4
+    assert summary.loc["opencv_native", "lamr"] == pytest.approx(shifted["lamr"].mean(),
+                                                                 abs=1e-4)
     md = (out / "frames_summary.md").read_text()
     assert "mean over 4 grid phases" in md and "hog_adapted - hog_warp: " in md
     assert (out / "phases.png").stat().st_size > 0
-    assert json.loads((out / "run.json").read_text())["grid_phases"] == [[0, 0], [0, 0.5],
-                                                                          [0.5, 0], [0.5, 0.5]]
+    run = json.loads((out / "run.json").read_text())
+    assert run["grid_phases"] == [[0, 0], [0, 0.5], [0.5, 0], [0.5, 0.5]]
+    assert run["frame_shifts"] == [[0, 0], [0, 1], [1, 0], [1, 1]]
 
 
 @pytest.mark.parametrize("extra", [["--phases", "0"], ["--phases", "2",
