@@ -274,7 +274,7 @@ def cmd_bench_frames(args) -> int:
         print(f"kept from the earlier run in {args.out}: {', '.join(m.name for m in kept)}")
         methods = list(dict.fromkeys([*earlier, *methods]))     # the earlier run's order
     with atomic_output_dir(args.out) as tmp:
-        n_phases = len(info["grid_phases"]) if phase_dets else 1    # none moved: one grid
+        n_phases = len(info["grid_phases"])
         lines = summary_table(results, methods, n_phases=n_phases,
                               seed_note=f", seed {seeds[0]}" if len(seeds) > 1 else "")
         csv = []

@@ -16,8 +16,8 @@ import numpy as np
 from viewadapt.detect import ground_truth_rows, standardize_boxes
 from viewadapt.metrics import accumulate_frames, log_average_miss_rate, match_detections
 
-__all__ = ["grid_phases", "frame_shifts", "shifted_frame", "unshifted_boxes", "frame_matches", "matches_lamr", "paired_lamr_difference",
-           "phase_mean_difference"]
+__all__ = ["grid_phases", "frame_shifts", "shifted_frame", "unshifted_boxes", "frame_matches",
+           "matches_lamr", "paired_lamr_difference", "phase_mean_difference"]
 
 
 def grid_phases(n: int) -> list:

@@ -23,8 +23,8 @@ __all__ = ["WARP_MARGIN", "TARGETS", "summary_table", "phase_table", "phase_gap_
 
 def summary_table(results, methods, *, seed_note: str = "", n_phases: int = 1) -> list:
     """Markdown lines: each method's LAMR and seconds per frame. With ``n_phases`` > 1 the
-    LAMR is the mean over the grid phases for the methods run at each (``lamr_phases``),
-    beside its standard deviation over them and the default grid's."""
+    LAMR is the mean over the phases (every method's ``lamr_phases``), beside its standard
+    deviation over them and the default grid's."""
     if n_phases == 1:
         lines = [f"| method | LAMR{seed_note} (1e-2..1e0 fppi) | s / frame |", "|---|---|---|"]
         return lines + [f"| {m.name} | {results[m]['lamr']:.3f} | "
@@ -33,11 +33,8 @@ def summary_table(results, methods, *, seed_note: str = "", n_phases: int = 1) -
              "phases | default grid | s / frame |", "|---|---|---|---|---|"]
     for m in methods:
         r = results[m]
-        if "lamr_phases" in r:
-            sd, default = f"{np.std(r['lamr_phases'], ddof=1):.3f}", r["lamr_phases"][0]
-        else:                   # no per-phase LAMRs
-            sd, default = "-", r["lamr"]
-        lines.append(f"| {m.name} | {r['lamr']:.3f} | {sd} | {default:.3f} | "
+        sd, default = np.std(r["lamr_phases"], ddof=1), r["lamr_phases"][0]
+        lines.append(f"| {m.name} | {r['lamr']:.3f} | {sd:.3f} | {default:.3f} | "
                      f"{r['seconds_per_frame']:.3f} |")
     return lines
 

@@ -63,8 +63,9 @@ def main(argv=None) -> int:
     first = next(iter(clip.stream)).image
     results, maps = {}, []
     for m in methods:
-        results[m], view = clip_errors(first, stored_detections(stored[m], keys), truth, size, regions=clip.regions,
-                                       fppis=args.fppi, title=f"{m} @ {args.fppi[-1]:g} FPPI")
+        results[m], view = clip_errors(first, stored_detections(stored[m], keys), truth, size,
+                                       regions=clip.regions, fppis=args.fppi,
+                                       title=f"{m} @ {args.fppi[-1]:g} FPPI")
         maps.append(view)
     lines = error_lines(results, args.fppi)
     rows = [dict(method=m, fppi=f, **{k: v for k, v in r.items() if k != "height_bands"})
