@@ -17,7 +17,7 @@ import numpy as np
 
 from viewadapt.cli import common_parser, main
 
-from benchmark.recipes import add_recipe_argument
+from benchmark.recipes import PAPER_RECIPE, add_recipe_argument
 from viewadapt.io.files import (
     UserError, atomic_output_dir, atomic_write_text, check_output_dir, claim_output_dir,
     run_metadata,
@@ -98,7 +98,8 @@ def blender_available() -> bool:
 #: without the per-positive exact-geometry rows (the slowest, a diagnostic)
 #: the demo's source-training recipe: at the demo's size (18 persons x 9 scenes) the rotated
 #: negatives take adapted HOG clearly past unadapted; at the paper's size they make every row
-#: worse, so the other commands default to ``elevation0`` (docs/training.md)
+#: worse, so the other commands default to :data:`benchmark.recipes.DEFAULT_RECIPE`
+#: (docs/training.md)
 DEMO_RECIPE = "rotated"
 DEMO_CROSSVAL = ["--quick", "--detectors", "hog", "acf", "--sources", "0,pi/4",
                  "--object-models", "plane", "--no-upper-bound"]
@@ -303,5 +304,7 @@ def register(sub, common) -> None:
                                    "finishes an interrupted render.")
     p.add_argument("--framing", choices=["plane", "silhouette"], default="plane",
                    help="crop framing of the rendered dataset (default plane, the paper's)")
-    add_recipe_argument(p, what="every detector that trains")
+    add_recipe_argument(p, what="every detector that trains", default=PAPER_RECIPE,
+                        why="; the paper's training, as the paper's protocol on its clean "
+                            "renders: docs/training.md")
     p.set_defaults(func=_cmd_reproduce)

@@ -57,7 +57,7 @@ def truncated_trees(trees, n: int):
 def main(argv=None) -> int:
     from benchmark.data import load_dataset
     from benchmark.frames.methods import dataset_provenance, source_training_windows
-    from benchmark.recipes import DEFAULT_RECIPE, get_recipe
+    from benchmark.recipes import PAPER_RECIPE, get_recipe
     from viewadapt.detect import ACF_DETECTOR, train_on_windows
     from viewadapt.detect.training import acf_trees, window_training_set
     from viewadapt.io.files import atomic_output_dir, check_output_dir
@@ -90,7 +90,7 @@ def main(argv=None) -> int:
         ap.error(f"--learning-rate must be in (0, 1], got {args.learning_rate!r}")
     check_output_dir(args.out)
     ds = load_dataset(args.data)
-    pos, neg = source_training_windows(ds)
+    pos, neg = source_training_windows(ds, PAPER_RECIPE)
     # the HOG/SVM as bench frames trains it (so that each model file is complete); the
     # trees below are the study's, trained once
     base = train_on_windows(pos, neg, seed=args.seed, quick=args.quick, acf_members=0)
@@ -103,7 +103,7 @@ def main(argv=None) -> int:
     kept = [b for b in budgets if b <= trees.n_estimators_]
     if trees.n_estimators_ not in kept:
         kept.append(trees.n_estimators_)
-    training = dict(base.training, recipe=get_recipe(DEFAULT_RECIPE).to_dict(),
+    training = dict(base.training, recipe=get_recipe(PAPER_RECIPE).to_dict(),
                     dataset=dataset_provenance(ds),
                     acf_budget=dict(no_colour=args.no_colour, trained=trees.n_estimators_,
                                    learning_rate=args.learning_rate, depth=args.depth))

@@ -76,6 +76,7 @@ from benchmark.studies.calibration_lamr import (
     met_text, summarize_lamr,
 )
 from benchmark.frames.methods import load_frames
+from benchmark.recipes import PAPER_RECIPE
 
 __all__ = ["HEIGHT_BAR_PCT", "TILT_BAR_DEG", "MIN_DEPRESSION_DEG", "group_cameras",
            "choose_ground_points", "write_correspondences", "calibrate_draws",
@@ -532,7 +533,7 @@ def main(argv=None) -> int:
         print("training HOG/SVM and ACF on the dataset's elevation-0 crops ...", flush=True)
         try:
             models = train_source_detectors(load_dataset(args.data), seed=args.seed,
-                                            quick=args.quick)
+                                            quick=args.quick, recipe=PAPER_RECIPE)
         except (ValueError, FileNotFoundError) as exc:
             print(f"{ap.prog}: error: {exc}", file=sys.stderr)
             return 2

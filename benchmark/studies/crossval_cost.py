@@ -41,6 +41,7 @@ def main(argv=None):
     from benchmark.crops.features import FeatureCache
     from benchmark.crops.summarize import paired_differences, summarize
     from benchmark.crops.sweep import run_sweep, sweep_summary
+    from benchmark.recipes import PAPER_RECIPE, get_recipe
 
     out = a.out or Path(tempfile.mkdtemp(prefix="viewadapt-cost-"))
     times = {}
@@ -48,7 +49,8 @@ def main(argv=None):
     ds = load_dataset(a.data)
     times["load + validate dataset"] = time.perf_counter() - t
     cfg = CrossvalConfig(seed=a.seed, n_jobs=a.jobs, distance=float(ds.config.get("distance", 10)),
-                         framing=str(ds.config.get("framing", "plane")))
+                         framing=str(ds.config.get("framing", "plane")),
+                         recipe=get_recipe(PAPER_RECIPE))
     cache = FeatureCache(ds, out / "cache", n_jobs=a.jobs)
     t = time.perf_counter()
     data = prepare(ds, cfg, cache)

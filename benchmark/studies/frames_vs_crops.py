@@ -67,6 +67,7 @@ from viewadapt.nms import detections_from_scores
 from benchmark.data import load_dataset
 from benchmark.frames.methods import evaluate_method, load_frames, train_source_detectors
 from benchmark.frames.spec import variant_label
+from benchmark.recipes import PAPER_RECIPE
 from benchmark.crops.summarize import paired_differences, summarize
 
 __all__ = ["person_elevations", "label_windows", "score_frames", "window_tables",
@@ -463,7 +464,7 @@ def main(argv=None) -> int:
         t0 = time.perf_counter()
         models = (SourceDetectors.load(args.model) if args.model else
                   train_source_detectors(load_dataset(args.data), seed=args.seed,
-                                         frame_view=args.frame_view))
+                                         frame_view=args.frame_view, recipe=PAPER_RECIPE))
         persons, background, touching, heights, detections, windows = score_frames(
             frames, models, cache_dir=args.cache or (args.out / "cache"),
             upsample_below=args.upsample_below, progress=not args.quiet)

@@ -4,8 +4,9 @@ The hypothesis under test: a source detector trained on renders alone fits what 
 rendered persons from rendered backgrounds, details real footage does not share, and a
 more strongly regularised SVM (smaller ``C``) transfers better; or that the hard-negative
 round leaves out negatives that matter. The models are trained as ``bench frames`` trains
-them (:func:`benchmark.frames.methods.train_source_detectors`: the same windows, seeds,
-frame-view copies and boosted trees) with the SVM's ``C`` (default Dalal & Triggs' 0.01)
+them under the paper's training (:func:`benchmark.frames.methods.train_source_detectors`,
+recipe ``elevation0``: the same windows, seeds, frame-view copies and boosted trees) with
+the SVM's ``C`` (default Dalal & Triggs' 0.01)
 and, with ``--all-negatives``, every negative window from the start and no mining round
 (:func:`viewadapt.detect.training.hog_svm`).
 
@@ -24,6 +25,7 @@ __all__ = ["main"]
 def main(argv=None) -> int:
     from benchmark.data import load_dataset
     from benchmark.frames.methods import train_source_detectors
+    from benchmark.recipes import PAPER_RECIPE
     from viewadapt.io.files import atomic_output_dir, check_output_dir
 
     ap = argparse.ArgumentParser(prog="python -m benchmark.studies.svm_budget",
@@ -44,7 +46,7 @@ def main(argv=None) -> int:
     if args.all_negatives:
         params.update(initial_negatives=2**62, mining_rounds=0)
     models = train_source_detectors(load_dataset(args.data), seed=args.seed, quick=args.quick,
-                                    svm_params=params)
+                                    svm_params=params, recipe=PAPER_RECIPE)
     with atomic_output_dir(args.out) as tmp:
         models.save(tmp / "source_detectors.npz")
     print(f"trained with {params}; wrote {args.out / 'source_detectors.npz'}")

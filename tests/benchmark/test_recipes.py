@@ -47,6 +47,26 @@ def test_recipes_are_checked_and_found_by_name():
             Recipe("x", "y", rotations_deg=rot)
 
 
+def test_every_command_that_trains_defaults_to_the_shipped_detectors_recipe():
+    from benchmark.pipelines import DEMO_RECIPE
+    from benchmark.recipes import PAPER_RECIPE
+    from viewadapt.cli import build_parser
+    from viewadapt.io.models import SourceDetectors, shipped_model_path
+
+    # the shipped models record the recipe every member was trained under
+    members = SourceDetectors.load(shipped_model_path()).training["average_of"]
+    assert {recipe_from_record(m["recipe"]).name for m in members} == {DEFAULT_RECIPE}
+    parser = build_parser()
+    for argv in (["bench", "crossval"], ["bench", "sweep"], ["bench", "frames"],
+                 ["bench", "runtime"]):
+        args = parser.parse_args(argv + ["--data", "D", "--out", "O"])
+        assert args.recipe is RECIPES[DEFAULT_RECIPE], argv
+    # the demo and the paper's reproduction keep their own, stated in their --help
+    assert parser.parse_args(["demo", "--out", "O"]).recipe.name == DEMO_RECIPE == "rotated"
+    assert parser.parse_args(["reproduce", "--out", "O"]).recipe.name == PAPER_RECIPE
+    assert PAPER_RECIPE == "elevation0" != DEFAULT_RECIPE
+
+
 def test_a_recipe_is_read_back_from_its_record_and_only_then():
     for r in RECIPES.values():
         assert recipe_from_record(json.loads(json.dumps(r.to_dict()))) is r
@@ -192,7 +212,8 @@ def test_the_regularised_recipe_sets_the_c_of_every_svm(toy):
     b = train_source_detectors(ds, quick=True, svm_params={"C": 0.001})
     assert np.array_equal(a.hog_weights, b.hog_weights)
     assert a.training["recipe"]["svm_c"] == 0.001 and a.training["svm_params"] == {"C": 0.001}
-    assert not np.array_equal(a.hog_weights, train_source_detectors(ds, quick=True).hog_weights)
+    assert not np.array_equal(a.hog_weights, train_source_detectors(
+        ds, quick=True, recipe="elevation0").hog_weights)
 
 
 def test_acf_members_average_that_many_seeds_of_every_acf_model(toy):

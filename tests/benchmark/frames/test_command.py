@@ -7,6 +7,7 @@ import json
 import numpy as np
 import pytest
 
+from benchmark.recipes import DEFAULT_RECIPE
 from benchmark.frames.methods import FrameRecord, evaluate_method, load_frames
 from viewadapt.detect import standardize_boxes
 from viewadapt.geometry import camera_from_pose
@@ -332,7 +333,7 @@ def test_runtime_table_end_to_end(toy, tmp_path):
     assert "| hog_adapted | features |" in table and "| acf_adapted | nms |" in table
     # the table says how its detectors were trained and why the all-cores column is empty
     assert info["training"]["frame_view"] == "both" and "frame_view=both" in table
-    assert "recipe=elevation0" in table
+    assert f"recipe={DEFAULT_RECIPE}" in table
     assert "All cores not measured (--jobs 1)" in table
 
 

@@ -13,8 +13,8 @@ def toy(tmp_path_factory):
     return small_toy_frames(tmp_path_factory.mktemp("svmb") / "data")
 
 
-def test_default_c_is_bench_frames_own_and_other_settings_change_only_the_svm(toy, tmp_path):
-    ref = train_source_detectors(load_dataset(toy), quick=True)
+def test_default_c_is_the_papers_training_and_other_settings_change_only_the_svm(toy, tmp_path):
+    ref = train_source_detectors(load_dataset(toy), quick=True, recipe="elevation0")
     runs = {}
     for name, argv in {"default": [], "strong": ["--C", "0.001"],
                        "all": ["--all-negatives"]}.items():
