@@ -174,8 +174,8 @@ def run_footage(clip: Clip, methods, models, *, heights, cache_dir=None, cache_l
         box_voting: applied to every method's boxes, the pyramids' too).
     frame_shift : (int, int)
         Whole pixels the frame is moved under the pyramids
-        (:meth:`benchmark.frames.methods.FrameMethods.detect`); the window-grid methods
-        move with ``grid_phase`` instead.
+        (:class:`benchmark.frames.methods.FrameMethods`); the window-grid methods move with
+        ``grid_phase`` instead.
     progress : callable or None
         Called once per frame.
     """
@@ -190,7 +190,7 @@ def run_footage(clip: Clip, methods, models, *, heights, cache_dir=None, cache_l
         kw["lens"] = np.asarray(clip.dist).tolist()
     undistort = Undistortion(cam.K, clip.dist, cam.image_size) \
         if clip.correction == "undistort" else None
-    fm = FrameMethods(cam, models, **kw)
+    fm = FrameMethods(cam, models, frame_shift=frame_shift, **kw)
     out = FootageRun(methods)
     out.n_windows = len(fm.windows)
     for m in methods:
@@ -199,19 +199,16 @@ def run_footage(clip: Clip, methods, models, *, heights, cache_dir=None, cache_l
         out.prepare_seconds[m] = time.perf_counter() - t
     with single_thread():
         for i, frame in enumerate(clip.stream):
-            _run_frame(frame, clip, fm, methods, undistort, out, warm_up=i == 0,
-                       frame_shift=frame_shift)
+            _run_frame(frame, clip, fm, methods, undistort, out, warm_up=i == 0)
             if progress is not None:
                 progress()
     return out
 
 
-def _run_frame(frame, clip, fm, methods, undistort, out, *, warm_up: bool = False,
-               frame_shift=(0, 0)) -> None:
+def _run_frame(frame, clip, fm, methods, undistort, out, *, warm_up: bool = False) -> None:
     """Every method on one frame of the clip, each timed, into ``out``; ``warm_up``: each
     method first runs once on the frame untimed (the first call of a compiled kernel loads
-    it, which is not the per-frame cost); ``frame_shift``: the pyramids' (see
-    :func:`run_footage`)."""
+    it, which is not the per-frame cost)."""
     cam = clip.camera
     if (frame.image.shape[1], frame.image.shape[0]) != tuple(cam.image_size):
         raise ValueError(f"frame {frame.source} is {frame.image.shape[1]}x"
@@ -224,16 +221,15 @@ def _run_frame(frame, clip, fm, methods, undistort, out, *, warm_up: bool = Fals
         out.undistort_seconds += time.perf_counter() - t
     raw = {}
     for m in methods:
-        shift = (0, 0) if m.on_window_grid else frame_shift
         if warm_up:
-            fm.detect(m, image, frame_shift=shift)
+            fm.detect(m, image)
         t = time.perf_counter()
         base = replace(m, ground=False) if m.ground else None
         if base in raw:
             dets = fm.on_ground(raw[base][0])
             extra = raw[base][1]
         else:
-            dets = fm.detect(m, image, frame_shift=shift)
+            dets = fm.detect(m, image)
             extra = 0.0
         seconds = time.perf_counter() - t
         raw[m] = (dets, seconds)

@@ -64,7 +64,7 @@ def _detect_camera(group, models, methods, heights, cache_dir, cache_limit_gb, t
                        cache_limit_gb=cache_limit_gb, tolerance=tolerance,
                        cells_per_source_cell=cells_per_source_cell,
                        upsample_below=upsample_below, grid_phase=grid_phase, lens=lens,
-                       box_voting=box_voting)
+                       box_voting=box_voting, frame_shift=frame_shift)
     for m in methods:                           # offline precomputation, not timed per frame
         fd.prepare(m)
     dets = {m: [] for m in methods}
@@ -73,8 +73,7 @@ def _detect_camera(group, models, methods, heights, cache_dir, cache_limit_gb, t
         img = f.image()
         for m in methods:
             t = time.perf_counter()
-            dets[m].append(fd.detect(m, img, frame_shift=(0, 0) if m.on_window_grid
-                                     else frame_shift))
+            dets[m].append(fd.detect(m, img))
             secs[m] += time.perf_counter() - t
         if progress is not None:
             progress.update(1)

@@ -256,10 +256,19 @@ class FrameMethods:
     for) and the baselines, on the same windows.
 
     Parameters are those of :class:`~viewadapt.detect.FrameDetector` (without ``rule``,
-    ``object_model`` and ``stage``: each adapted method names its own).
+    ``object_model`` and ``stage``: each adapted method names its own), and ``frame_shift``
+    (``(dx, dy)``, whole pixels >= 0): the pyramids (ours and OpenCV's) slide their windows
+    over the frame moved that far (:func:`benchmark.frames.phases.shifted_frame`), their
+    boxes mapped back before the ground-plane filter -- where their own window grid falls,
+    as ``grid_phase`` says where the candidate windows' ground grid does (the methods on the
+    candidate windows do not see the shift). One instance is one phase of both grids.
     """
 
-    def __init__(self, camera, models, **kw):
+    def __init__(self, camera, models, *, frame_shift=(0, 0), **kw):
+        shift = tuple(int(v) for v in frame_shift)
+        if len(shift) != 2 or min(shift) < 0:
+            raise ValueError(f"a frame shift is two whole pixels >= 0, got {frame_shift!r}")
+        self.frame_shift = shift
         self.adapted = FrameDetector(camera, models, **kw)
         self.models = models
         self._camera, self._kw = camera, kw
@@ -295,20 +304,15 @@ class FrameMethods:
         if m.how == "adapted":
             self.detector(m.rule, m.object_model, m.fold).operator(m.kind)
 
-    def detect(self, method, image, *, frame_shift=(0, 0)) -> np.ndarray:
+    def detect(self, method, image) -> np.ndarray:
         """(D, 5) detections ``(x, y, w, h, score)`` of ``method`` (a
-        :class:`~benchmark.frames.spec.FrameMethod` or its name) on ``image``.
-        ``frame_shift`` (``(dx, dy)`` whole pixels, pyramids only): the pyramid slides its
-        windows over the frame moved that far (:func:`benchmark.frames.phases.shifted_frame`),
-        its boxes mapped back before the ground-plane filter."""
+        :class:`~benchmark.frames.spec.FrameMethod` or its name) on ``image``; a pyramid's
+        on the frame moved by :attr:`frame_shift`, in the frame's own pixels."""
         check_frame(image, self.adapted.size)
         m = frame_method(method)
         kind = m.detector
         vote = self.adapted.box_voting          # every method's boxes alike
-        shift = tuple(int(v) for v in frame_shift)
-        if shift != (0, 0) and m.on_window_grid:
-            raise ValueError(f"{m.name} scores the candidate windows: their grid moves with "
-                             "grid_phase, not with a frame shift")
+        shift = self.frame_shift
         if m.how == "adapted":
             return self.detector(m.rule, m.object_model, m.fold).detect(image, kind.name)
         if m.how == "warp":

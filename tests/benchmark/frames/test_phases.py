@@ -179,23 +179,29 @@ def test_frame_shifts_keep_every_pixel_and_map_boxes_back():
 
 
 def test_a_frame_shift_moves_the_pyramids_only(toy):
-    """FrameMethods.detect(frame_shift=...): a pyramid's boxes on the moved frame, mapped
-    back (so they differ from the unmoved frame's, in the frame's own pixels); a method on
-    the candidate windows refuses it (its grid moves with grid_phase)."""
+    """FrameMethods(frame_shift=...): a pyramid's boxes on the moved frame, mapped back (so
+    they differ from the unmoved frame's, in the frame's own pixels); the methods on the
+    candidate windows do not see it (their grid moves with grid_phase)."""
     from benchmark.frames.methods import FrameMethods
     from viewadapt.io import SourceDetectors
 
     data, model = toy
     frame = load_frames(data)[0]
-    fm = FrameMethods(frame.camera, SourceDetectors.load(model), person_heights=(1.75,))
+    models = SourceDetectors.load(model)
+    fm = FrameMethods(frame.camera, models, person_heights=(1.75,))
+    shifted = FrameMethods(frame.camera, models, person_heights=(1.75,), frame_shift=(16, 24))
+    assert fm.frame_shift == (0, 0) and shifted.frame_shift == (16, 24)
     image = frame.image()
     plain = fm.detect("hog_pyramid", image)
-    moved = fm.detect("hog_pyramid", image, frame_shift=(16, 24))
+    moved = shifted.detect("hog_pyramid", image)
     assert len(plain) and len(moved) and not np.array_equal(plain, moved)
     # boxes stay on the frame's persons: the best box of each run overlaps the other's
     from viewadapt.boxes import box_iou
 
     best = plain[np.argmax(plain[:, 4]), :4]
     assert box_iou(best[None], moved[:, :4]).max() > 0.5
-    with pytest.raises(ValueError, match="not with a frame shift"):
-        fm.detect("hog_adapted", image, frame_shift=(1, 0))
+    adapted = fm.detect("hog_adapted", image)
+    assert len(adapted) and np.array_equal(shifted.detect("hog_adapted", image), adapted)
+    for bad in ((-1, 0), (1, 2, 3)):
+        with pytest.raises(ValueError, match="frame shift"):
+            FrameMethods(frame.camera, models, person_heights=(1.75,), frame_shift=bad)
