@@ -1,10 +1,11 @@
 """One-off: where each sweep curve first reaches a fixed miss rate past its best estimate.
 
-``python level_matched.py RENDERED_RUN PLANAR_RUN``: two ``bench sweep`` runs (plane object
-model, HOG 0 -> pi/4) -- the render's own and that of its persons made planar
-(planar_positives.py); per rule, the estimate (linear between grid points) at which the
-curve first reaches 0.324 (unadapted on the rendered persons) and 0.796 (the paper's
-unadapted), in rad above the truth. Output: level_matched.txt."""
+``python level_matched.py LABEL=RUN [LABEL=RUN ...]``: ``bench sweep`` runs (plane object
+model, HOG 0 -> pi/4) -- here the render's own, that of its persons made planar
+(planar_positives.py) and the planar toy's (toy_planar/sweep_seed5, sweep_seed6); per rule,
+the estimate (linear between grid points) at which the curve first reaches 0.324
+(unadapted on the rendered persons) and 0.796 (the paper's unadapted), in rad above the
+truth. Output: level_matched.txt."""
 import sys
 
 import numpy as np
@@ -22,12 +23,11 @@ def reach(t, level):
     return np.nan
 
 
-print("Where each curve (plane object model, HOG 0 -> pi/4, regularised) first reaches a "
+print("Where each curve (plane object model, HOG 0 -> pi/4) first reaches a "
       "fixed miss rate past its best estimate, linear between grid points; rad above the "
       "truth (0.785).")
 print("Levels: 0.324 (unadapted on the rendered persons), 0.796 (the paper's unadapted).")
-for run, lab in ((sys.argv[1], "rendered persons (dsfx_s1)"),
-                 (sys.argv[2], "planar persons (dsfx_s1_planar)")):
+for lab, run in (a.split("=", 1) for a in sys.argv[1:]):
     s = pd.read_csv(f"{run}/sweep_summary.csv")
     print(f"\n{lab}: unadapted {s[s.method == 'unadapted']['mr_at_fppw_0.01'].iloc[0]:.3f}")
     for m in ("adapted", "adapted[paper eq.3]", "adapted[S only]"):
