@@ -181,8 +181,8 @@ RECIPES = {
 #: The recipe a command uses unless ``--recipe`` says otherwise: the recipe of the shipped
 #: source detectors (``viewadapt/data/source_detectors.npz``), chosen on sets apart from the
 #: crops' test folds -- its SVM's C on the PETS 2009 development clip, its ACF members on
-#: rendered frames of another render (docs/training.md points 24, 38). ``rotated`` was proposed on the
-#: ``small`` preset and made every row worse on the ``paper`` preset (docs/training.md).
+#: rendered frames of another render (docs/training.md points 24, 38). ``rotated`` was
+#: proposed on the ``small`` preset and made every row worse on the ``paper`` preset.
 DEFAULT_RECIPE = "averaged"
 #: The paper's training: ``reproduce``'s default (the paper's protocol on its clean renders,
 #: where :data:`DEFAULT_RECIPE` makes every HOG row on crops worse), and the recipe of the

@@ -15,10 +15,10 @@ On the windows ``bench frames`` trains on
 with ``max(--trees)`` trees (fewer if the training loss reaches zero first, as
 :class:`~viewadapt.boosting.AdaBoostTrees` stops) and saved truncated to each of
 ``--trees``: the first ``n`` trees of a longer run are the trees a run of ``n`` trains, so
-the 256-tree model is ``bench frames``' own. ``--no-colour`` zeroes the three LUV channels
-of every training window (a constant feature is never split on; at detection the trees do
-not read them). The HOG/SVM is trained too, as ``bench frames`` trains it under the
-``elevation0`` recipe, so that each model file is complete.
+the 256-tree model is that of ``bench frames --recipe elevation0``. ``--no-colour`` zeroes
+the three LUV channels of every training window (a constant feature is never split on; at
+detection the trees do not read them). The HOG/SVM is trained too, as ``bench frames``
+trains it under the ``elevation0`` recipe, so that each model file is complete.
 
 Writes ``trees_N/source_detectors.npz`` per budget and ``acf_budget.json`` (the budgets,
 the trees trained, the final training loss) into ``--out``; compare the models on a real
@@ -91,8 +91,8 @@ def main(argv=None) -> int:
     check_output_dir(args.out)
     ds = load_dataset(args.data)
     pos, neg = source_training_windows(ds, PAPER_RECIPE)
-    # the HOG/SVM as bench frames trains it (so that each model file is complete); the
-    # trees below are the study's, trained once
+    # the HOG/SVM as bench frames trains it under the paper's training (so that each model
+    # file is complete); the trees below are the study's, trained once
     base = train_on_windows(pos, neg, seed=args.seed, quick=args.quick, acf_members=0)
     X, y = window_training_set(ACF_DETECTOR, pos, neg, seed=args.seed + 2)
     if args.no_colour:
