@@ -97,6 +97,24 @@ def test_the_interpolated_crossing_is_where_the_curve_meets_unadapted():
     assert sweep_table(summary, 0.6).iloc[0]["crossing_interp"] == pytest.approx(1.2)
 
 
+def test_the_paper_level_reading_ignores_the_runs_own_unadapted_level():
+    e = np.round(np.arange(0.0, 1.25, 0.1), 1)
+    curve = pd.DataFrame({"method": "adapted", "estimate": e,
+                          "mr_at_fppw_0.01": 0.1 + 2.0 * np.abs(e - 0.6)})
+    # 0.7 at 0.9 and 0.9 at 1.0: the paper's unadapted 0.7964 is reached at 0.9482
+    for u in (0.3, 0.95):
+        summary = pd.concat([curve, pd.DataFrame({"method": ["unadapted"], "estimate": [np.nan],
+                                                  "mr_at_fppw_0.01": [u]})])
+        row = sweep_table(summary, 0.6).iloc[0]
+        assert row["band_paper_level"] == pytest.approx(0.9482 - 0.6)
+    assert row["band_interp"] == pytest.approx(1.025 - 0.6)        # its own level, 0.95
+    # a curve that never gets as bad as the paper's unadapted reads to the grid's end
+    flat = curve.assign(**{"mr_at_fppw_0.01": 0.1 + 0.2 * np.abs(e - 0.6)})
+    summary = pd.concat([flat, pd.DataFrame({"method": ["unadapted"], "estimate": [np.nan],
+                                             "mr_at_fppw_0.01": [0.3]})])
+    assert sweep_table(summary, 0.6).iloc[0]["band_paper_level"] == pytest.approx(1.2 - 0.6)
+
+
 def test_the_papers_fig6_is_read_by_the_same_rules():
     # Wang et al. 2017, Fig. 6: best 0.662 at 15 pi/72; 0.7865 at 24 pi/72 and 0.8072 at
     # 25 pi/72 against the unadapted 0.7964, so the last estimate still better is 24 pi/72
@@ -107,6 +125,8 @@ def test_the_papers_fig6_is_read_by_the_same_rules():
     assert row["band_above_truth"] == pytest.approx(24 * np.pi / 72 - np.pi / 4)
     assert 24 * np.pi / 72 < row["crossing_interp"] < 25 * np.pi / 72
     assert row["unadapted"] == pytest.approx(0.7964)
+    # against its own unadapted level the paper-level reading is its interpolated crossing
+    assert row["band_paper_level"] == pytest.approx(row["band_interp"])
 
 
 def test_person_bootstrap_draws_persons_and_pairs_the_rows():
@@ -145,6 +165,8 @@ def test_the_true_elevation_comes_from_the_run_and_the_papers_row_only_at_pi_4(t
     assert "paper (Wang" not in text and "no row of its data" in text
     report = write_report(run).read_text()
     assert "at the true 0.600 rad" in report and "paper (Wang" not in report
+    # the reading against the paper's unadapted level belongs to a pi/4 sweep only
+    assert "the paper's unadapted, above truth" not in text + report
     # the recorded truth decides "MR at truth": the adapted curve's best point, 0.6
     best = sweep_table(sweep_summary(scores.assign(fold="f0")), TRUE).iloc[0]
     assert f"| {best['best_estimate']:.2f} | {best['best_mr']:.3f} | {best['mr_at_true']:.3f} |" \
@@ -153,7 +175,16 @@ def test_the_true_elevation_comes_from_the_run_and_the_papers_row_only_at_pi_4(t
     (run / "run.json").write_text(json.dumps({"sweep": {}}))
     assert sweep_target(json.loads((run / "run.json").read_text())) == pytest.approx(np.pi / 4)
     assert main([str(run), "--boot", "20"]) == 0
-    assert "paper (Wang" in (run / "sweep_intervals.md").read_text()
-    assert "paper (Wang" in write_report(run).read_text()
+    text, report = (run / "sweep_intervals.md").read_text(), write_report(run).read_text()
+    assert "paper (Wang" in text and "paper (Wang" in report
+    # its last column: the paper's row reads its own interpolated crossing there, and every
+    # row of the table has as many cells as the header
+    paper = paper_sweep_table().iloc[0]
+    for md in (text, report):
+        table = [ln for ln in md.splitlines() if ln.startswith("| ")]
+        assert "the paper's unadapted, above truth" in table[0]
+        assert len({ln.count(" | ") for ln in table}) == 1
+        assert next(ln for ln in table if ln.startswith("| paper (Wang")).endswith(
+            f" {paper['band_interp']:.2f} |")
     with pytest.raises(ValueError, match="target elevation is 'high'"):
         sweep_target({"sweep": {"target": "high"}})
