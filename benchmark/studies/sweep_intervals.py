@@ -24,7 +24,7 @@ import pandas as pd
 from viewadapt.io.bounded import read_json_object
 
 from benchmark.crops.report import is_paper_target, paper_sweep_table, sweep_table, sweep_target
-from benchmark.crops.summarize import operating_threshold
+from benchmark.crops.summarize import PAPER_SWEEP_UNADAPTED, operating_threshold
 
 __all__ = ["person_hits", "person_weights", "bootstrap_miss_rates", "sweep_intervals", "main"]
 
@@ -131,9 +131,9 @@ def _lines(tab: pd.DataFrame, run: Path, true_elevation: float) -> list[str]:
              "than unadapted; interpolated: where the curve reaches unadapted between it and "
              f"the next estimate; the true elevation {true_elevation:.3f} rad."
              + (" The last column: where the curve reaches the paper's unadapted miss rate "
-                "(0.796) instead, above the truth. The paper's own Fig. 6 data by the same "
-                "rules (no interval: its scores are not published) is the last row." if paper
-                else
+                f"({PAPER_SWEEP_UNADAPTED:.3f}) instead, above the truth. The paper's own "
+                "Fig. 6 data by the same rules (no interval: its scores are not published) "
+                "is the last row." if paper else
                 " (The paper swept only a true pi/4: no row of its data.)"), "",
              "| method | best estimate (rad) | best MR | MR at truth | crossing (rad) | "
              "above truth (rad) | interpolated (rad) | above truth (rad) | "
