@@ -179,14 +179,12 @@ RECIPES = {
                        svm_c=0.001, acf_members=9),
 }
 #: The recipe a command uses unless ``--recipe`` says otherwise: the recipe of the shipped
-#: source detectors (``viewadapt/data/source_detectors.npz``), chosen on sets apart from the
-#: crops' test folds -- its SVM's C on the PETS 2009 development clip, its ACF members on
-#: rendered frames of another render (docs/training.md points 24, 38). ``rotated`` was
-#: proposed on the ``small`` preset and made every row worse on the ``paper`` preset.
+#: source detectors (``viewadapt/data/source_detectors.npz``), so that what a benchmark
+#: trains is what ``viewadapt detect`` ships; how it was chosen: docs/training.md, "Defaults".
 DEFAULT_RECIPE = "averaged"
-#: The paper's training: ``reproduce``'s default (the paper's protocol on its clean renders,
-#: where :data:`DEFAULT_RECIPE` makes every HOG row on crops worse), and the recipe of the
-#: studies whose results the docs cite, so that their commands still give those results.
+#: The paper's training: ``reproduce``'s default (the paper's protocol on its clean renders),
+#: and the recipe of the studies whose results the docs cite, so that their commands still
+#: give those results.
 PAPER_RECIPE = "elevation0"
 
 
