@@ -114,9 +114,7 @@ def _elevation(text: str) -> float:
 def _config(args, ds):
     from benchmark.crops.crossval import CrossvalConfig
 
-    cfg = CrossvalConfig(seed=args.seed, n_jobs=args.jobs,
-                         distance=float(ds.config.get("distance", 10.0)),
-                         framing=str(ds.config.get("framing", "plane")))
+    cfg = CrossvalConfig.for_dataset(ds, seed=args.seed, n_jobs=args.jobs)
     if getattr(args, "sources", None):
         cfg.sources = args.sources
     if getattr(args, "target", None) is not None:

@@ -129,6 +129,14 @@ class CrossvalConfig:
     recipe: Recipe = RECIPES[DEFAULT_RECIPE]
     extra: dict = field(default_factory=dict)
 
+    @classmethod
+    def for_dataset(cls, ds, **settings) -> "CrossvalConfig":
+        """The configuration for dataset ``ds``: its crop camera's ``distance`` and its
+        crops' ``framing`` (``dataset.json``; 10 m and ``"plane"`` when it records none),
+        the other ``settings`` as given."""
+        return cls(distance=float(ds.config.get("distance", 10.0)),
+                   framing=str(ds.config.get("framing", "plane")), **settings)
+
 
 def task_seed(master: int, detector: str, source: float, fold: Fold) -> int:
     """Seed of one (detector, source, fold) training: derived from the ids, so the sweep and

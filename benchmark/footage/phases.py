@@ -20,6 +20,7 @@ from benchmark.footage.report import (
     best_unadapted, comparison_pairs, format_interval, target_items,
 )
 from benchmark.footage.run import run_footage
+from benchmark.frames.phases import phase_columns
 from viewadapt.detect.evaluation import evaluation_matches, matches_lamr, paired_groups_bootstrap
 
 __all__ = ["run_phases", "PhaseSummary", "phase_summary", "phase_lines"]
@@ -87,14 +88,9 @@ class PhaseSummary:
         """One dict per method and phase (``phases.csv``): a window-grid method's grid phase
         (``phase_forward``, ``phase_left``, fractions of the stride) or a pyramid's frame
         shift (``shift_x``, ``shift_y``, px)."""
-        out = []
-        for m, vs in self.lamr.items():
-            for k, v in enumerate(vs):
-                where = dict(phase_forward=self.phases[k][0], phase_left=self.phases[k][1]) \
-                    if m.on_window_grid else dict(shift_x=self.shifts[k][0],
-                                                  shift_y=self.shifts[k][1])
-                out.append(dict(method=m.name, **where, lamr=v))
-        return out
+        return [dict(method=m.name, **phase_columns(m, ph, sh), lamr=v)
+                for m, vs in self.lamr.items()
+                for ph, sh, v in zip(self.phases, self.shifts, vs)]
 
     def json(self) -> dict:
         """``phases.json``: the phases and shifts, each method's LAMR at each, and the

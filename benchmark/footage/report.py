@@ -94,6 +94,10 @@ def target_items(evaluations, differences, *, run=None, lamr=None, note: str = "
     ``note`` saying so);
     ``run``: with it, the frames-per-second targets too."""
     lamr = lamr or {}
+
+    def value(m):
+        return lamr.get(m, evaluations[m][0]["lamr"])
+
     out = []
     for kind in PRETRAINED_KINDS:          # OpenCV's INRIA detector, then its Daimler one
         ad = FrameMethod(kind, "adapted")
@@ -101,9 +105,6 @@ def target_items(evaluations, differences, *, run=None, lamr=None, note: str = "
                     and m.ground]
         if ad not in evaluations or not grounded:
             continue
-        def value(m):
-            return lamr.get(m, evaluations[m][0]["lamr"])
-
         best = min(grounded, key=value)
         a, b = value(ad), value(best)
         out.append(f"- {ad.name} LAMR {a:.3f}{note} below {best.name}'s {b:.3f}: "

@@ -129,12 +129,10 @@ def run_frames_benchmark(data, *, methods, seed=0, quick=False, max_frames=None,
             print(f"  trained in {time.perf_counter() - t0:.0f} s", flush=True)
     groups = _group_by_camera(frames)
     order = [f for g in groups for f in g]
-    moving = list(methods) if phases > 1 else []
-    # (group, (grid phase, frame shift), methods): every method at the default, then at
-    # each other phase
+    # (group, (grid phase, frame shift)): every method at the default phase, then at each
+    # other one
     where = list(zip(phase_list, shift_list))
-    tasks = [(g, where[0], methods) for g in groups] + [
-        (g, ph, moving) for ph in where[1:] for g in groups if moving]
+    tasks = [(g, ph) for ph in where for g in groups]
     kw = dict(models=models, heights=heights, cache_dir=cache_dir,
               cache_limit_gb=cache_limit_gb, tolerance=tolerance,
               cells_per_source_cell=cells_per_source_cell,
@@ -142,22 +140,22 @@ def run_frames_benchmark(data, *, methods, seed=0, quick=False, max_frames=None,
     n_jobs = 1 if jobs is None else int(jobs)
     if n_jobs != 1 and len(tasks) > 1:
         par = Parallel(n_jobs=n_jobs, return_as="generator")
-        out = list(tqdm(par(delayed(_detect_camera)(g, methods=ms, grid_phase=ph,
+        out = list(tqdm(par(delayed(_detect_camera)(g, methods=methods, grid_phase=ph,
                                                     frame_shift=sh, **kw)
-                            for g, (ph, sh), ms in tasks),
-                        total=len(tasks), desc="cameras" if len(phase_list) == 1 or not moving
+                            for g, (ph, sh) in tasks),
+                        total=len(tasks), desc="cameras" if phases == 1
                         else "cameras x grid phases", unit="task", disable=not progress))
     else:
-        with tqdm(total=sum(len(g) for g, _, _ in tasks), desc="frames", unit="frame",
+        with tqdm(total=sum(len(g) for g, _ in tasks), desc="frames", unit="frame",
                   disable=not progress) as bar:
-            out = [_detect_camera(g, methods=ms, grid_phase=ph, frame_shift=sh,
+            out = [_detect_camera(g, methods=methods, grid_phase=ph, frame_shift=sh,
                                   progress=bar, **kw)
-                   for g, (ph, sh), ms in tasks]
+                   for g, (ph, sh) in tasks]
     first = out[:len(groups)]
     dets = {m: [d for o in first for d in o[0][m]] for m in methods}
     secs = {m: sum(o[1][m] for o in first) for m in methods}
-    phase_dets = {m: [[d for (_, p, _), o in zip(tasks, out) if p == ph for d in o[0][m]]
-                      for ph in where] for m in moving}
+    phase_dets = {m: [[d for (_, p), o in zip(tasks, out) if p == ph for d in o[0][m]]
+                      for ph in where] for m in methods} if phases > 1 else {}
     results = {}
     for m in methods:
         ev = evaluate_method(dets[m], order)

@@ -16,8 +16,8 @@ import numpy as np
 from viewadapt.detect import ground_truth_rows, standardize_boxes
 from viewadapt.metrics import accumulate_frames, log_average_miss_rate, match_detections
 
-__all__ = ["grid_phases", "frame_shifts", "shifted_frame", "unshifted_boxes", "frame_matches",
-           "matches_lamr", "paired_lamr_difference", "phase_mean_difference"]
+__all__ = ["grid_phases", "frame_shifts", "phase_columns", "shifted_frame", "unshifted_boxes",
+           "frame_matches", "matches_lamr", "paired_lamr_difference", "phase_mean_difference"]
 
 
 def grid_phases(n: int) -> list:
@@ -38,6 +38,16 @@ def frame_shifts(n: int) -> list:
     if n < 1:
         raise ValueError(f"the number of frame shifts per axis must be at least 1, got {n}")
     return [(i, j) for i in range(n) for j in range(n)]
+
+
+def phase_columns(method, phase, shift) -> dict:
+    """Where ``method`` (a :class:`~benchmark.frames.spec.FrameMethod`) ran at one phase, as
+    the columns of ``phases.csv``: ``phase_forward, phase_left`` (the grid phase, fractions of
+    the ground grid's stride) for a method on the candidate windows, ``shift_x, shift_y``
+    (the frame shift, px) for a pyramid; None in the other pair."""
+    a, b = phase if method.on_window_grid else (None, None)
+    x, y = (None, None) if method.on_window_grid else shift
+    return dict(phase_forward=a, phase_left=b, shift_x=x, shift_y=y)
 
 
 def shifted_frame(image, shift) -> np.ndarray:

@@ -12,6 +12,7 @@ import numpy as np
 from viewadapt.detect import DETECTOR_KINDS
 from viewadapt.io import FAMILY_COLORS
 
+from benchmark.frames.phases import phase_columns
 from benchmark.frames.spec import FrameMethod
 
 #: the accuracy target's margin: adapted LAMR at most this above image warping's
@@ -46,8 +47,9 @@ def phase_table(results, phases, shifts) -> str:
     (whole pixels); the other pair of columns empty."""
     rows = ["method,phase_forward,phase_left,shift_x,shift_y,lamr\n"]
     for m, r in results.items():
-        for (a, b), (x, y), v in zip(phases, shifts, r.get("lamr_phases", ())):
-            where = f"{a:g},{b:g},," if m.on_window_grid else f",,{x},{y}"
+        for ph, sh, v in zip(phases, shifts, r.get("lamr_phases", ())):
+            where = ",".join("" if c is None else f"{c:g}"
+                             for c in phase_columns(m, ph, sh).values())
             rows.append(f"{m.name},{where},{v:.5f}\n")
     return "".join(rows)
 

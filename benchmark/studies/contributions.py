@@ -178,9 +178,7 @@ class _Acc:
 
 
 def _config(ds, seed=0, quick=False) -> CrossvalConfig:
-    cfg = CrossvalConfig(seed=seed, distance=float(ds.config.get("distance", 10.0)),
-                         framing=str(ds.config.get("framing", "plane")),
-                         recipe=get_recipe(PAPER_RECIPE))
+    cfg = CrossvalConfig.for_dataset(ds, seed=seed, recipe=get_recipe(PAPER_RECIPE))
     if quick:
         cfg.initial_negatives = 2000
     return cfg

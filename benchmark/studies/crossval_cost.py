@@ -48,9 +48,8 @@ def main(argv=None):
     t = time.perf_counter()
     ds = load_dataset(a.data)
     times["load + validate dataset"] = time.perf_counter() - t
-    cfg = CrossvalConfig(seed=a.seed, n_jobs=a.jobs, distance=float(ds.config.get("distance", 10)),
-                         framing=str(ds.config.get("framing", "plane")),
-                         recipe=get_recipe(PAPER_RECIPE))
+    cfg = CrossvalConfig.for_dataset(ds, seed=a.seed, n_jobs=a.jobs,
+                                     recipe=get_recipe(PAPER_RECIPE))
     cache = FeatureCache(ds, out / "cache", n_jobs=a.jobs)
     t = time.perf_counter()
     data = prepare(ds, cfg, cache)

@@ -135,9 +135,8 @@ def gap_changes(scores: pd.DataFrame, *, a: str, b: str, reference_pool: str,
 
 
 def _config(ds, seed=0, quick=False) -> CrossvalConfig:
-    cfg = CrossvalConfig(seed=seed, distance=float(ds.config.get("distance", 10.0)),
-                         framing=str(ds.config.get("framing", "plane")),
-                         object_models=("plane", "body"), recipe=get_recipe(PAPER_RECIPE))
+    cfg = CrossvalConfig.for_dataset(ds, seed=seed, object_models=("plane", "body"),
+                                     recipe=get_recipe(PAPER_RECIPE))
     if quick:
         cfg.initial_negatives = 2000
     return cfg

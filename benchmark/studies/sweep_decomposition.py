@@ -192,10 +192,8 @@ def main(argv=None) -> int:
             raise ValueError("--step must lie in (0, pi/36] radians")
         check_output_dir(args.out)
         ds = load_dataset(args.data)
-        cfg = CrossvalConfig(seed=args.seed, n_jobs=args.jobs,
-                             distance=float(ds.config.get("distance", 10.0)),
-                             framing=str(ds.config.get("framing", "plane")),
-                             object_models=("plane",))
+        cfg = CrossvalConfig.for_dataset(ds, seed=args.seed, n_jobs=args.jobs,
+                                         object_models=("plane",))
         cfg.recipe = args.recipe
     except ValueError as exc:
         print(f"error: {exc}")

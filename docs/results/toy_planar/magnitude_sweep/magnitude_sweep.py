@@ -57,8 +57,7 @@ if __name__ == "__main__":
     args.out.mkdir(parents=True, exist_ok=True)
     ds = load_dataset(args.data)
     truth = np.pi / 4
-    cfg = CrossvalConfig(seed=0, n_jobs=1, distance=float(ds.config.get("distance", 10.0)),
-                         framing=str(ds.config.get("framing", "plane")))
+    cfg = CrossvalConfig.for_dataset(ds, seed=0, n_jobs=1)
     cfg.object_models = tuple(args.object_models)
     cfg.recipe = get_recipe(args.recipe)
     cache = FeatureCache(ds, args.out / "cache")

@@ -37,8 +37,7 @@ args = ap.parse_args()
 args.out.mkdir(parents=True, exist_ok=True)
 ds = load_dataset(args.data)
 truth = np.pi / 4
-cfg = CrossvalConfig(seed=0, n_jobs=1, distance=float(ds.config.get("distance", 10.0)),
-                     framing=str(ds.config.get("framing", "plane")))
+cfg = CrossvalConfig.for_dataset(ds, seed=0, n_jobs=1)
 cfg.sources, cfg.detectors, cfg.object_models = (0.0,), ("hog",), ("plane",)
 cfg.upper_bound, cfg.synthesised = False, False
 cfg.recipe = get_recipe(args.recipe)
