@@ -90,14 +90,12 @@ def average_trees(models, *, gate: bool = False) -> AdaBoostTrees:
         if not np.array_equal(a["classes_"], first["classes_"]):
             raise ValueError(f"model {i} has other classes than model 0")
     k = len(models)
-    longest = max(len(a["feature_"]) for _, a in arrays)
-    lead = [(0, t) for t in range(len(first["feature_"]))] if gate else []
-    order = lead + [(i, t) for t in range(longest) for i in range(1 if gate else 0, k)
-                    if t < len(arrays[i][1]["feature_"])]
+    order = _interleaved([len(a["feature_"]) for _, a in arrays], gate=gate)
     out = {name: np.stack([arrays[i][1][name][t] for i, t in order]) for name in _PER_TREE}
     out["value_"] = out["value_"] / k
     if gate and k > 1:
-        out["cascade_scale_"] = np.repeat([float(k), 1.0], [len(lead), len(order) - len(lead)])
+        lead = len(first["feature_"])
+        out["cascade_scale_"] = np.repeat([float(k), 1.0], [lead, len(order) - lead])
     out["classes_"] = first["classes_"]
     if "feature_names_in_" in first:
         out["feature_names_in_"] = first["feature_names_in_"]
@@ -105,32 +103,58 @@ def average_trees(models, *, gate: bool = False) -> AdaBoostTrees:
     return AdaBoostTrees.from_arrays(params, out)
 
 
-def split_average(model, members: int) -> list:
-    """The ``members`` models an :func:`average_trees` of equally long members was made of,
-    gated or not (member ``j``: its trees in their order, outputs times ``members``; their
-    sums equal the members' own to rounding). ``ValueError`` when the trees cannot be such
-    an average: a tree count that does not divide among the members, cascade scales that
-    are not a gate's, or a member whose training loss rises (the trees of several members
-    mixed)."""
-    k = int(members)
-    if not isinstance(model, AdaBoostTrees) or not hasattr(model, "feature_") or k < 1:
-        raise ValueError(f"need a fitted AdaBoostTrees and members >= 1, got {members!r}")
+def _interleaved(lengths, *, gate: bool) -> list:
+    """``(member, tree)`` of every tree of an :func:`average_trees` of members holding
+    ``lengths`` trees, in the order it stores them."""
+    k, longest = len(lengths), max(lengths)
+    lead = [(0, t) for t in range(lengths[0])] if gate else []
+    return lead + [(i, t) for t in range(longest) for i in range(1 if gate else 0, k)
+                   if t < lengths[i]]
+
+
+def split_average(model, members) -> list:
+    """The models an :func:`average_trees` was made of, gated or not (member ``j``: its
+    trees in their order, outputs times their number; their sums equal the members' own to
+    rounding).
+
+    ``members`` is their number when they are equally long, or each one's number of trees
+    (a sequence; :func:`~viewadapt.detect.training.train_on_windows` records them as
+    ``acf_member_trees``: training stops a member early once its loss vanishes).
+    ``ValueError`` when the trees cannot be such an average: tree counts that do not add
+    up, cascade scales that are not a gate's, or a member whose training loss rises (the
+    trees of several members mixed)."""
+    if isinstance(members, (list, tuple, np.ndarray)):
+        lengths = [int(n) for n in members]
+    else:
+        lengths = None
+        k = int(members) if isinstance(members, (int, np.integer)) else 0
+    if not isinstance(model, AdaBoostTrees) or not hasattr(model, "feature_") \
+            or (lengths is None and k < 1) or (lengths is not None and (
+                not lengths or min(lengths) < 1)):
+        raise ValueError("need a fitted AdaBoostTrees and members >= 1 (or every member's "
+                         f"tree count), got {members!r}")
     n, scale = model.n_estimators_, model.cascade_scale_
-    length = n // k                                   # each member's trees
-    gated = np.array_equal(scale, np.repeat([float(k), 1.0], [length, n - length]))
-    if n % k or not (gated or np.all(scale == 1.0)):
+    if lengths is None:
+        if n % k:
+            raise ValueError(f"{n} trees are not an average of {k} equally long models")
+        lengths = [n // k] * k
+    k = len(lengths)
+    if sum(lengths) != n:
+        raise ValueError(f"{n} trees are not an average of models of {lengths} trees")
+    gated = k > 1 and np.array_equal(scale, np.repeat([float(k), 1.0],
+                                                      [lengths[0], n - lengths[0]]))
+    if not (gated or np.all(scale == 1.0)):
         raise ValueError(f"{n} trees with these cascade scales are not an average of {k} "
-                         "equally long models")
+                         f"models of {lengths} trees")
     params, arrays = model.to_arrays()
-    picks = ([np.arange(length)] + [length + np.arange(j, n - length, k - 1)
-                                    for j in range(k - 1)]
-             if gated and k > 1 else [np.arange(j, n, k) for j in range(k)])
+    member = np.array([i for i, _ in _interleaved(lengths, gate=gated)])
     out = []
-    for j, idx in enumerate(picks):
+    for j in range(k):
+        idx = np.flatnonzero(member == j)
         part = {name: arrays[name][idx] for name in _PER_TREE}
         if np.any(np.diff(part["train_loss_"]) > 1e-12 * part["train_loss_"][:-1]):
             raise ValueError(f"member {j} of {k}: its training loss rises, so the trees are "
-                             f"not an average of {k} equally long models")
+                             f"not an average of {k} models of {lengths} trees")
         part["value_"] = part["value_"] * k
         part["classes_"] = arrays["classes_"]
         if "feature_names_in_" in arrays:
@@ -139,11 +163,18 @@ def split_average(model, members: int) -> list:
     return out
 
 
-def _members_in(record) -> int:
-    """How many boosted models a source-detector file's ACF averages, from its training
-    record (``average_of`` lists, or its ``acf_members``, or its recipe's; 1 when none)."""
+def _members_in(record):
+    """The boosted models a source-detector file's ACF averages, from its training record:
+    each one's tree count where recorded (``acf_member_trees``, or those of the files under
+    ``average_of``), else how many (``average_of``, ``acf_members`` or its recipe's; 1 when
+    none) -- :func:`split_average`'s ``members``."""
     if isinstance(record.get("average_of"), list):
-        return sum(_members_in(r) for r in record["average_of"])
+        parts = [_members_in(r) for r in record["average_of"]]
+        if all(isinstance(p, list) for p in parts):
+            return [n for p in parts for n in p]
+        return sum(len(p) if isinstance(p, list) else p for p in parts)
+    if isinstance(record.get("acf_member_trees"), list):
+        return [int(n) for n in record["acf_member_trees"]]
     recipe = record.get("recipe") or {}
     return int(record.get("acf_members") or recipe.get("acf_members") or 1)
 

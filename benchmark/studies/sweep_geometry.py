@@ -78,8 +78,8 @@ def misalignment_crossing(truth: float, *, source: float = 0.0, measure: str = "
                          f"{truth!r}")
     kw = dict(distance=distance, framing=framing)
     H_true = elevation_homography(source, truth, **kw)
-    unadapted = misalignment(H_true, measure)
     points = person_points()
+    unadapted = misalignment(H_true, measure, points)
     for e in np.arange(truth, np.pi / 2 - 1e-3, step):
         M = np.linalg.inv(elevation_homography(source, float(e), **kw)) @ H_true
         if misalignment(M, measure, points) >= unadapted:
@@ -112,8 +112,7 @@ def main(argv=None) -> int:
                          f"{misalignment(H, 'displacement'):.2f} | +{cross[0]:.3f} | "
                          f"+{cross[1]:.3f} |")
     except ValueError as exc:
-        print(f"error: {exc}")
-        return 2
+        ap.exit(2, f"{ap.prog}: error: {exc}\n")
     print("\n".join(lines))
     return 0
 

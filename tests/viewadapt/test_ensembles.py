@@ -182,3 +182,25 @@ def test_a_plain_average_splits_back_into_its_members():
         split_average(average_trees(members), 2)
     with pytest.raises(ValueError, match="scaled cascade"):
         average_trees([average_trees(members, gate=True), members[0]])
+
+
+@pytest.mark.parametrize("gate", [False, True])
+def test_an_average_of_members_of_different_lengths_splits_back_given_their_lengths(gate):
+    X, y = _data()
+    members = [AdaBoostTrees(n_estimators=n, stages=None, max_features=0.5, random_state=s,
+                             cascade_threshold=None).fit(X, y)
+               for s, n in enumerate((5, 9, 3))]
+    avg = average_trees(members, gate=gate)
+    parts = split_average(avg, [5, 9, 3])
+    assert [p.n_estimators_ for p in parts] == [5, 9, 3]
+    for m, p in zip(members, parts):
+        np.testing.assert_allclose(p.decision_function(X), m.decision_function(X),
+                                   rtol=0, atol=1e-12)
+    # 17 trees in 3 members: read as equally long they do not divide; lengths that do not
+    # add up, or a member without trees, are refused
+    with pytest.raises(ValueError, match="not an average of 3 equally long"):
+        split_average(avg, 3)
+    with pytest.raises(ValueError, match=r"models of \[5, 9, 4\] trees"):
+        split_average(avg, [5, 9, 4])
+    with pytest.raises(ValueError, match="tree count"):
+        split_average(avg, [5, 0, 12])

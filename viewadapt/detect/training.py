@@ -65,7 +65,9 @@ def train_on_windows(positives, negatives, *, seed: int = 0, quick: bool = False
         would be (its trees' feature subsets and its frame-view copies), so member 0 is the
         single model and gates the others (``average_trees``' ``gate``: the same mean, a
         window member 0 rejects costs its trees alone). Recorded in ``training`` when above
-        1. 0: no ACF model (``acf`` is None; for studies that train their own trees).
+        1, with each member's number of trees (``acf_member_trees``, so that
+        :func:`~viewadapt.ensembles.split_average` can take the average apart). 0: no ACF
+        model (``acf`` is None; for studies that train their own trees).
 
     Returns
     -------
@@ -92,6 +94,7 @@ def train_on_windows(positives, negatives, *, seed: int = 0, quick: bool = False
         training["svm_params"] = dict(svm_params)
     if acf_members > 1:
         training["acf_members"] = acf_members
+        training["acf_member_trees"] = [int(m.n_estimators_) for m in members]
     return SourceDetectors(svm.coef_[0].reshape(HOG_WEIGHT_SHAPE).astype(np.float64),
                            float(svm.intercept_[0]), trees, training=training)
 

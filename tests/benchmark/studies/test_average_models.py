@@ -71,3 +71,28 @@ def test_the_gated_average_splits_averaged_members_and_scores_the_same_mean(two,
     np.testing.assert_allclose(_free(g.acf).decision_function(X),
                                _free(p.acf).decision_function(X), rtol=0, atol=1e-10)
     np.testing.assert_array_equal(g.hog_weights, p.hog_weights)
+
+
+def test_files_whose_members_stopped_at_different_lengths_are_averaged(tmp_path):
+    from benchmark.recipes import Recipe
+
+    ds = load_dataset(small_toy_frames(tmp_path / "data"))
+    three = Recipe("three", "three ACF members", svm_c=0.001, acf_members=3)
+    paths = []
+    for s in (0, 1):
+        m = train_source_detectors(ds, quick=True, seed=s, recipe=three)
+        # the record says how many trees each member kept, which split_average needs
+        assert sum(m.training["acf_member_trees"]) == m.acf.n_estimators_
+        paths.append(tmp_path / f"m{s}.npz")
+        m.save(paths[-1])
+    out = tmp_path / "avg.npz"
+    assert main([str(p) for p in paths] + ["--out", str(out)]) == 0
+    avg, a, b = (SourceDetectors.load(p) for p in (out, *paths))
+    lengths = a.training["acf_member_trees"] + b.training["acf_member_trees"]
+    assert avg.acf.n_estimators_ == sum(lengths)
+    X = np.random.default_rng(2).random((40, a.acf.n_features_in_))
+    want = (_free(a.acf).decision_function(X) + _free(b.acf).decision_function(X)) / 2
+    np.testing.assert_allclose(_free(avg.acf).decision_function(X), want, rtol=0, atol=1e-10)
+    # every member of both files, the first of the first gating the rest
+    np.testing.assert_array_equal(avg.acf.cascade_scale_[:lengths[0]], 6.0)
+    np.testing.assert_array_equal(avg.acf.cascade_scale_[lengths[0]:], 1.0)

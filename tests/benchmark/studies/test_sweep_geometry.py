@@ -58,5 +58,10 @@ def test_the_study_prints_a_row_per_truth_and_refuses_a_bad_one(capsys):
     assert len(out) == 4 and out[2].startswith("| 0.500 |") and out[3].startswith("| 0.785 |")
     cross = misalignment_crossing(0.785, measure="scale") - 0.785
     assert f"+{cross:.3f} |" in out[3]
-    assert main(["--truths", "0"]) == 2
-    assert "need 0 <= source < truth" in capsys.readouterr().out
+    with pytest.raises(SystemExit) as exc:
+        main(["--truths", "0"])
+    err = capsys.readouterr()
+    assert exc.value.code == 2 and not err.out
+    assert err.err.strip().splitlines() == [
+        "python -m benchmark.studies.sweep_geometry: error: need 0 <= source < truth < pi/2, "
+        "got source 0.0, truth 0.0"]
