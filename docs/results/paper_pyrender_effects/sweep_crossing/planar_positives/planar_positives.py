@@ -1,17 +1,16 @@
 """One-off: the effects render with its pi/4 persons made exactly planar.
 
 ``python planar_positives.py SRC OUT``: a dataset linked file by file to SRC (a rendered
-dataset), except that every person crop at pi/4 is replaced by the elevation-0 crop of the
-same person, scene and instance warped into the pi/4 view through the person plane --
-``out(q) = crop0(H^-1 q)``, ``H = elevation_homography(0, pi/4)``, borders replicated: the
-windows synthesised training trains on. Everything else (the elevation-0 crops the source
-detector trains on, every background) is SRC's own, so a sweep on OUT has the same fold
-models and negatives as on SRC; only the test persons' geometry differs (a plane instead of
-a rendered body, with the rendered appearance of the elevation-0 view).
+dataset; :func:`benchmark.studies.derived_data.derive_dataset`), except that every person
+crop at pi/4 is replaced by the elevation-0 crop of the same person, scene and instance
+warped into the pi/4 view through the person plane -- ``out(q) = crop0(H^-1 q)``,
+``H = elevation_homography(0, pi/4)``, borders replicated: the windows synthesised training
+trains on. Everything else (the elevation-0 crops the source detector trains on, every
+background) is SRC's own, so a sweep on OUT has the same fold models and negatives as on
+SRC; only the test persons' geometry differs (a plane instead of a rendered body, with the
+rendered appearance of the elevation-0 view).
 """
 import json
-import os
-import shutil
 import sys
 from pathlib import Path
 
@@ -19,39 +18,31 @@ import cv2
 import numpy as np
 import pandas as pd
 
+from benchmark.studies.derived_data import derive_dataset
 from viewadapt.geometry import elevation_homography
 from viewadapt.warp import warp_to_source_view
 
 src, out = Path(sys.argv[1]), Path(sys.argv[2])
-out.mkdir()
 cfg = json.loads((src / "dataset.json").read_text())
-cfg["hybrid"] = ("pi/4 person crops replaced by the elevation-0 crops of the same person, "
-                 "scene and instance warped through the person plane (planar_positives.py)")
-(out / "dataset.json").write_text(json.dumps(cfg, indent=1))
-for f in ("manifest.parquet", "manifest.csv", "frames_coco.json"):
-    if (src / f).exists():
-        shutil.copy(src / f, out / f)
-m = pd.read_parquet(src / "manifest.parquet")
-persons = m[m["kind"] == "person"]
+persons = pd.read_parquet(src / "manifest.parquet").query("kind == 'person'")
 top = persons["elevation_index"].max()
 assert np.isclose(persons.loc[persons["elevation_index"] == top, "elevation"], np.pi / 4).all()
-key = ["person_id", "scene_id", "instance"]
-zero = persons[persons["elevation_index"] == 0].set_index(key)["path"]
-framing = str(cfg.get("framing", "plane"))
-distance = float(cfg.get("distance", 10.0))
-Hinv = np.linalg.inv(elevation_homography(0.0, np.pi / 4, distance=distance, framing=framing))
-n_planar = 0
-for r in m.itertuples():
-    dst = out / r.path
-    dst.parent.mkdir(parents=True, exist_ok=True)
-    if r.kind == "person" and r.elevation_index == top:
-        img0 = cv2.imread(str(src / zero[(r.person_id, r.scene_id, r.instance)]),
-                          cv2.IMREAD_UNCHANGED)
-        assert cv2.imwrite(str(dst), warp_to_source_view(img0, Hinv))
-        n_planar += 1
-    else:
-        os.symlink(src / r.path, dst)
-for d in ("depth", "frames"):
-    if (src / d).exists() and not (out / d).exists():
-        os.symlink(src / d, out / d)
-print(len(m), "files,", n_planar, "pi/4 person crops made planar")
+zero = persons[persons["elevation_index"] == 0].set_index(
+    ["person_id", "scene_id", "instance"])["path"]
+Hinv = np.linalg.inv(elevation_homography(
+    0.0, np.pi / 4, distance=float(cfg.get("distance", 10.0)),
+    framing=str(cfg.get("framing", "plane"))))
+
+
+def replace(r):
+    if r.kind != "person" or r.elevation_index != top:
+        return None
+    img0 = cv2.imread(str(src / zero[(r.person_id, r.scene_id, r.instance)]),
+                      cv2.IMREAD_UNCHANGED)
+    return warp_to_source_view(img0, Hinv)
+
+
+n = derive_dataset(src, out, "pi/4 person crops replaced by the elevation-0 crops of the same "
+                   "person, scene and instance warped through the person plane "
+                   "(planar_positives.py)", replace)
+print(n, "pi/4 person crops made planar")

@@ -1,12 +1,14 @@
 """One-off: the source detector's miss rate on its own view's persons scaled vertically.
 
-``python tolerance_table.py RENDERED_RUN K=RUN ... [--control LABEL=RUN] [--png FILE]``: each RUN a
+``python tolerance_table.py RENDERED_RUN K=RUN ... [--control LABEL=RUN] [--png FILE]
+[--pair LABEL_A LABEL_B ...]``: each RUN a
 ``bench crossval --sources 0`` on a ``scaled_positives.py`` dataset (RENDERED_RUN: the same
 on the render itself, its pi/4 persons as rendered). Prints the ``unadapted`` miss rate at
 1e-2 FPPW per scale with 95 % intervals over the test persons, the paired difference of
 each stretch ``K > 1`` against the compression ``1/K``, and of each row against the
 rendered pi/4 persons (one bootstrap draw of persons for every row); ``--png``: the miss
-rate against K, drawn. Checks first that every run scored the same negatives alike (the
+rate against K, drawn; ``--pair``: also the paired difference B - A of two rows (any
+labels, e.g. ``composited_positives.py``'s runs given with ``--control``). Checks first that every run scored the same negatives alike (the
 same fold models)."""
 import sys
 
@@ -16,10 +18,14 @@ import pandas as pd
 from benchmark.studies.sweep_intervals import bootstrap_miss_rates, person_hits
 
 args = sys.argv[1:]
-png = None
+png, pairs = None, []
 if "--png" in args:
     i = args.index("--png")
     png, args = args[i + 1], args[:i] + args[i + 2:]
+while "--pair" in args:
+    i = args.index("--pair")
+    pairs.append((args[i + 1], args[i + 2]))
+    args = args[:i] + args[i + 3:]
 runs = {"rendered pi/4": args[0]}
 for a in args[1:]:
     if a == "--control":
@@ -77,6 +83,10 @@ for i, name in enumerate(names):
                 print(f"| {k:g} | {float(other):g} | {diff(mr[:, i] - mr[:, j])} |")
         except ValueError:
             pass
+if pairs:
+    print("\n| A | B | miss(B) - miss(A) |\n|---|---|---|")
+    for a, b in pairs:
+        print(f"| {a} | {b} | {diff(mr[:, names.index(b)] - mr[:, names.index(a)])} |")
 
 if png:
     import matplotlib

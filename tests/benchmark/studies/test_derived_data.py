@@ -1,0 +1,53 @@
+import json
+
+import cv2
+import numpy as np
+import pandas as pd
+import pytest
+
+from benchmark.data import load_dataset
+from benchmark.studies.derived_data import derive_dataset, scale_vertically
+from benchmark.toydata import make_toy_dataset
+
+
+@pytest.fixture(scope="module")
+def toy(tmp_path_factory):
+    return make_toy_dataset(tmp_path_factory.mktemp("derived") / "toy", n_persons=3,
+                            n_scenes=2, n_backgrounds=1, seed=3)
+
+
+def test_the_derived_dataset_replaces_what_it_is_given_and_links_the_rest(toy, tmp_path):
+    out = tmp_path / "out"
+    grey = np.full((128, 64, 3), 77, np.uint8)
+    n = derive_dataset(toy, out, "top view grey",
+                       lambda r: grey if r.kind == "person" and r.elevation_index == 2 else None)
+    m = pd.read_parquet(toy / "manifest.parquet")
+    replaced = (m.kind == "person") & (m.elevation_index == 2)
+    assert n == replaced.sum() > 0
+    for r in m.itertuples():
+        p = out / r.path
+        if replaced[r.Index]:
+            assert not p.is_symlink() and np.array_equal(cv2.imread(str(p)), grey)
+        else:
+            assert p.is_symlink() and p.resolve() == (toy / r.path).resolve()
+    cfg = json.loads((out / "dataset.json").read_text())
+    assert cfg.pop("hybrid") == "top view grey"
+    assert cfg == json.loads((toy / "dataset.json").read_text())
+    pd.testing.assert_frame_equal(pd.read_parquet(out / "manifest.parquet"), m)
+    assert len(load_dataset(out).manifest) == len(m)         # reads as any dataset
+    with pytest.raises(FileExistsError):                     # never into an existing folder
+        derive_dataset(toy, out, "again", lambda r: None)
+
+
+def test_scaling_moves_rows_about_the_centre():
+    img = np.zeros((128, 64), np.float32)
+    img[31:33] = 1.0                                         # a line at row 32 (y = 31.5..32.5)
+    assert np.array_equal(scale_vertically(img, 1.0), img)
+    for k in (0.5, 1.5):
+        out = scale_vertically(img, k)
+        rows = out[:, 10]
+        centre = (rows * np.arange(128)).sum() / rows.sum()
+        # row 31.5 of the input (its centre) maps to 63.5 + (31.5 - 63.5) k
+        assert centre == pytest.approx(63.5 + (31.5 - 63.5) * k, abs=0.05)
+    with pytest.raises(ValueError, match="positive"):
+        scale_vertically(img, 0.0)
