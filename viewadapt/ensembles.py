@@ -123,18 +123,15 @@ def split_average(model, members) -> list:
     ``ValueError`` when the trees cannot be such an average: tree counts that do not add
     up, cascade scales that are not a gate's, or a member whose training loss rises (the
     trees of several members mixed)."""
-    if isinstance(members, (list, tuple, np.ndarray)):
-        lengths = [int(n) for n in members]
-    else:
-        lengths = None
-        k = int(members) if isinstance(members, (int, np.integer)) else 0
+    equal = isinstance(members, (int, np.integer))
+    lengths = [int(members)] if equal else [int(n) for n in np.atleast_1d(members)]
     if not isinstance(model, AdaBoostTrees) or not hasattr(model, "feature_") \
-            or (lengths is None and k < 1) or (lengths is not None and (
-                not lengths or min(lengths) < 1)):
+            or not lengths or min(lengths) < 1:
         raise ValueError("need a fitted AdaBoostTrees and members >= 1 (or every member's "
                          f"tree count), got {members!r}")
     n, scale = model.n_estimators_, model.cascade_scale_
-    if lengths is None:
+    if equal:
+        k = lengths[0]
         if n % k:
             raise ValueError(f"{n} trees are not an average of {k} equally long models")
         lengths = [n // k] * k
@@ -184,9 +181,10 @@ def average_source_detectors(models, *, gate: bool = True):
     on renders of other seeds): the HOG/SVMs' weights and biases averaged (a linear model's
     mean score is the score of its mean weights) and the ACF models averaged by
     :func:`average_trees`. The training record lists each member's record under
-    ``average_of``. With ``gate`` (the default) every ACF model that is itself an average (its record's
-    ``acf_members``) is first split into its members (:func:`split_average`) and all of
-    them are averaged with ``gate=True``: the first model's first member gates the rest.
+    ``average_of``. With ``gate`` (the default) every ACF model that is itself an average
+    (its record's ``acf_members``, split by its ``acf_member_trees`` where recorded) is first
+    split into its members (:func:`split_average`) and all of them are averaged with
+    ``gate=True``: the first model's first member gates the rest.
     ``ValueError`` for fewer than two models or one without an ACF model.
     """
     from .io.models import SourceDetectors

@@ -62,8 +62,8 @@ def scale_vertically(img, k: float, *, centre: float = 63.5, border=None):
     """``img`` scaled vertically by ``k`` about row ``centre`` (the 128-row window's middle):
     ``out(x, y) = img(x, centre + (y - centre) / k)``, bilinear, the same size. For ``k < 1``
     the rows are first smoothed by a vertical Gaussian of sigma ``sqrt(1/k^2 - 1) / 2`` px
-    against aliasing (the border reflected). ``border``: OpenCV's border mode for rows read beyond the image
-    (default: the nearest row replicated); a float image with ``cv2.BORDER_CONSTANT`` reads
+    against aliasing (the border reflected). ``border``: OpenCV's border mode for rows read
+    beyond the image (default: the nearest row replicated); ``cv2.BORDER_CONSTANT`` reads
     zeros there."""
     import cv2
 

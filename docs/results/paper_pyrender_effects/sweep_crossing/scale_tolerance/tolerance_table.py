@@ -8,8 +8,8 @@ on the render itself, its pi/4 persons as rendered). Prints the ``unadapted`` mi
 each stretch ``K > 1`` against the compression ``1/K``, and of each row against the
 rendered pi/4 persons (one bootstrap draw of persons for every row); ``--png``: the miss
 rate against K, drawn; ``--pair``: also the paired difference B - A of two rows (any
-labels, e.g. ``composited_positives.py``'s runs given with ``--control``). Checks first that every run scored the same negatives alike (the
-same fold models)."""
+labels, e.g. ``composited_positives.py``'s runs given with ``--control``). Checks first
+that every run scored the same negatives alike (the same fold models)."""
 import sys
 
 import numpy as np
