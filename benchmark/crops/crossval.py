@@ -43,7 +43,7 @@ from benchmark.data import (
 from benchmark.crops.detectors import detector_spec, feature_key
 from benchmark.crops.features import FeatureCache, background_windows, person_windows
 from benchmark.crops.folds import Fold, make_folds
-from benchmark.recipes import DEFAULT_RECIPE, RECIPES, Recipe
+from benchmark.recipes import DEFAULT_RECIPE, RECIPES, Recipe, get_recipe
 from benchmark.frames.spec import OBJECT_MODEL_TAGS, RULE_TAGS, variant_label
 
 __all__ = ["CrossvalConfig", "ADAPT_VARIANTS", "EXACT_VARIANTS", "run_crossval",
@@ -125,9 +125,13 @@ class CrossvalConfig:
     framing: str = "plane"
     seed: int = 0
     n_jobs: int = 1
-    #: the source-training recipe (:mod:`benchmark.recipes`): every method that trains uses it
+    #: the source-training recipe (:mod:`benchmark.recipes`; a :class:`Recipe` or its name):
+    #: every method that trains uses it
     recipe: Recipe = RECIPES[DEFAULT_RECIPE]
     extra: dict = field(default_factory=dict)
+
+    def __post_init__(self):
+        self.recipe = get_recipe(self.recipe)
 
     @classmethod
     def for_dataset(cls, ds, **settings) -> "CrossvalConfig":

@@ -59,7 +59,7 @@ from benchmark.crops.features import FeatureCache, background_windows, person_wi
 from benchmark.crops.folds import make_folds
 from benchmark.crops.summarize import summarize
 from benchmark.data import load_dataset
-from benchmark.recipes import PAPER_RECIPE, get_recipe
+from benchmark.recipes import PAPER_RECIPE
 
 __all__ = ["VARIANTS", "REFERENCES", "CELL_REPS", "CELL_SHAPE", "VERTICAL_EDGE_BINS",
            "check_request", "descriptor_cell_matrix", "model_inputs", "score_contributions",
@@ -178,7 +178,7 @@ class _Acc:
 
 
 def _config(ds, seed=0, quick=False) -> CrossvalConfig:
-    cfg = CrossvalConfig.for_dataset(ds, seed=seed, recipe=get_recipe(PAPER_RECIPE))
+    cfg = CrossvalConfig.for_dataset(ds, seed=seed, recipe=PAPER_RECIPE)
     if quick:
         cfg.initial_negatives = 2000
     return cfg

@@ -41,15 +41,14 @@ def main(argv=None):
     from benchmark.crops.features import FeatureCache
     from benchmark.crops.summarize import paired_differences, summarize
     from benchmark.crops.sweep import run_sweep, sweep_summary
-    from benchmark.recipes import PAPER_RECIPE, get_recipe
+    from benchmark.recipes import PAPER_RECIPE
 
     out = a.out or Path(tempfile.mkdtemp(prefix="viewadapt-cost-"))
     times = {}
     t = time.perf_counter()
     ds = load_dataset(a.data)
     times["load + validate dataset"] = time.perf_counter() - t
-    cfg = CrossvalConfig.for_dataset(ds, seed=a.seed, n_jobs=a.jobs,
-                                     recipe=get_recipe(PAPER_RECIPE))
+    cfg = CrossvalConfig.for_dataset(ds, seed=a.seed, n_jobs=a.jobs, recipe=PAPER_RECIPE)
     cache = FeatureCache(ds, out / "cache", n_jobs=a.jobs)
     t = time.perf_counter()
     data = prepare(ds, cfg, cache)

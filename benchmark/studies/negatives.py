@@ -62,7 +62,7 @@ from benchmark.crops.crossval import (
 )
 from benchmark.crops.detectors import detector_spec
 from benchmark.data import load_dataset
-from benchmark.recipes import PAPER_RECIPE, get_recipe
+from benchmark.recipes import PAPER_RECIPE
 from benchmark.crops.features import (
     ROTATIONS_DEG, FeatureCache, background_windows, person_windows, rotated_windows,
 )
@@ -136,7 +136,7 @@ def gap_changes(scores: pd.DataFrame, *, a: str, b: str, reference_pool: str,
 
 def _config(ds, seed=0, quick=False) -> CrossvalConfig:
     cfg = CrossvalConfig.for_dataset(ds, seed=seed, object_models=("plane", "body"),
-                                     recipe=get_recipe(PAPER_RECIPE))
+                                     recipe=PAPER_RECIPE)
     if quick:
         cfg.initial_negatives = 2000
     return cfg

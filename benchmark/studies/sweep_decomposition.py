@@ -193,8 +193,7 @@ def main(argv=None) -> int:
         check_output_dir(args.out)
         ds = load_dataset(args.data)
         cfg = CrossvalConfig.for_dataset(ds, seed=args.seed, n_jobs=args.jobs,
-                                         object_models=("plane",))
-        cfg.recipe = args.recipe
+                                         object_models=("plane",), recipe=args.recipe)
     except ValueError as exc:
         print(f"error: {exc}")
         return 2
