@@ -31,15 +31,19 @@ def _cmd_fidelity(args) -> int:
         remap_fidelity, sample_images, summarize_fidelity, synthetic_images,
     )
     from benchmark.crops.figures import plot_fidelity, plot_remap_illustration, save_figure
-    from viewadapt.geometry import elevation_homography
+    from viewadapt.geometry import PERSON_HEIGHT_M, elevation_homography
 
     check_output_dir(args.out, overwrite=args.overwrite)
     if args.windows < 1:
         raise UserError("--windows must be at least 1")
+    if not np.isfinite(args.distance) or args.distance <= PERSON_HEIGHT_M / 2:
+        raise UserError(f"--distance must exceed half the person height ({PERSON_HEIGHT_M / 2} "
+                        f"m), got {args.distance}")
     rng = np.random.default_rng(args.seed)
     images = sample_images() | synthetic_images(rng, n=args.synthetic)
     t0 = time.perf_counter()
-    df = remap_fidelity(images, windows_per_image=args.windows, rng=rng, progress=True)
+    df = remap_fidelity(images, windows_per_image=args.windows, rng=rng, progress=True,
+                        distance=args.distance)
     summary = summarize_fidelity(df)
     with atomic_output_dir(args.out) as tmp:
         df.to_csv(tmp / "fidelity_windows.csv", index=False)
@@ -52,13 +56,14 @@ def _cmd_fidelity(args) -> int:
             save_figure(fig, tmp / f"fidelity_{tc}px")
             plt.close(fig)
         img = images["astronaut"]
-        fig = plot_remap_illustration(img, 200, 60, elevation_homography(0.0, np.pi / 4),
-                                      title="0 → π/4,")
+        fig = plot_remap_illustration(img, 200, 60, elevation_homography(
+            0.0, np.pi / 4, distance=args.distance), title="0 → π/4,")
         save_figure(fig, tmp / "remap_illustration")
         plt.close(fig)
         (tmp / "metadata.json").write_text(json.dumps(
             run_metadata(args.seed, windows_per_image=args.windows, images=sorted(images),
-                      seconds=round(time.perf_counter() - t0, 1)), indent=2))
+                         distance=args.distance,
+                         seconds=round(time.perf_counter() - t0, 1)), indent=2))
     print(_fidelity_markdown(summary, compact=True))
     print(f"\nwrote {args.out}/fidelity_summary.{{csv,md}}, fidelity_*px.{{png,pdf}}, "
           f"remap_illustration.{{png,pdf}}")
@@ -268,6 +273,9 @@ def register(sub, common) -> None:
     p.add_argument("--windows", type=int, default=20, help="windows per image (default 20)")
     p.add_argument("--synthetic", type=int, default=3,
                    help="synthetic pattern images added to the natural ones (default 3)")
+    p.add_argument("--distance", type=float, default=10.0, metavar="METRES",
+                   help="the crop camera's distance, which sets the homographies' perspective "
+                        "(default 10, the generator's default)")
     p.set_defaults(func=_cmd_fidelity)
 
     p = sub.add_parser("demo", parents=[common_parser(jobs=-1)],

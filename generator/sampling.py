@@ -121,8 +121,9 @@ class GeneratorConfig:
         for e in self.elevations:
             if not (0.0 <= float(e) < math.pi / 2):
                 bad(f"elevation {e!r} is outside [0, pi/2) radians")
-        if self.distance <= self.person_height:
-            bad(f"distance {self.distance} m must exceed the person height")
+        if not math.isfinite(self.distance) or self.distance <= self.person_height:
+            bad(f"distance {self.distance} m must be finite and exceed the person height "
+                f"({self.person_height} m)")
         if self.framing not in ("plane", "silhouette"):
             bad(f"framing must be 'plane' or 'silhouette', got {self.framing!r}")
         if self.renderer not in ("cycles", "pyrender"):

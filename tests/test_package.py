@@ -1,6 +1,7 @@
 import subprocess
 import sys
 
+import numpy as np
 import pytest
 
 import viewadapt
@@ -43,6 +44,11 @@ def test_cli_bad_input_is_one_line_error(tmp_path, capsys):
     assert "not a directory" in err and "Traceback" not in err
     assert main(["fidelity", "--out", str(tmp_path / "o"), "--windows", "0"]) == 2
     assert not (tmp_path / "o").exists()
+    capsys.readouterr()
+    assert main(["fidelity", "--out", str(tmp_path / "o"), "--distance", "0.5"]) == 2
+    err = capsys.readouterr().err
+    assert "--distance must exceed half the person height" in err and err.count("\n") == 1
+    assert not (tmp_path / "o").exists()
 
 
 def test_cli_fidelity_writes_everything(tmp_path):
@@ -60,6 +66,24 @@ def test_cli_fidelity_writes_everything(tmp_path):
     s = pd.read_csv(out / "fidelity_summary.csv")
     assert {"feature", "rule", "form", "median", "p10"} <= set(s.columns)
     assert set(s["rule"]) == {"unadapted", "covariant", "paper", "none"}
+    assert json.loads((out / "metadata.json").read_text())["distance"] == 10.0
+
+
+def test_fidelity_uses_the_camera_distance_it_is_given():
+    """The same windows remapped by the homography of a 5 m and of a 10 m crop camera: the
+    target windows read are the same, the remapped features are not."""
+    from benchmark.crops.fidelity import remap_fidelity, synthetic_images
+
+    imgs = synthetic_images(np.random.default_rng(0), n=1)
+    kw = dict(pairs=((0.0, np.pi / 4),), windows_per_image=2, acf=False, rules=("covariant",),
+              target_cell_sizes=(4,))
+    near, far = (remap_fidelity(imgs, rng=np.random.default_rng(1), distance=d, **kw)
+                 for d in (5.0, 10.0))
+    default = remap_fidelity(imgs, rng=np.random.default_rng(1), **kw)
+    assert default.equals(far)
+    cov = near["rule"] == "covariant"
+    assert len(near) == len(far) and cov.any()
+    assert not np.allclose(near.loc[cov, "pearson"], far.loc[cov, "pearson"])
 
 
 def test_jobs_defaults_are_per_command():

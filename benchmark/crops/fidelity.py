@@ -78,8 +78,12 @@ def _corr(a, b) -> float:
 
 def remap_fidelity(images: dict, *, pairs=DEFAULT_PAIRS, windows_per_image: int = 20,
                    target_cell_sizes=(8, 4), rules=ANGLE_RULES, acf: bool = True,
-                   rng: np.random.Generator, progress: bool = False) -> pd.DataFrame:
+                   rng: np.random.Generator, progress: bool = False,
+                   distance: float = 10.0) -> pd.DataFrame:
     """Per-window correlations between remapped and warped-window features.
+
+    ``distance`` is the crop camera's distance in metres (the plane homographies'
+    perspective, :func:`viewadapt.geometry.crop_camera`).
 
     Returns
     -------
@@ -100,7 +104,7 @@ def remap_fidelity(images: dict, *, pairs=DEFAULT_PAIRS, windows_per_image: int 
     cache = {}
     for (es, et), name in it:
         img = images[name]
-        H = elevation_homography(es, et)
+        H = elevation_homography(es, et, distance=distance)
         if (es, et) not in cache:
             cache[es, et] = (
                 {(r, pc, tc): hog_remap_matrix(H, target_cell_size=tc, rule=r, per_cell=pc)

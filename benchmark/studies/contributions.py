@@ -42,6 +42,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
+import sys
 import time
 from pathlib import Path
 
@@ -555,7 +556,7 @@ def main(argv=None) -> int:
                                 detectors=tuple(args.detectors),
                                 n_boot=200 if args.quick else 1000)
     except ValueError as exc:
-        print(f"error: {exc}")
+        print(f"{ap.prog}: error: {exc}", file=sys.stderr)
         return 2
     out = args.out
     out.mkdir(parents=True, exist_ok=True)

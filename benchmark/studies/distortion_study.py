@@ -434,7 +434,7 @@ def main(argv=None) -> int:
                                      log=lambda s: print(s, file=sys.stderr, flush=True))
         summ = summarize_distortion_study(study, frames, n_boot=args.boot, seed=args.seed)
     except (ValueError, FileNotFoundError, UserError) as exc:
-        print(f"error: {exc}")
+        print(f"{ap.prog}: error: {exc}", file=sys.stderr)
         return 2
     import cv2
 

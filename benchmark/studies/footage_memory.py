@@ -123,7 +123,7 @@ def main(argv=None) -> int:
             check_output_dir(args.out, overwrite=args.overwrite)
         result = run_memory_benchmark(args.data, minutes=args.minutes)
     except (ValueError, FileNotFoundError) as exc:
-        print(f"error: {exc}")
+        print(f"{ap.prog}: error: {exc}", file=sys.stderr)
         return 2
     write_study(args.out, "memory", format_memory(result), args.data, result)
     return 0 if result["returncode"] == 0 else 1

@@ -16,6 +16,7 @@ Writes ``pitch.csv``, ``pitch.md`` and ``pitch.png`` under ``--out``.
 from __future__ import annotations
 
 import argparse
+import sys
 from dataclasses import replace
 from pathlib import Path
 
@@ -111,7 +112,7 @@ def main(argv=None) -> int:
         models = SourceDetectors.load(args.model or shipped_model_path())
         clip0 = open_clip(args.inputs, args.calibration, args.boxes, args.ignore)
     except (ValueError, OSError) as exc:
-        print(f"error: {exc}")
+        print(f"{ap.prog}: error: {exc}", file=sys.stderr)
         return 2
     size = clip0.camera.image_size
     tilt = _tilt(clip0.camera)

@@ -45,6 +45,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import sys
 import tempfile
 import time
 from pathlib import Path
@@ -295,7 +296,7 @@ def main(argv=None) -> int:
         result = run_footage_benchmark(args.data, n_frames=args.frames, model=args.model,
                                        repeats=args.repeats)
     except (ValueError, FileNotFoundError) as exc:
-        print(f"error: {exc}")
+        print(f"{ap.prog}: error: {exc}", file=sys.stderr)
         return 2
     write_study(args.out, "footage", format_table(result), args.data, result)
     return 0

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -94,7 +95,7 @@ def main(argv=None) -> int:
         tab = frame_bootstrap(dets, order, reference=args.reference, n_boot=args.boot,
                               seed=args.seed)
     except (ValueError, FileNotFoundError) as exc:
-        print(f"error: {exc}")
+        print(f"{ap.prog}: error: {exc}", file=sys.stderr)
         return 2
     tab.to_csv(args.results / "frames_intervals.csv", index=False, float_format="%.4f")
     lines = [f"{len(order)} frames, {sum(len(f.gt) for f in order)} persons; 95 % intervals "

@@ -50,6 +50,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 import time
 from pathlib import Path
 
@@ -469,7 +470,7 @@ def main(argv=None) -> int:
             frames, models, cache_dir=args.cache or (args.out / "cache"),
             upsample_below=args.upsample_below, progress=not args.quiet)
     except (ValueError, FileNotFoundError) as exc:
-        print(f"error: {exc}")
+        print(f"{ap.prog}: error: {exc}", file=sys.stderr)
         return 2
     lamr = {m: evaluate_method(d, frames)["lamr"] for m, d in detections.items()}
     rates, diffs = window_tables(persons, background, touching, heights, seed=args.seed)

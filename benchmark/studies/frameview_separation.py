@@ -58,7 +58,8 @@ def separation(data, models: dict, scales, *, seed: int = 0) -> list:
 
 
 def main(argv=None) -> int:
-    p = argparse.ArgumentParser(description=__doc__,
+    p = argparse.ArgumentParser(prog="python -m benchmark.studies.frameview_separation",
+                                description=__doc__,
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--data", required=True, help="dataset directory (crops, backgrounds)")
     p.add_argument("--model", action="append", required=True,
@@ -79,7 +80,7 @@ def main(argv=None) -> int:
         models = {m: SourceDetectors.load(m) for m in args.model}
         rows = separation(args.data, models, scales, seed=args.seed)
     except (OSError, ValueError) as e:
-        print(f"error: {e}", file=sys.stderr)
+        print(f"{p.prog}: error: {e}", file=sys.stderr)
         return 2
     print("| scale | model | adapted d' | warped d' |\n|---|---|---|---|")
     for s in scales:

@@ -46,6 +46,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 import time
 from pathlib import Path
 
@@ -289,7 +290,7 @@ def main(argv=None) -> int:
         t0 = time.perf_counter()
         scores, shares = run_negatives(ds, cfg, cache, n_folds=args.folds)
     except (ValueError, FileNotFoundError) as exc:
-        print(f"error: {exc}")
+        print(f"{ap.prog}: error: {exc}", file=sys.stderr)
         return 2
     summ = summarize(scores, n_boot=1000, rng=np.random.default_rng(args.seed))
     first = scores.groupby("method", sort=False)[["pool", "rule"]].first()

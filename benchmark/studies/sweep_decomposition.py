@@ -22,6 +22,7 @@ truth with a paired interval over test persons, :func:`orientation_cost`) and
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -195,7 +196,7 @@ def main(argv=None) -> int:
         cfg = CrossvalConfig.for_dataset(ds, seed=args.seed, n_jobs=args.jobs,
                                          object_models=("plane",), recipe=args.recipe)
     except ValueError as exc:
-        print(f"error: {exc}")
+        print(f"{ap.prog}: error: {exc}", file=sys.stderr)
         return 2
     truth = cfg.target
     cache = FeatureCache(ds, args.cache or (args.out / "cache"), n_jobs=args.jobs)

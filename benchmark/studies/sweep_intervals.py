@@ -16,6 +16,7 @@ Writes ``sweep_intervals.csv`` and ``sweep_intervals.md`` into RUN (or ``--out``
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -179,7 +180,7 @@ def main(argv=None) -> int:
         tab = sweep_intervals(pd.read_parquet(path), true_elevation=target,
                               n_boot=args.boot, seed=args.seed)
     except ValueError as exc:
-        print(f"error: {exc}")
+        print(f"{ap.prog}: error: {exc}", file=sys.stderr)
         return 2
     out = args.out or args.run
     out.mkdir(parents=True, exist_ok=True)

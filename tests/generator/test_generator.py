@@ -7,6 +7,7 @@ import math
 import subprocess
 import sys
 from pathlib import Path
+from types import SimpleNamespace
 
 import cv2
 import numpy as np
@@ -488,6 +489,23 @@ def test_cli_parses_generate_and_dataset(tmp_path):
     assert a.func.__name__ == "cmd_verify"
     a = p.parse_args(["dataset", "preview", str(tmp_path), "--out", "x.png"])
     assert a.func.__name__ == "cmd_preview"
+
+
+def test_generate_records_the_camera_distance_it_is_given(tmp_path, monkeypatch):
+    from generator import pipeline
+
+    seen = []
+
+    def fake_generate(config, *a, **k):
+        seen.append(config)
+        return SimpleNamespace(summary=lambda: "not rendered")
+
+    monkeypatch.setattr(pipeline, "generate", fake_generate)
+    p = _parser()
+    for argv, distance in ((["--distance", "6.5"], 6.5), ([], 10.0)):
+        a = p.parse_args(["generate", "--out", str(tmp_path / "o"), "--preset", "paper"] + argv)
+        assert a.func(a) == 0
+        assert seen[-1].distance == distance and seen[-1].to_dict()["distance"] == distance
 
 
 def test_cli_user_errors_are_one_line_value_errors(tmp_path):

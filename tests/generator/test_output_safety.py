@@ -138,6 +138,19 @@ def test_empty_or_repeated_elevations_are_one_line_errors(tmp_path, capsys, monk
     assert not out.exists()
 
 
+@pytest.mark.parametrize("text, what", [("1", "exceed the person height"),
+                                        ("inf", "must be a number"),
+                                        ("nan", "must be a number")])
+def test_a_bad_camera_distance_is_a_one_line_error(tmp_path, capsys, monkeypatch, text, what):
+    from generator import pipeline
+
+    monkeypatch.setattr(pipeline, "generate", lambda *a, **k: pytest.fail("it would render"))
+    out = tmp_path / "o"
+    assert main(["generate", "--distance", text, "--out", str(out)]) == 2
+    assert what in _one_line_error(capsys, "generate")
+    assert not out.exists()
+
+
 def test_a_config_and_crossval_sources_refuse_repeated_elevations(tmp_path, capsys):
     from generator.sampling import GeneratorConfig
 

@@ -167,6 +167,6 @@ def test_cli_writes_consistent_tables(toy, trained, cache_dir, tmp_path, capsys)
 
 def test_cli_reports_bad_input_without_traceback(toy, tmp_path, capsys):
     assert main(["--data", str(toy), "--out", str(tmp_path / "o"), "--folds", "12"]) == 2
-    assert "--folds must be an integer in 1..9" in capsys.readouterr().out
+    assert "--folds must be an integer in 1..9" in capsys.readouterr().err
     assert main(["--data", str(tmp_path / "nope"), "--out", str(tmp_path / "o")]) == 2
     assert not (tmp_path / "o").exists()

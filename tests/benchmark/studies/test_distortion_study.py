@@ -235,8 +235,9 @@ def test_cli_writes_all_outputs(toy, model, cache, tmp_path, capsys):
 def test_bad_input_is_one_line_and_writes_nothing(extra, match, toy, tmp_path, capsys):
     out = tmp_path / "out"
     rc = main(["--data", str(toy), "--out", str(out), *extra])
-    printed = capsys.readouterr().out
-    assert rc == 2 and printed.count("\n") == 1 and printed.startswith("error: "), printed
+    printed = capsys.readouterr().err
+    assert rc == 2 and printed.count("\n") == 1, printed
+    assert printed.startswith("python -m benchmark.studies.distortion_study: error: "), printed
     assert match in printed
     assert not out.exists()
 
@@ -247,6 +248,6 @@ def test_dataset_without_frames_is_refused(tmp_path, capsys):
     (data / "dataset.json").write_text("{}")
     out = tmp_path / "out"
     assert main(["--data", str(data), "--out", str(out)]) == 2
-    printed = capsys.readouterr().out
+    printed = capsys.readouterr().err
     assert printed.count("\n") == 1 and "no frames_coco.json" in printed
     assert not out.exists()

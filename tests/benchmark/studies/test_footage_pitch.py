@@ -51,5 +51,6 @@ def test_the_study_pairs_every_error_with_the_calibration_and_the_baseline(tmp_p
     # a baseline that reads the calibration, and errors beyond the range: one line each
     assert main(clip + ["--baseline", "hog_adapted", "--out", str(tmp_path / "o2")]) == 2
     assert main(clip + ["--errors", "0.9", "--out", str(tmp_path / "o3")]) == 2
-    lines = capsys.readouterr().out.strip().splitlines()
-    assert len(lines) == 2 and all(line.startswith("error: ") for line in lines)
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 2 and all(line.startswith("python -m benchmark.studies.footage_pitch: "
+                                                   "error: ") for line in lines)

@@ -56,9 +56,9 @@ def test_median_interval_is_the_sign_test_interval():
 
 def test_footage_benchmark_bad_input(tmp_path, capsys):
     assert main(["--data", str(tmp_path), "--frames", "1"]) == 2
-    assert "--frames" in capsys.readouterr().out
+    assert "--frames" in capsys.readouterr().err
     assert main(["--data", str(tmp_path), "--repeats", "0"]) == 2
-    assert "--repeats" in capsys.readouterr().out
+    assert "--repeats" in capsys.readouterr().err
     assert main(["--data", str(tmp_path / "none")]) == 2
 
 

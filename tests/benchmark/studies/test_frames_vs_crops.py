@@ -118,8 +118,8 @@ def test_study_end_to_end(toy, tmp_path):
 
 def test_bad_input_is_one_line(toy, tmp_path, capsys):
     assert main(["--data", str(tmp_path), "--out", str(tmp_path / "o"), "--quiet"]) == 2
-    assert "frames_coco.json" in capsys.readouterr().out
+    assert "frames_coco.json" in capsys.readouterr().err
     assert main(["--data", str(toy), "--out", str(tmp_path / "o2"), "--crossval",
                  str(tmp_path), "--quiet"]) == 2
-    assert "scores.parquet" in capsys.readouterr().out
+    assert "scores.parquet" in capsys.readouterr().err
     assert not (tmp_path / "o").exists() and not (tmp_path / "o2").exists()

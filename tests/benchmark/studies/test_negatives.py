@@ -96,6 +96,6 @@ def test_study_end_to_end_on_the_toy_set(tmp_path, capsys):
     assert shares.groupby("negatives").size().eq(9).all() and len(shares) == 9 * 8
     capsys.readouterr()
     assert main(["--data", str(data), "--out", str(tmp_path / "bad"), "--folds", "0"]) == 2
-    err = capsys.readouterr().out.strip().splitlines()
+    err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "--folds must be an integer in 1..9" in err[0]
     assert not (tmp_path / "bad").exists() or not any((tmp_path / "bad").iterdir())

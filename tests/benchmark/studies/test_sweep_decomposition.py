@@ -53,7 +53,7 @@ def test_kept_cells_get_their_map_and_the_others_the_identity():
         split_remap(H, H, "covariant", 4, keep=np.ones(12, bool))
 
 
-def test_the_sweep_scores_extra_remappings_beside_its_variants(tmp_path):
+def test_the_sweep_scores_extra_remappings_beside_its_variants(tmp_path, capsys):
     from benchmark.crops.crossval import CrossvalConfig
     from benchmark.crops.features import FeatureCache
     from benchmark.crops.sweep import run_sweep
@@ -82,7 +82,13 @@ def test_the_sweep_scores_extra_remappings_beside_its_variants(tmp_path):
         assert curve in text
     assert "| covariant | " in text and "| eq. (3) | " in text      # the maps' costs
     assert (out / "decomposition.png").is_file() and (out / "sweep_summary.csv").is_file()
+    capsys.readouterr()
     assert main(["--data", str(data), "--out", str(tmp_path / "o2"), "--step", "1"]) == 2
+    cap = capsys.readouterr()
+    assert cap.out == ""
+    assert cap.err == ("python -m benchmark.studies.sweep_decomposition: error: --step must "
+                       "lie in (0, pi/36] radians\n")
+    assert not (tmp_path / "o2").exists()
 
 
 def test_orientation_cost_is_the_paired_miss_rate_difference_at_the_truth():

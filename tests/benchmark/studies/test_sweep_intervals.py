@@ -70,7 +70,7 @@ def test_a_flat_sweep_has_wide_intervals_and_bad_input_is_one_line(tmp_path, cap
     with pytest.raises(ValueError, match="lack the columns \\['person_id'\\]"):
         sweep_intervals(scores.drop(columns="person_id"))
     assert main([str(tmp_path)]) == 2
-    assert "holds no sweep_scores.parquet" in capsys.readouterr().out
+    assert "holds no sweep_scores.parquet" in capsys.readouterr().err
     run = tmp_path / "run"
     run.mkdir()
     scores.to_parquet(run / "sweep_scores.parquet")
