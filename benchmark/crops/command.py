@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import importlib
 import json
+import sys
 import time
 from pathlib import Path
 
@@ -180,6 +181,11 @@ def cmd_crossval(args) -> int:
     ds = load_dataset(args.data)
     check_results_dir(args.out, ds.fingerprint, args.recipe)
     cfg = _config(args, ds)
+    if (cfg.upper_bound and "plane" not in cfg.object_models
+            and any(detector_spec(d).exact_geometry for d in cfg.detectors)):
+        print("note: no exact-geometry rows without the plane among --object-models (they "
+              "share its adapted rows' negatives); add plane, or pass --no-upper-bound",
+              file=sys.stderr)
     incomplete = _incomplete(ds, args)
     cache = FeatureCache(ds, args.cache or (args.out / "cache"), n_jobs=args.jobs)
     t0 = time.perf_counter()
@@ -346,7 +352,8 @@ def register(sub, common) -> None:
                         "protocol (benchmark.crops.detectors; docs/detectors.md)")
     p.add_argument("--no-upper-bound", action="store_true",
                    help="skip the exact-geometry rows (each test positive adapted through its "
-                        "own rendered correspondences; HOG detectors, needs depth maps)")
+                        "own rendered correspondences; HOG detectors, needs depth maps and the "
+                        "plane among --object-models, whose adapted negatives they share)")
     p.set_defaults(func=cmd_crossval)
 
     p = bsub.add_parser("sweep", parents=[common, data_opts],

@@ -104,7 +104,8 @@ class CrossvalConfig:
     synthesised: bool = True
     #: object models of the adapted and image-warping rows ("plane", "body")
     object_models: tuple = ("plane", "body")
-    #: the exact-geometry rows (HOG detectors; needs the dataset's depth maps)
+    #: the exact-geometry rows (HOG detectors; needs the dataset's depth maps and the plane
+    #: among ``object_models``: they share its adapted rows' negatives)
     upper_bound: bool = True
     target_cell_size: int = 4
     #: the SVMs' regularisation, unless the recipe sets its own (``Recipe.svm_c``)
@@ -303,8 +304,10 @@ def _warp_key(s, model):
 
 
 def _wants_exact(spec, cfg, data) -> bool:
-    """The exact-geometry rows: detectors that run them, when the dataset has depth maps."""
-    return cfg.upper_bound and spec.exact_geometry and data.get("instances") is not None
+    """The exact-geometry rows: detectors that run them, when the dataset has depth maps and
+    the plane's adapted rows, whose negatives they share, are run."""
+    return (cfg.upper_bound and spec.exact_geometry and "plane" in cfg.object_models
+            and data.get("instances") is not None)
 
 
 def prepare(ds: Dataset, cfg: CrossvalConfig, cache: FeatureCache, elevations=None) -> dict:

@@ -222,3 +222,24 @@ def test_crossval_takes_prepared_data_only_for_its_own_configuration(toy, tmp_pa
                   replace(cfg, detectors=("hog", "acf"))):
         with pytest.raises(ValueError, match="prepared for another"):
             run_crossval(ds, other, cache, progress=False, data=data)
+
+
+@pytest.mark.parametrize("extra, noted", [
+    (["--object-models", "body"], True), (["--object-models", "body", "--no-upper-bound"], False),
+    (["--object-models", "plane", "body"], False),
+    (["--object-models", "body", "--detectors", "acf"], False)])
+def test_crossval_says_when_the_exact_geometry_rows_cannot_run(toy, tmp_path, capsys,
+                                                               monkeypatch, extra, noted):
+    """The exact-geometry rows share the plane's adapted negatives: a HOG run without the
+    plane gets none, and says so (before any work) instead of leaving them out silently."""
+    from benchmark.crops import crossval
+
+    def stop(*a, **k):                  # no need to run it: the note comes before the work
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(crossval, "run_crossval", stop)
+    assert main(["bench", "crossval", "--data", str(toy), "--out", str(tmp_path / "o"),
+                 "--quick", *extra]) != 0
+    err = capsys.readouterr().err
+    assert "interrupted" in err
+    assert ("no exact-geometry rows without the plane" in err) is noted, err
