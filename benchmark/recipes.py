@@ -11,6 +11,10 @@ view's crops and background windows, and what happens to them first:
 * the ACF model's members -- its boosted trees may be the average of several models, each
   trained with its own seed (:func:`viewadapt.ensembles.average_trees`: bagging, Breiman
   1996), which removes the part of the error that depends on the draw;
+* scaled positives -- the source view's crops also magnified about their centres by a few
+  (horizontal, vertical) factors, so that the detector meets persons a little taller,
+  shorter, wider or narrower than its crops (the scale part of the jittered positives of
+  Dollar's toolbox, ``jitterImage``: translations, rotations and scales);
 * camera effects -- every training window, positives and negatives alike, through its own
   draw of a real camera's artefacts (:mod:`viewadapt.camera.effects`: blur, vignetting,
   white balance, exposure, sensor noise, tone curve, resolution, JPEG), so that a detector
@@ -71,6 +75,10 @@ class Recipe:
         Every ACF model the recipe trains is the average of this many models, member ``k``
         trained with seed ``seed + k`` (:func:`viewadapt.ensembles.average_trees`, member 0
         gating the others); 1: one model, as before.
+    positive_scales : tuple of (float, float)
+        Besides the source view's crops, the same crops magnified about their centres by
+        each ``(sx, sy)`` (across, down; :func:`benchmark.crops.features.scaled_windows`,
+        borders replicated); () for none.
     """
 
     name: str
@@ -79,10 +87,23 @@ class Recipe:
     camera: CameraEffects | None = None
     svm_c: float | None = None
     acf_members: int = 1
+    positive_scales: tuple = ()
 
     def __post_init__(self):
         import math
         import numbers
+
+        try:
+            scales = tuple((float(sx), float(sy)) for sx, sy in self.positive_scales)
+        except (TypeError, ValueError):
+            scales = None
+        if (scales is None or len(set(scales)) != len(scales)
+                or not all(0 < v < math.inf for sc in scales for v in sc)
+                or (1.0, 1.0) in scales):
+            raise ValueError(f"recipe {self.name!r}: positive_scales must be distinct (sx, sy) "
+                             f"pairs of positive numbers other than (1, 1), got "
+                             f"{self.positive_scales!r}")
+        object.__setattr__(self, "positive_scales", scales)
 
         rot = tuple(float(a) for a in self.rotations_deg)
         if not all(math.isfinite(a) and a % 360 != 0 for a in rot) or len(set(rot)) != len(rot):
@@ -109,13 +130,18 @@ class Recipe:
         """The key suffix of each added negative set (``"rot+30"``, ...), in order."""
         return tuple(f"rot{a:+.0f}" for a in self.rotations_deg)
 
+    def positive_suffixes(self) -> tuple:
+        """The key suffix of each added positive set (``"scale1x1.1"``, ...), in order."""
+        return tuple(f"scale{sx:g}x{sy:g}" for sx, sy in self.positive_scales)
+
     def training_suffixes(self) -> list:
         """``(kind, suffix)`` of every window set a model trains on, in order: the
         positives (kind ``"person"``), the background windows and the added negatives
         (``"background"``); the suffix tells a set apart from the plain one (``""``,
         ``"rot+30"``, ``"cam"``, ``"rot+30|cam"``, ...)."""
-        sets = [("person", ""), ("background", "")] + [
-            ("background", a) for a in self.negative_suffixes()]
+        sets = ([("person", "")] + [("person", a) for a in self.positive_suffixes()]
+                + [("background", "")]
+                + [("background", a) for a in self.negative_suffixes()])
         if self.camera is not None:
             sets = [(k, f"{a}|cam" if a else "cam") for k, a in sets]
         return sets
@@ -125,10 +151,11 @@ class Recipe:
         positives and the background windows (:class:`~benchmark.crops.features.WindowSet`
         s): the added negatives, each set through ``warp`` (a function of a window set, e.g.
         the synthesised rows' homography; None for none), then through the camera."""
-        from benchmark.crops.features import rotated_windows
+        from benchmark.crops.features import rotated_windows, scaled_windows
 
-        sets = [positives, background] + [rotated_windows(background, a)
-                                          for a in self.rotations_deg]
+        sets = ([positives] + [scaled_windows(positives, sx, sy)
+                               for sx, sy in self.positive_scales]
+                + [background] + [rotated_windows(background, a) for a in self.rotations_deg])
         if warp is not None:
             sets = [warp(ws) for ws in sets]
         if self.camera is not None:
@@ -144,6 +171,8 @@ class Recipe:
             out["svm_c"] = float(self.svm_c)
         if self.acf_members > 1:            # so do those of one ACF model
             out["acf_members"] = int(self.acf_members)
+        if self.positive_scales:            # and those without scaled positives
+            out["positive_scales"] = [list(sc) for sc in self.positive_scales]
         return out
 
 
@@ -158,7 +187,9 @@ def _rotated():
 #: "Retraining with other negatives"); ``regularised`` is the paper's windows with the
 #: HOG/SVM's C chosen on the PETS 2009 development clip (docs/training.md point 24);
 #: ``averaged`` is ``regularised`` with the ACF model averaged over 9 seeds, the number
-#: chosen on rendered frames of another render (docs/training.md point 38).
+#: chosen on rendered frames of another render (docs/training.md point 38); ``scaled`` is
+#: ``averaged`` with every positive also 10 % shorter and 10 % taller (docs/training.md
+#: point 68).
 RECIPES = {
     "elevation0": Recipe("elevation0", "the source view's background windows only (the "
                                        "paper's training)"),
@@ -177,6 +208,10 @@ RECIPES = {
                                    "boosted models, each trained with its own seed "
                                    "(docs/training.md point 38)",
                        svm_c=0.001, acf_members=9),
+    "scaled": Recipe("scaled", "as averaged, and every positive crop also magnified "
+                               "vertically by 0.9 and by 1.1 about its centre (persons 10 % "
+                               "shorter and taller; docs/training.md point 68)",
+                     svm_c=0.001, acf_members=9, positive_scales=((1.0, 0.9), (1.0, 1.1))),
 }
 #: The recipe a command uses unless ``--recipe`` says otherwise: the recipe of the shipped
 #: source detectors (``viewadapt/data/source_detectors.npz``), so that what a benchmark

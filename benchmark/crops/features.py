@@ -27,7 +27,7 @@ from benchmark.data import Dataset, read_image
 __all__ = ["REPRESENTATIONS", "compute_representation", "compute_representations",
            "WindowSet", "person_windows",
            "background_windows", "FeatureCache", "ROTATIONS_DEG", "rotation_about_centre",
-           "rotated_windows"]
+           "rotated_windows", "scale_about_centre", "scaled_windows"]
 
 
 #: representation -> (family, options); every representation of one family shares the
@@ -125,8 +125,8 @@ class WindowSet:
         # the key names the homography too, so cached features never outlive a change of it
         h = hashlib.sha1(np.round(H / H[2, 2], 9).tobytes()).hexdigest()[:8]
         suffix = key_suffix + ("|cropfirst" if crop_first else "") + f"|H{h}"
-        items = [(p, (Hi, H) if crop_first else Hi @ H) for p, Hi in self.items]
-        return WindowSet(f"{self.key}|{suffix}", items, self.meta)
+        return WindowSet(f"{self.key}|{suffix}",
+                         [(p, _then(Hi, H, crop_first)) for p, Hi in self.items], self.meta)
 
     def remapped(self, field, key_suffix: str) -> "WindowSet":
         """The same windows resampled through a dense map: ``out(p) = win(field[p])``.
@@ -136,6 +136,9 @@ class WindowSet:
         and resampled on its own, borders replicated, as :meth:`warped` with ``crop_first``.
         """
         self._check_no_camera("remapped")
+        if any(isinstance(Hi, tuple) for _, Hi in self.items):
+            raise ValueError("remapped: these windows are already cut out and warped; a dense "
+                             "map does not compose with that warp")
         F = np.ascontiguousarray(field, dtype=np.float32)
         if F.shape != (WINDOW_HEIGHT, WINDOW_WIDTH, 2) or not np.isfinite(F).all():
             raise ValueError(f"field must be a finite ({WINDOW_HEIGHT}, {WINDOW_WIDTH}, 2) "
@@ -178,6 +181,20 @@ class WindowSet:
                 effects, seed = item[2]
                 win = apply_camera_effects(win, effects.draw(np.random.default_rng(seed)))
             yield win
+
+
+def _then(item, H, crop_first: bool):
+    """The window item ``item`` (a matrix, or ``(T, warp)``: cut out with ``T``, then
+    warped) resampled through ``H`` as well. A window already cut out and warped is warped
+    once through both (``warp @ H``: its border is replicated once, not twice); it has no
+    whole image to read from, and a dense map does not compose."""
+    if not isinstance(item, tuple):
+        return (item, H) if crop_first else item @ H
+    T, Hw = item
+    if not crop_first or np.ndim(Hw) != 2:
+        raise ValueError("a window cut out and warped first can only be warped again by a "
+                         "homography, cut out first")
+    return T, Hw @ H
 
 
 def _window(img, H):
@@ -351,3 +368,18 @@ def rotation_about_centre(degrees: float, size=(WINDOW_WIDTH, WINDOW_HEIGHT)) ->
 def rotated_windows(ws: WindowSet, degrees: float) -> WindowSet:
     """The windows of ``ws`` rotated about their centres, read from the whole image."""
     return ws.warped(rotation_about_centre(degrees), f"rot{degrees:+.0f}", crop_first=False)
+
+
+def scale_about_centre(sx: float, sy: float,
+                       size=(WINDOW_WIDTH, WINDOW_HEIGHT)) -> np.ndarray:
+    """3x3 ``H`` with ``out(p) = win(H p)``: the window's content magnified ``sx`` times
+    across and ``sy`` times down about its centre pixel (``sy > 1``: a taller person)."""
+    cx, cy = (size[0] - 1) / 2, (size[1] - 1) / 2
+    return translation(cx, cy) @ np.diag([1.0 / sx, 1.0 / sy, 1.0]) @ translation(-cx, -cy)
+
+
+def scaled_windows(ws: WindowSet, sx: float, sy: float) -> WindowSet:
+    """The windows of ``ws`` magnified by ``(sx, sy)`` about their centres, each cut out
+    first (a person crop has no context beyond its window: pixels a shrunk window needs
+    from outside it are its border's, :meth:`WindowSet.warped`)."""
+    return ws.warped(scale_about_centre(sx, sy), f"scale{sx:g}x{sy:g}")

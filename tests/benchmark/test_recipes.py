@@ -257,3 +257,68 @@ def test_acf_members_average_that_many_seeds_of_every_acf_model(toy):
     np.testing.assert_allclose(free[2].decision_function(X),
                                (free[0].decision_function(X) + free[1].decision_function(X)) / 2,
                                rtol=1e-10, atol=1e-10)
+
+
+def test_scaled_positives_are_the_crops_magnified_about_their_centres(toy):
+    from benchmark.crops.features import person_windows, scale_about_centre, scaled_windows
+    from benchmark.data import load_dataset
+    from viewadapt.geometry import apply_homography
+
+    # the window's centre stays, a point 40 rows below it lands 40 * 1.1 rows below
+    H = scale_about_centre(1.0, 1.1)
+    centre = np.array([[31.5, 63.5]])
+    assert np.allclose(apply_homography(H, centre), centre)
+    assert np.allclose(apply_homography(np.linalg.inv(H), centre + [0, 40]),
+                       centre + [0, 44])
+    ds = load_dataset(toy)
+    plain = person_windows(ds, 0)
+    taller = scaled_windows(plain, 1.0, 1.1)
+    a, b = next(iter(plain.images(toy))), next(iter(taller.images(toy)))
+    assert a.shape == b.shape and not np.array_equal(a, b)
+    # row 107 of the taller window reads row 63.5 + 43.5 / 1.1 = 103.045 of the crop
+    want = 0.955 * a[103].astype(float) + 0.045 * a[104].astype(float)
+    assert np.abs(b[107].astype(float) - want).max() <= 2.0   # OpenCV's weights are 1/32ths
+    assert np.abs(b[107].astype(float) - a[107]).max() > 20
+    assert taller.key != plain.key and taller.key != scaled_windows(plain, 1.0, 0.9).key
+
+
+def test_the_scaled_recipe_trains_on_three_versions_of_every_positive(toy):
+    from benchmark.data import load_dataset
+    from benchmark.frames.methods import source_training_windows, train_source_detectors
+
+    r = RECIPES["scaled"]
+    assert r.training_suffixes() == [("person", ""), ("person", "scale1x0.9"),
+                                     ("person", "scale1x1.1"), ("background", "")]
+    assert r.to_dict()["positive_scales"] == [[1.0, 0.9], [1.0, 1.1]]
+    assert "positive_scales" not in RECIPES["averaged"].to_dict()  # older records unchanged
+    assert recipe_from_record(r.to_dict()) is r
+    ds = load_dataset(toy)
+    pos, neg = source_training_windows(ds, "scaled")
+    pos0, neg0 = source_training_windows(ds, "averaged")
+    assert len(pos) == 3 * len(pos0) and len(neg) == len(neg0)
+    assert all(np.array_equal(x, y) for x, y in zip(pos[:len(pos0)], pos0))
+    scaled = train_source_detectors(ds, quick=True, frame_view="none", recipe="scaled")
+    plain = train_source_detectors(ds, quick=True, frame_view="none", recipe="averaged")
+    assert scaled.training["recipe"]["positive_scales"] == [[1.0, 0.9], [1.0, 1.1]]
+    assert not np.allclose(scaled.hog_weights, plain.hog_weights)
+    for bad in (((1.0, 1.0),), ((1.0, 0.0),), ((1.0, 1.1), (1.0, 1.1)), (1.0, 2.0)):
+        with pytest.raises(ValueError, match="positive_scales"):
+            Recipe("bad", "x", positive_scales=bad)
+
+
+def test_a_scaled_window_warped_again_is_one_warp_through_both(toy):
+    """The synthesised rows warp every training set into the target view, the scaled
+    positives too: two warps of a cut-out window compose into one."""
+    from benchmark.crops.features import person_windows, scale_about_centre, scaled_windows
+    from benchmark.data import load_dataset
+    from viewadapt.geometry import elevation_homography
+
+    ds = load_dataset(toy)
+    plain = person_windows(ds, 0)
+    H = np.linalg.inv(elevation_homography(0.0, np.pi / 4))
+    twice = scaled_windows(plain, 1.0, 1.1).warped(H, "synth")
+    once = plain.warped(scale_about_centre(1.0, 1.1) @ H, "both")
+    a, b = next(iter(twice.images(toy))), next(iter(once.images(toy)))
+    assert np.array_equal(a, b) and twice.key != once.key
+    with pytest.raises(ValueError, match="cut out first"):
+        scaled_windows(plain, 1.0, 1.1).warped(H, "whole", crop_first=False)
