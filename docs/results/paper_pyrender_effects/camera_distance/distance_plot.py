@@ -26,33 +26,38 @@ METHODS = ["unadapted", "adapted", "adapted[S only]", "adapted[paper eq.3]", "ad
 SWEEP = METHODS[1:7]
 COLOUR = {m: f"C{k}" for k, m in enumerate(METHODS)}
 
+
+def crossval_row(d, m):
+    """(value, low, high) of method ``m``'s miss rate at the truth at distance ``d``."""
+    s = pd.read_csv(RUNS[d][0])
+    r = s[(s["method"] == m) & (s["target_elevation"] > 0.7)
+          & (s["source_elevation"] == 0)].iloc[0]
+    return r["mr_at_fppw_0.01"], r["ci_low"], r["ci_high"]
+
+
+def sweep_row(d, m):
+    """(value, low, high) of method ``m``'s interpolated crossing above the truth."""
+    s = pd.read_csv(RUNS[d][1])
+    r = s[s["method"] == m].iloc[0]
+    return r["band_interp"], r["band_interp_low"], r["band_interp_high"]
+
+
+def panel(ax, methods, row):
+    """One curve per method over the distances, its 95 % interval as error bars."""
+    for k, m in enumerate(methods):
+        vals = [row(d, m) for d in RUNS]
+        ax.errorbar([d + (k - len(methods) // 2) * 0.18 for d in RUNS], [v for v, _, _ in vals],
+                    yerr=[[v - lo for v, lo, _ in vals], [hi - v for v, _, hi in vals]],
+                    marker="o", ms=4, capsize=2, label=m, color=COLOUR[m],
+                    ls="--" if "body" in m else "-")
+
+
 fig, (a, b) = plt.subplots(1, 2, figsize=(11, 4.2))
-for k, m in enumerate(METHODS):
-    xs, ys, lo, hi = [], [], [], []
-    for d, (cv, _) in RUNS.items():
-        s = pd.read_csv(cv)
-        r = s[(s["method"] == m) & (s["target_elevation"] > 0.7)
-              & (s["source_elevation"] == 0)].iloc[0]
-        xs.append(d + (k - 4) * 0.18)
-        ys.append(r["mr_at_fppw_0.01"])
-        lo.append(r["mr_at_fppw_0.01"] - r["ci_low"])
-        hi.append(r["ci_high"] - r["mr_at_fppw_0.01"])
-    a.errorbar(xs, ys, yerr=[lo, hi], marker="o", ms=4, capsize=2, label=m, color=COLOUR[m],
-               ls="--" if "body" in m else "-")
+panel(a, METHODS, crossval_row)
 a.set(xlabel="crop camera distance (m)", ylabel="miss rate at 1e-2 FPPW, truth π/4",
       xticks=list(RUNS), title="HOG 0 → π/4 at the true elevation")
 a.legend(fontsize=7, ncol=2)
-for k, m in enumerate(SWEEP):
-    xs, ys, lo, hi = [], [], [], []
-    for d, (_, sw) in RUNS.items():
-        s = pd.read_csv(sw)
-        r = s[s["method"] == m].iloc[0]
-        xs.append(d + (k - 3) * 0.18)
-        ys.append(r["band_interp"])
-        lo.append(r["band_interp"] - r["band_interp_low"])
-        hi.append(r["band_interp_high"] - r["band_interp"])
-    b.errorbar(xs, ys, yerr=[lo, hi], marker="o", ms=4, capsize=2, label=m, color=COLOUR[m],
-               ls="--" if "body" in m else "-")
+panel(b, SWEEP, sweep_row)
 b.axhline(0.31, color="k", lw=0.8, ls=":")
 b.text(15.3, 0.315, "bar +0.31", fontsize=7, ha="right")
 b.set(xlabel="crop camera distance (m)", ylabel="crossing above the truth (rad)",
