@@ -247,7 +247,8 @@ def add_recipe_argument(parser, *, what: str = "the source detectors",
                         default: str = DEFAULT_RECIPE, why: str = "") -> None:
     """``--recipe NAME`` on ``parser`` (default :data:`DEFAULT_RECIPE`, or ``default``
     with the reason ``why`` stated in the help)."""
-    lines = "; ".join(f"{r.name}: {r.summary}" for r in RECIPES.values())
+    # argparse %-formats help texts: a summary's own "%" must reach it doubled
+    lines = "; ".join(f"{r.name}: {r.summary}" for r in RECIPES.values()).replace("%", "%%")
     parser.add_argument("--recipe", type=_recipe_type, default=get_recipe(default),
                         metavar="NAME",
                         help=f"source-training recipe of {what}, the same for every method "

@@ -322,3 +322,14 @@ def test_a_scaled_window_warped_again_is_one_warp_through_both(toy):
     assert np.array_equal(a, b) and twice.key != once.key
     with pytest.raises(ValueError, match="cut out first"):
         scaled_windows(plain, 1.0, 1.1).warped(H, "whole", crop_first=False)
+
+
+def test_every_recipe_summary_reaches_the_help_as_written(capsys):
+    """argparse %-formats help texts; a summary's own "%" must not be read as a format."""
+    for argv in (["bench", "crossval", "--help"], ["bench", "sweep", "--help"]):
+        with pytest.raises(SystemExit):
+            main(argv)
+        text = " ".join(capsys.readouterr().out.split())
+        for r in RECIPES.values():
+            assert f"{r.name}: {' '.join(r.summary.split())}" in text, r.name
+        assert "option_strings" not in text
