@@ -380,8 +380,9 @@ def _sample_view(spec: SceneSpec, layout: SceneLayout, config: GeneratorConfig, 
         if segments_clear(layout, starts, ends, margin=0.05):
             return xy, azimuth
     raise ValueError(f"scene {spec.id!r} ({spec.source}): found no free {what} position "
-                     f"with clear sight lines in {tries} tries; widen 'walkable' or "
-                     f"remove clutter")
+                     f"with clear sight lines in {tries} tries from a camera "
+                     f"{config.distance:g} m away; widen 'walkable', remove clutter or "
+                     f"bring the camera closer (--distance)")
 
 
 def _sample_pose(person: PersonSpec, rng) -> tuple[str, float, tuple]:

@@ -47,7 +47,7 @@ def test_cli_bad_input_is_one_line_error(tmp_path, capsys):
     capsys.readouterr()
     assert main(["fidelity", "--out", str(tmp_path / "o"), "--distance", "0.5"]) == 2
     err = capsys.readouterr().err
-    assert "--distance: distance must exceed half the person height" in err
+    assert "--distance: distance must be finite and exceed half the person height" in err
     assert err.count("\n") == 1
     assert not (tmp_path / "o").exists()
 

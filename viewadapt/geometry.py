@@ -379,7 +379,8 @@ def crop_camera(elevation: float, *, distance: float = 10.0,
     elevation = check_elevation(elevation)
     if not np.isfinite(distance) or distance <= person_height / 2:
         raise ValueError(
-            f"distance must exceed half the person height ({person_height / 2} m), got {distance!r}"
+            f"distance must be finite and exceed half the person height ({person_height / 2} "
+            f"m), got {distance!r}"
         )
     f = WINDOW_PERSON_HEIGHT_PX * distance / person_height
     K = _intrinsics(f, ((WINDOW_WIDTH - 1) / 2.0, (WINDOW_HEIGHT - 1) / 2.0))

@@ -508,6 +508,11 @@ def test_generate_records_the_camera_distance_it_is_given(tmp_path, monkeypatch)
         assert seen[-1].distance == distance and seen[-1].to_dict()["distance"] == distance
 
 
+def test_a_camera_too_far_for_a_scene_says_so(scenes, roster):
+    with pytest.raises(ValueError, match=r"from a camera 1e\+06 m away; .*\(--distance\)"):
+        plan_dataset(preset_config("tiny", distance=1e6), 0, scenes=scenes, persons=roster)
+
+
 def test_cli_user_errors_are_one_line_value_errors(tmp_path):
     from generator.cli import parse_elevations
 
