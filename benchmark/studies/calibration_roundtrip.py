@@ -53,7 +53,6 @@ from __future__ import annotations
 import argparse
 import json
 import re
-import sys
 import time
 from pathlib import Path
 
@@ -77,6 +76,7 @@ from benchmark.studies.calibration_lamr import (
 )
 from benchmark.frames.methods import load_frames
 from benchmark.recipes import PAPER_RECIPE
+from benchmark.studies import report_error
 
 __all__ = ["HEIGHT_BAR_PCT", "TILT_BAR_DEG", "MIN_DEPRESSION_DEG", "group_cameras",
            "choose_ground_points", "write_correspondences", "calibrate_draws",
@@ -521,8 +521,7 @@ def main(argv=None) -> int:
         models = SourceDetectors.load(args.model) if args.model is not None and detect \
             else None
     except (UserError, ValueError, FileNotFoundError) as exc:
-        print(f"{ap.prog}: error: {exc}", file=sys.stderr)
-        return 2
+        return report_error(ap, exc)
     t0 = time.perf_counter()
     if not detect:
         model_text = None
@@ -535,8 +534,7 @@ def main(argv=None) -> int:
             models = train_source_detectors(load_dataset(args.data), seed=args.seed,
                                             quick=args.quick, recipe=PAPER_RECIPE)
         except (ValueError, FileNotFoundError) as exc:
-            print(f"{ap.prog}: error: {exc}", file=sys.stderr)
-            return 2
+            return report_error(ap, exc)
         print(f"  trained in {time.perf_counter() - t0:.0f} s", flush=True)
         model_text = f"trained here (seed {args.seed}{', quick' if args.quick else ''})"
     else:

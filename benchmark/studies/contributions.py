@@ -42,7 +42,6 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
-import sys
 import time
 from pathlib import Path
 
@@ -61,6 +60,7 @@ from benchmark.crops.folds import make_folds
 from benchmark.crops.summarize import summarize
 from benchmark.data import load_dataset
 from benchmark.recipes import PAPER_RECIPE
+from benchmark.studies import report_error
 
 __all__ = ["VARIANTS", "REFERENCES", "CELL_REPS", "CELL_SHAPE", "VERTICAL_EDGE_BINS",
            "check_request", "descriptor_cell_matrix", "model_inputs", "score_contributions",
@@ -556,8 +556,7 @@ def main(argv=None) -> int:
                                 detectors=tuple(args.detectors),
                                 n_boot=200 if args.quick else 1000)
     except ValueError as exc:
-        print(f"{ap.prog}: error: {exc}", file=sys.stderr)
-        return 2
+        return report_error(ap, exc)
     out = args.out
     out.mkdir(parents=True, exist_ok=True)
     for name in ("score_summary", "contributions", "bins", "bin_energy", "histogram_distances",

@@ -88,6 +88,7 @@ from benchmark.studies.distortion_report import (
     summarize_distortion_study,
 )
 from benchmark.frames.methods import load_frames
+from benchmark.studies import report_error
 
 __all__ = ["DEFAULT_DISTORTIONS", "STUDY_HEIGHTS", "MAX_REMAP_FRACTION", "VALID_WEIGHT",
            "REMAP_REPEATS", "parse_distortion", "distortion_label", "valid_region",
@@ -434,8 +435,7 @@ def main(argv=None) -> int:
                                      log=lambda s: print(s, file=sys.stderr, flush=True))
         summ = summarize_distortion_study(study, frames, n_boot=args.boot, seed=args.seed)
     except (ValueError, FileNotFoundError, UserError) as exc:
-        print(f"{ap.prog}: error: {exc}", file=sys.stderr)
-        return 2
+        return report_error(ap, exc)
     import cv2
 
     run = run_metadata(args.seed, data=str(args.data), model=str(model_path),

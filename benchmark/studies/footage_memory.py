@@ -26,6 +26,7 @@ import numpy as np
 from benchmark.studies.footage_speed import (
     SIZE, clip_frames, write_calibration, write_clip, write_study,
 )
+from benchmark.studies import report_error
 
 __all__ = ["FPS", "rss_mb", "run_memory_benchmark", "format_memory", "main"]
 
@@ -123,8 +124,7 @@ def main(argv=None) -> int:
             check_output_dir(args.out, overwrite=args.overwrite)
         result = run_memory_benchmark(args.data, minutes=args.minutes)
     except (ValueError, FileNotFoundError) as exc:
-        print(f"{ap.prog}: error: {exc}", file=sys.stderr)
-        return 2
+        return report_error(ap, exc)
     write_study(args.out, "memory", format_memory(result), args.data, result)
     return 0 if result["returncode"] == 0 else 1
 

@@ -16,13 +16,14 @@ Writes ``pitch.csv``, ``pitch.md`` and ``pitch.png`` under ``--out``.
 from __future__ import annotations
 
 import argparse
-import sys
 from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 
 from viewadapt.camera.calibrate import camera_height_and_tilt
+
+from benchmark.studies import report_error
 
 __all__ = ["pitched", "main"]
 
@@ -112,8 +113,7 @@ def main(argv=None) -> int:
         models = SourceDetectors.load(args.model or shipped_model_path())
         clip0 = open_clip(args.inputs, args.calibration, args.boxes, args.ignore)
     except (ValueError, OSError) as exc:
-        print(f"{ap.prog}: error: {exc}", file=sys.stderr)
-        return 2
+        return report_error(ap, exc)
     size = clip0.camera.image_size
     tilt = _tilt(clip0.camera)
 

@@ -45,12 +45,13 @@ from __future__ import annotations
 import argparse
 import json
 import math
-import sys
 import tempfile
 import time
 from pathlib import Path
 
 import numpy as np
+
+from benchmark.studies import report_error
 
 #: a moderate barrel lens for the distorted clip (k1, k2, p1, p2, k3)
 DISTORTION = (-0.25, 0.08, 0.0, 0.0, 0.0)
@@ -296,8 +297,7 @@ def main(argv=None) -> int:
         result = run_footage_benchmark(args.data, n_frames=args.frames, model=args.model,
                                        repeats=args.repeats)
     except (ValueError, FileNotFoundError) as exc:
-        print(f"{ap.prog}: error: {exc}", file=sys.stderr)
-        return 2
+        return report_error(ap, exc)
     write_study(args.out, "footage", format_table(result), args.data, result)
     return 0
 

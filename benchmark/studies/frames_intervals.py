@@ -14,11 +14,12 @@ from __future__ import annotations
 
 import argparse
 import json
-import sys
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
+
+from benchmark.studies import report_error
 
 __all__ = ["frame_bootstrap", "main"]
 
@@ -95,8 +96,7 @@ def main(argv=None) -> int:
         tab = frame_bootstrap(dets, order, reference=args.reference, n_boot=args.boot,
                               seed=args.seed)
     except (ValueError, FileNotFoundError) as exc:
-        print(f"{ap.prog}: error: {exc}", file=sys.stderr)
-        return 2
+        return report_error(ap, exc)
     tab.to_csv(args.results / "frames_intervals.csv", index=False, float_format="%.4f")
     lines = [f"{len(order)} frames, {sum(len(f.gt) for f in order)} persons; 95 % intervals "
              f"over {args.boot} frame resamples; differences paired on the same draws", "",

@@ -50,7 +50,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import sys
 import time
 from pathlib import Path
 
@@ -70,6 +69,7 @@ from benchmark.frames.methods import evaluate_method, load_frames, train_source_
 from benchmark.frames.spec import variant_label
 from benchmark.recipes import PAPER_RECIPE
 from benchmark.crops.summarize import paired_differences, summarize
+from benchmark.studies import report_error
 
 __all__ = ["person_elevations", "label_windows", "score_frames", "window_tables",
            "crop_tables", "FPPW_LEVELS", "ELEVATION_EDGES", "HEIGHT_EDGES", "main"]
@@ -470,8 +470,7 @@ def main(argv=None) -> int:
             frames, models, cache_dir=args.cache or (args.out / "cache"),
             upsample_below=args.upsample_below, progress=not args.quiet)
     except (ValueError, FileNotFoundError) as exc:
-        print(f"{ap.prog}: error: {exc}", file=sys.stderr)
-        return 2
+        return report_error(ap, exc)
     lamr = {m: evaluate_method(d, frames)["lamr"] for m, d in detections.items()}
     rates, diffs = window_tables(persons, background, touching, heights, seed=args.seed)
     if crossval is not None:

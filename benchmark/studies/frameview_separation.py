@@ -21,9 +21,10 @@ the models were not trained on. Not a test.
 from __future__ import annotations
 
 import argparse
-import sys
 
 import numpy as np
+
+from benchmark.studies import report_error
 
 
 def separation(data, models: dict, scales, *, seed: int = 0) -> list:
@@ -80,8 +81,7 @@ def main(argv=None) -> int:
         models = {m: SourceDetectors.load(m) for m in args.model}
         rows = separation(args.data, models, scales, seed=args.seed)
     except (OSError, ValueError) as e:
-        print(f"{p.prog}: error: {e}", file=sys.stderr)
-        return 2
+        return report_error(p, e)
     print("| scale | model | adapted d' | warped d' |\n|---|---|---|---|")
     for s in scales:
         for name in models:

@@ -46,7 +46,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import sys
 import time
 from pathlib import Path
 
@@ -69,6 +68,7 @@ from benchmark.crops.features import (
 )
 from benchmark.crops.folds import make_folds
 from benchmark.crops.summarize import operating_threshold, summarize
+from benchmark.studies import report_error
 
 __all__ = ["POOLS", "RULES", "SHIFTS_PX", "gap_changes", "run_negatives", "main"]
 
@@ -290,8 +290,7 @@ def main(argv=None) -> int:
         t0 = time.perf_counter()
         scores, shares = run_negatives(ds, cfg, cache, n_folds=args.folds)
     except (ValueError, FileNotFoundError) as exc:
-        print(f"{ap.prog}: error: {exc}", file=sys.stderr)
-        return 2
+        return report_error(ap, exc)
     summ = summarize(scores, n_boot=1000, rng=np.random.default_rng(args.seed))
     first = scores.groupby("method", sort=False)[["pool", "rule"]].first()
     summ = summ.join(first, on="method")

@@ -22,7 +22,6 @@ truth with a paired interval over test persons, :func:`orientation_cost`) and
 from __future__ import annotations
 
 import argparse
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -33,6 +32,8 @@ from viewadapt.geometry import (
     WINDOW_HEIGHT, WINDOW_WIDTH, elevation_homography, homography_jacobian,
 )
 from viewadapt.remap import CellGrid, assemble_remap_matrix, orientation_remap_matrix
+
+from benchmark.studies import report_error
 
 __all__ = ["angle_blocks", "split_remap", "orientation_cost", "decomposition_lines", "main"]
 
@@ -196,8 +197,7 @@ def main(argv=None) -> int:
         cfg = CrossvalConfig.for_dataset(ds, seed=args.seed, n_jobs=args.jobs,
                                          object_models=("plane",), recipe=args.recipe)
     except ValueError as exc:
-        print(f"{ap.prog}: error: {exc}", file=sys.stderr)
-        return 2
+        return report_error(ap, exc)
     truth = cfg.target
     cache = FeatureCache(ds, args.cache or (args.out / "cache"), n_jobs=args.jobs)
     rows = run_sweep(ds, cfg, cache, detector="hog", step=args.step, sigma=0.0,

@@ -16,7 +16,6 @@ Writes ``sweep_intervals.csv`` and ``sweep_intervals.md`` into RUN (or ``--out``
 from __future__ import annotations
 
 import argparse
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -26,6 +25,7 @@ from viewadapt.io.bounded import read_json_object
 
 from benchmark.crops.report import is_paper_target, paper_sweep_table, sweep_table, sweep_target
 from benchmark.crops.summarize import PAPER_SWEEP_UNADAPTED, operating_threshold
+from benchmark.studies import report_error
 
 __all__ = ["person_hits", "person_weights", "bootstrap_miss_rates", "sweep_intervals", "main"]
 
@@ -180,8 +180,7 @@ def main(argv=None) -> int:
         tab = sweep_intervals(pd.read_parquet(path), true_elevation=target,
                               n_boot=args.boot, seed=args.seed)
     except ValueError as exc:
-        print(f"{ap.prog}: error: {exc}", file=sys.stderr)
-        return 2
+        return report_error(ap, exc)
     out = args.out or args.run
     out.mkdir(parents=True, exist_ok=True)
     tab.to_csv(out / "sweep_intervals.csv", index=False, float_format="%.4f")
