@@ -26,6 +26,7 @@ def mot_toy_clip(root, *, n_frames: int, flag_last: bool = False, dist=None):
 
     from benchmark.data import load_dataset
     from benchmark.frames.methods import load_frames, train_source_detectors
+    from benchmark.recipes import PAPER_RECIPE
 
     root = Path(root)
     data = small_toy_frames(root / "data", frames_per_scene=n_frames)
@@ -33,7 +34,7 @@ def mot_toy_clip(root, *, n_frames: int, flag_last: bool = False, dist=None):
     # the paper's training: under the default recipe's wider margin (C = 0.001) a quick model
     # of these few windows stays nearly silent on the toy frames
     train_source_detectors(load_dataset(data), quick=True, frame_view="none",
-                           recipe="elevation0").save(root / "model.npz")
+                           recipe=PAPER_RECIPE).save(root / "model.npz")
     cam = frames[0].camera
     img1 = root / "mot" / "img1"
     img1.mkdir(parents=True)

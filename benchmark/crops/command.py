@@ -169,7 +169,7 @@ def cmd_crossval(args) -> int:
 
     from viewadapt.io.files import atomic_output_dir, check_output_dir
 
-    from benchmark.crops.crossval import config_dict, run_crossval
+    from benchmark.crops.crossval import config_dict, exact_geometry_wanted, run_crossval
     from benchmark.data import load_dataset
     from benchmark.crops.detectors import detector_spec
     from benchmark.crops.features import FeatureCache
@@ -181,8 +181,8 @@ def cmd_crossval(args) -> int:
     ds = load_dataset(args.data)
     check_results_dir(args.out, ds.fingerprint, args.recipe)
     cfg = _config(args, ds)
-    if (cfg.upper_bound and "plane" not in cfg.object_models
-            and any(detector_spec(d).exact_geometry for d in cfg.detectors)):
+    if ("plane" not in cfg.object_models
+            and any(exact_geometry_wanted(detector_spec(d), cfg) for d in cfg.detectors)):
         print("note: no exact-geometry rows without the plane among --object-models (they "
               "share its adapted rows' negatives); add plane, or pass --no-upper-bound",
               file=sys.stderr)

@@ -47,7 +47,7 @@ from benchmark.recipes import DEFAULT_RECIPE, RECIPES, Recipe, get_recipe
 from benchmark.frames.spec import OBJECT_MODEL_TAGS, RULE_TAGS, variant_label
 
 __all__ = ["CrossvalConfig", "ADAPT_VARIANTS", "EXACT_VARIANTS", "run_crossval",
-           "require_complete", "training_windows"]
+           "require_complete", "training_windows", "exact_geometry_wanted"]
 
 
 def _adapt_variants() -> dict:
@@ -303,10 +303,17 @@ def _warp_key(s, model):
     return f"warp{s:.6f}" + ("" if model == "plane" else f"|{model}")
 
 
+def exact_geometry_wanted(spec, cfg) -> bool:
+    """Whether the run asks ``spec`` for the exact-geometry rows (each test positive adapted
+    through its own person's geometry): the upper bound is on and the detector runs them.
+    They are run only with the plane among the object models (:func:`_wants_exact`)."""
+    return bool(cfg.upper_bound and spec.exact_geometry)
+
+
 def _wants_exact(spec, cfg, data) -> bool:
-    """The exact-geometry rows: detectors that run them, when the dataset has depth maps and
-    the plane's adapted rows, whose negatives they share, are run."""
-    return (cfg.upper_bound and spec.exact_geometry and "plane" in cfg.object_models
+    """The exact-geometry rows: when they are wanted, the dataset has depth maps and the
+    plane's adapted rows, whose negatives they share, are run."""
+    return (exact_geometry_wanted(spec, cfg) and "plane" in cfg.object_models
             and data.get("instances") is not None)
 
 

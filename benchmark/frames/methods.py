@@ -170,7 +170,7 @@ def train_source_detectors(ds, *, seed: int = 0, quick: bool = False, source_ind
                            progress: bool = False,
                            frame_view: str = DEFAULT_FRAME_VIEW,
                            recipe=DEFAULT_RECIPE, extra_negatives=(),
-                           svm_params=None) -> SourceDetectors:
+                           svm_params=None, acf: bool = True) -> SourceDetectors:
     """Linear SVM on :func:`viewadapt.detect.hog_window_features` and ACF boosted trees
     (:func:`viewadapt.detect.train_on_windows`), trained on the dataset's crops of one
     elevation (default the first, 0) and its background windows.
@@ -193,6 +193,9 @@ def train_source_detectors(ds, *, seed: int = 0, quick: bool = False, source_ind
 
     ``svm_params``: the HOG/SVM's parameters instead of the defaults
     (:func:`viewadapt.detect.training.hog_svm`), e.g. ``{"C": 0.001}``.
+
+    ``acf=False``: the HOG/SVM alone (the models' ``acf`` is None), as it would be trained
+    beside the trees -- for studies that vary the HOG/SVM only.
     """
     from benchmark.recipes import get_recipe
 
@@ -207,7 +210,8 @@ def train_source_detectors(ds, *, seed: int = 0, quick: bool = False, source_ind
         neg.extend(ws.images(ds.root))
         extra[ws.key] = len(ws)
     models = train_on_windows(pos, neg, seed=seed, quick=quick, frame_view=frame_view,
-                              svm_params=svm_params, acf_members=recipe.acf_members)
+                              svm_params=svm_params,
+                              acf_members=recipe.acf_members if acf else 0)
     # train_on_windows' record (seed, SVM parameters, ACF members, ...), with what only
     # this function knows; the background windows counted without the extra negatives
     training = dict(models.training, source_index=source_index, recipe=recipe.to_dict(),

@@ -18,6 +18,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from benchmark.studies import report_error
+
 __all__ = ["main"]
 
 
@@ -41,7 +43,7 @@ def main(argv=None) -> int:
         models = [SourceDetectors.load(p) for p in args.models]
         avg = average_source_detectors(models, gate=not args.plain)
     except (ValueError, FileNotFoundError) as exc:
-        ap.exit(2, f"error: {exc}\n")
+        return report_error(ap, exc)
     avg.training["average_of_files"] = [str(p) for p in args.models]
     avg.save(args.out)
     print(f"averaged {len(models)} models ({avg.acf.n_estimators_} trees) into {args.out}")

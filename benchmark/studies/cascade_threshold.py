@@ -23,6 +23,8 @@ from pathlib import Path
 
 import numpy as np
 
+from benchmark.studies import report_error
+
 __all__ = ["THRESHOLDS", "FINAL_LEVELS", "window_score_pairs", "cascade_table", "main"]
 
 #: candidate thresholds of the folded score
@@ -129,7 +131,7 @@ def main(argv=None) -> int:
         tables = {name: cascade_table(v) for name, v in pairs.items()}
         counts = {name: len(v) for name, v in pairs.items()}
     except (ValueError, OSError) as exc:
-        p.exit(2, f"error: {exc}\n")
+        return report_error(p, exc)
     lines = [f"# Cascade of the adapted {args.kind} detector: every window scored both ways",
              ""]
     levels = [f"{s:g}" for s in FINAL_LEVELS]

@@ -354,6 +354,12 @@ def test_frame_view_copies_change_the_svm_and_the_separation_script_runs(toy, be
     acf_only = train_source_detectors(load_dataset(toy), quick=True, frame_view="acf")
     assert np.array_equal(acf_only.hog_weights, crops_only.hog_weights)
     assert np.array_equal(acf_only.acf.threshold_, with_copies.acf.threshold_)
+    # acf=False: the same SVM, no trees
+    hog_alone = train_source_detectors(load_dataset(toy), quick=True, frame_view="none",
+                                       acf=False)
+    assert hog_alone.acf is None
+    assert np.array_equal(hog_alone.hog_weights, crops_only.hog_weights)
+    assert hog_alone.hog_bias == crops_only.hog_bias
     with pytest.raises(ValueError, match="frame_view must be one of"):
         train_source_detectors(load_dataset(toy), quick=True, frame_view="yes")
     assert separation_main(["--data", str(toy), "--model",

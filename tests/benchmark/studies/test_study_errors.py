@@ -9,6 +9,8 @@ import pytest
 
 #: study -> arguments naming inputs that do not exist (each study's own checks refuse them)
 BAD_INPUTS = {
+    "average_models": ["{d}/nope0.npz", "{d}/nope1.npz", "--out", "{d}/o.npz"],
+    "cascade_threshold": ["--data", "{d}/nope", "--out", "{d}/o"],
     "contributions": ["--data", "{d}/nope", "--out", "{d}/o"],
     "distortion_study": ["--data", "{d}/nope", "--out", "{d}/o"],
     "footage_memory": ["--data", "{d}/nope"],

@@ -2,37 +2,31 @@
 point 68): usage ``python hog_graft.py RECIPE OUT.npz DATA0 DATA1``.
 
 The shipped file is the average of the `averaged`-recipe models of two renders (training.md
-point 42). This trains the HOG/SVM alone on each render as ``train_source_detectors`` does
-(the recipe's windows, the shipped frame-view copies, the recipe's C, seed 0), averages the
-two weight vectors and biases, and writes the shipped file with its HOG replaced (its ACF
-model untouched), the HOG's training records under ``training["hog_grafted"]``."""
+point 42). This trains the HOG/SVM alone on each render (``train_source_detectors(...,
+acf=False)``: the recipe's windows, the shipped frame-view copies, the recipe's C, seed 0),
+averages the two weight vectors and biases, and writes the shipped file with its HOG
+replaced (its ACF model untouched), the HOG's training records under
+``training["hog_grafted"]``."""
 import sys
 from dataclasses import replace
 
 import numpy as np
 
 from benchmark.data import load_dataset
-from benchmark.frames.methods import DEFAULT_FRAME_VIEW, source_training_windows
-from benchmark.recipes import get_recipe
-from viewadapt.detect.training import train_on_windows
+from benchmark.frames.methods import DEFAULT_FRAME_VIEW, train_source_detectors
 from viewadapt.io.models import SourceDetectors, shipped_model_path
 
 recipe, out, *datas = sys.argv[1:]
-r = get_recipe(recipe)
 shipped = SourceDetectors.load(shipped_model_path())
 frame_view = shipped.training.get("average_of", [{}])[0].get("frame_view", DEFAULT_FRAME_VIEW)
 ws, bs, records = [], [], []
 for d in datas:
-    ds = load_dataset(d)
-    pos, neg = source_training_windows(ds, r)
-    m = train_on_windows(pos, neg, seed=0, frame_view=frame_view,
-                         svm_params={"C": r.svm_c} if r.svm_c is not None else None,
-                         acf_members=0)
+    m = train_source_detectors(load_dataset(d), recipe=recipe, frame_view=frame_view, acf=False)
     ws.append(np.asarray(m.hog_weights, float))
     bs.append(float(m.hog_bias))
-    records.append(dict(m.training, recipe=r.to_dict(), data=str(d), positives=len(pos),
-                        negatives=len(neg)))
-    print(d, "positives", len(pos), "negatives", len(neg), flush=True)
+    records.append(dict(m.training, data=str(d)))
+    print(d, "crops", m.training.get("crops"), "background windows",
+          m.training.get("background_windows"), flush=True)
 graft = replace(shipped, hog_weights=np.mean(ws, axis=0), hog_bias=float(np.mean(bs)),
                 training=dict(shipped.training, hog_grafted=records))
 graft.save(out)
