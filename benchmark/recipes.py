@@ -182,6 +182,9 @@ def _rotated():
     return ROTATIONS_DEG
 
 
+#: ``stretched``'s added positives (across, down); ``widened`` adds their mirror too.
+_TALLER = ((1.0, 1.15), (1.0, 1.3))
+
 #: The recipes by name. ``elevation0`` is the paper's training (source-view negatives only);
 #: ``rotated`` adds the rotated background windows (docs/angle_rules_and_body_model.md,
 #: "Retraining with other negatives"); ``regularised`` is the paper's windows with the
@@ -217,13 +220,13 @@ RECIPES = {
                                      "vertically by 1.15 and by 1.3 about its centre (persons "
                                      "up to 30 % taller, as an adapted detector whose elevation "
                                      "estimate is too high sees them; docs/training.md point 69)",
-                        svm_c=0.001, acf_members=9,
-                        positive_scales=((1.0, 1.15), (1.0, 1.3))),
+                        svm_c=0.001, acf_members=9, positive_scales=_TALLER),
     "widened": Recipe("widened", "as stretched, and every positive crop also shrunk "
                                  "vertically by 1/1.15 and by 1/1.3 about its centre (persons "
                                  "up to 30 % taller and shorter; docs/training.md point 70)",
                       svm_c=0.001, acf_members=9,
-                      positive_scales=((1.0, 1 / 1.3), (1.0, 1 / 1.15), (1.0, 1.15), (1.0, 1.3))),
+                      positive_scales=tuple((sx, 1 / sy) for sx, sy in reversed(_TALLER))
+                      + _TALLER),
 }
 #: The recipe a command uses unless ``--recipe`` says otherwise: the recipe of the shipped
 #: source detectors (``viewadapt/data/source_detectors.npz``), so that what a benchmark
