@@ -31,13 +31,13 @@ def _cmd_fidelity(args) -> int:
         remap_fidelity, sample_images, summarize_fidelity, synthetic_images,
     )
     from benchmark.crops.figures import plot_fidelity, plot_remap_illustration, save_figure
-    from viewadapt.geometry import elevation_homography
+    from viewadapt.geometry import check_distance, elevation_homography
 
     check_output_dir(args.out, overwrite=args.overwrite)
     if args.windows < 1:
         raise UserError("--windows must be at least 1")
-    try:                                   # the crop camera's own rule for its distance
-        elevation_homography(0.0, np.pi / 4, distance=args.distance)
+    try:
+        check_distance(args.distance)
     except ValueError as exc:
         raise UserError(f"--distance: {exc}") from None
     rng = np.random.default_rng(args.seed)

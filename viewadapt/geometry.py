@@ -43,6 +43,7 @@ __all__ = [
     "window_to_plane",
     "person_plane_axes",
     "window_to_image_homography",
+    "check_distance",
     "crop_camera",
     "crop_homography",
     "elevation_homography",
@@ -354,6 +355,21 @@ def window_to_image_homography(camera: Camera, ground_position,
 # ----------------------------------------------------------------------------- crop case
 
 
+def check_distance(distance: float, person_height: float = PERSON_HEIGHT_M) -> float:
+    """The crop camera's distance (:func:`crop_camera`), returned unchanged once checked.
+
+    Raises ``ValueError`` unless it is finite and larger than ``person_height / 2``, the
+    distance from the person's centre to the head and to the feet: the camera must stand
+    off the person it frames.
+    """
+    if not np.isfinite(distance) or distance <= person_height / 2:
+        raise ValueError(
+            f"distance must be finite and exceed half the person height ({person_height / 2} "
+            f"m), got {distance!r}"
+        )
+    return distance
+
+
 def crop_camera(elevation: float, *, distance: float = 10.0,
                 person_height: float = PERSON_HEIGHT_M, azimuth: float = 0.0) -> Camera:
     """The dataset camera for one elevation: the paper's cropped-window set-up.
@@ -377,11 +393,7 @@ def crop_camera(elevation: float, *, distance: float = 10.0,
         default puts the camera on the -Y side looking towards +Y).
     """
     elevation = check_elevation(elevation)
-    if not np.isfinite(distance) or distance <= person_height / 2:
-        raise ValueError(
-            f"distance must be finite and exceed half the person height ({person_height / 2} "
-            f"m), got {distance!r}"
-        )
+    distance = check_distance(distance, person_height)
     f = WINDOW_PERSON_HEIGHT_PX * distance / person_height
     K = _intrinsics(f, ((WINDOW_WIDTH - 1) / 2.0, (WINDOW_HEIGHT - 1) / 2.0))
     centre = np.array([0.0, 0.0, person_height / 2.0])

@@ -128,6 +128,26 @@ def test_bad_camera_inputs():
         crop_homography(0.1, distance=0.5)
 
 
+@pytest.mark.parametrize("distance", [0.875, 0.5, 0.0, -3.0, np.nan, np.inf])
+def test_check_distance_refuses_a_camera_on_or_in_the_person(distance):
+    from viewadapt.geometry import check_distance, crop_camera
+
+    with pytest.raises(ValueError, match="exceed half the person height"):
+        check_distance(distance)                        # 1.75 m person: head 0.875 m away
+    with pytest.raises(ValueError, match="exceed half the person height"):
+        crop_camera(0.3, distance=distance)
+
+
+def test_check_distance_passes_a_distance_beyond_the_head_unchanged():
+    from viewadapt.geometry import check_distance
+
+    assert check_distance(0.876) == 0.876
+    assert check_distance(10) == 10 and type(check_distance(10)) is int
+    with pytest.raises(ValueError, match=r"\(1.0 m\)"):
+        check_distance(0.9, person_height=2.0)          # the rule follows the person
+    assert check_distance(0.9, person_height=1.6) == 0.9
+
+
 @pytest.mark.parametrize("elevation", [0.0, np.pi / 8, np.pi / 4, 1.2])
 def test_silhouette_framed_crop_homography_keeps_the_person_box(elevation):
     from viewadapt.geometry import apply_homography, crop_homography, elevation_homography
