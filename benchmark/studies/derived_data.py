@@ -6,7 +6,8 @@ replace the person crops of one view and keep everything else, so that a cross-v
 or sweep on the derived dataset trains the same fold models on the same negatives as on the
 original and only the replaced images differ. :func:`derive_dataset` writes such a dataset
 (every kept image a symbolic link to the original's); :func:`scale_vertically` is the
-resampling the scale studies apply to a crop.
+resampling the scale studies apply to a crop; :func:`source_view_twins` finds, for each
+replaced crop, the source-view crop the studies build its replacement from.
 """
 
 from __future__ import annotations
@@ -18,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["derive_dataset", "scale_vertically"]
+__all__ = ["derive_dataset", "source_view_twins", "scale_vertically"]
 
 
 def derive_dataset(src, out, note: str, replace) -> int:
@@ -56,6 +57,31 @@ def derive_dataset(src, out, note: str, replace) -> int:
         if (src / d).exists() and not (out / d).exists():
             os.symlink(src / d, out / d)
     return n
+
+
+def source_view_twins(src, *, top_elevation: float = np.pi / 4):
+    """``twin(row)``: for a manifest row of ``src`` (as :func:`derive_dataset` passes it)
+    that is a person crop at the dataset's highest elevation, the manifest row (a
+    ``pandas.Series``) of the elevation-0 crop of the same person, scene and instance; None
+    for every other row. Raises ``ValueError`` unless that highest elevation is
+    ``top_elevation`` radians."""
+    import pandas as pd
+
+    persons = pd.read_parquet(Path(src) / "manifest.parquet").query("kind == 'person'")
+    top = persons["elevation_index"].max()
+    found = persons.loc[persons["elevation_index"] == top, "elevation"]
+    if not np.isclose(found, top_elevation).all():
+        raise ValueError(f"{src}: the highest elevation is {float(found.iloc[0]):.4f} rad, "
+                         f"not {top_elevation:.4f}")
+    zero = persons[persons["elevation_index"] == 0].set_index(
+        ["person_id", "scene_id", "instance"], drop=False)
+
+    def twin(row):
+        if row.kind != "person" or row.elevation_index != top:
+            return None
+        return zero.loc[(row.person_id, row.scene_id, row.instance)]
+
+    return twin
 
 
 def scale_vertically(img, k: float, *, centre: float = 63.5, border=None):

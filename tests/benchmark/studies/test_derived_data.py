@@ -6,7 +6,7 @@ import pandas as pd
 import pytest
 
 from benchmark.data import load_dataset
-from benchmark.studies.derived_data import derive_dataset, scale_vertically
+from benchmark.studies.derived_data import derive_dataset, scale_vertically, source_view_twins
 from benchmark.toydata import make_toy_dataset
 
 
@@ -37,6 +37,25 @@ def test_the_derived_dataset_replaces_what_it_is_given_and_links_the_rest(toy, t
     assert len(load_dataset(out).manifest) == len(m)         # reads as any dataset
     with pytest.raises(FileExistsError):                     # never into an existing folder
         derive_dataset(toy, out, "again", lambda r: None)
+
+
+def test_each_top_view_person_has_its_source_view_twin(toy):
+    m = pd.read_parquet(toy / "manifest.parquet")
+    twin = source_view_twins(toy)
+    tops = 0
+    for r in m.itertuples():
+        z = twin(r)
+        if r.kind != "person" or r.elevation_index != 2:
+            assert z is None
+            continue
+        tops += 1
+        assert (z["elevation_index"], z["kind"]) == (0, "person")
+        assert (z["person_id"], z["scene_id"], z["instance"]) == (r.person_id, r.scene_id,
+                                                                  r.instance)
+        assert (toy / z["path"]).is_file() and z["path"] != r.path
+    assert tops == ((m.kind == "person") & (m.elevation_index == 2)).sum() > 0
+    with pytest.raises(ValueError, match="highest elevation is 0.7854 rad, not 0.3927"):
+        source_view_twins(toy, top_elevation=np.pi / 8)
 
 
 def test_scaling_moves_rows_about_the_centre():

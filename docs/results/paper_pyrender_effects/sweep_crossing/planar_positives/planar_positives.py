@@ -16,29 +16,24 @@ from pathlib import Path
 
 import cv2
 import numpy as np
-import pandas as pd
 
-from benchmark.studies.derived_data import derive_dataset
+from benchmark.studies.derived_data import derive_dataset, source_view_twins
 from viewadapt.geometry import elevation_homography
 from viewadapt.warp import warp_to_source_view
 
 src, out = Path(sys.argv[1]), Path(sys.argv[2])
 cfg = json.loads((src / "dataset.json").read_text())
-persons = pd.read_parquet(src / "manifest.parquet").query("kind == 'person'")
-top = persons["elevation_index"].max()
-assert np.isclose(persons.loc[persons["elevation_index"] == top, "elevation"], np.pi / 4).all()
-zero = persons[persons["elevation_index"] == 0].set_index(
-    ["person_id", "scene_id", "instance"])["path"]
+twin = source_view_twins(src)
 Hinv = np.linalg.inv(elevation_homography(
     0.0, np.pi / 4, distance=float(cfg.get("distance", 10.0)),
     framing=str(cfg.get("framing", "plane"))))
 
 
 def replace(r):
-    if r.kind != "person" or r.elevation_index != top:
+    z = twin(r)
+    if z is None:
         return None
-    img0 = cv2.imread(str(src / zero[(r.person_id, r.scene_id, r.instance)]),
-                      cv2.IMREAD_UNCHANGED)
+    img0 = cv2.imread(str(src / z["path"]), cv2.IMREAD_UNCHANGED)
     return warp_to_source_view(img0, Hinv)
 
 

@@ -21,21 +21,19 @@ import cv2
 import numpy as np
 import pandas as pd
 
-from benchmark.studies.derived_data import derive_dataset, scale_vertically
+from benchmark.studies.derived_data import derive_dataset, scale_vertically, source_view_twins
 
 src, out, k, bg = Path(sys.argv[1]), Path(sys.argv[2]), float(sys.argv[3]), int(sys.argv[4])
 m = pd.read_parquet(src / "manifest.parquet")
-persons = m[m["kind"] == "person"]
-top = persons["elevation_index"].max()
-zero = persons[persons["elevation_index"] == 0].set_index(["person_id", "scene_id", "instance"])
+twin = source_view_twins(src)
 bgs = {s: list(p) for s, p in m[(m["kind"] == "background") & (m["elevation_index"] == bg)]
        .groupby("scene_id")["path"]}
 
 
 def replace(r):
-    if r.kind != "person" or r.elevation_index != top:
+    z = twin(r)
+    if z is None:
         return None
-    z = zero.loc[(r.person_id, r.scene_id, r.instance)]
     person = cv2.imread(str(src / z["path"]), cv2.IMREAD_UNCHANGED).astype(np.float32)
     alpha = np.isfinite(np.load(src / z["depth_path"])["depth"]).astype(np.float32)
     person = scale_vertically(person * alpha[..., None], k, border=cv2.BORDER_CONSTANT)

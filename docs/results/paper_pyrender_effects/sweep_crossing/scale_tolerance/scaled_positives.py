@@ -20,26 +20,20 @@ import sys
 from pathlib import Path
 
 import cv2
-import numpy as np
-import pandas as pd
 
-from benchmark.studies.derived_data import derive_dataset, scale_vertically
+from benchmark.studies.derived_data import derive_dataset, scale_vertically, source_view_twins
 
 src, out, k = Path(sys.argv[1]), Path(sys.argv[2]), float(sys.argv[3])
 flat = int(sys.argv[5]) if len(sys.argv) == 6 and sys.argv[4] == "--flat-rows" else 0
 assert len(sys.argv) in (4, 6) and (flat == 0 or k == 1.0)
-persons = pd.read_parquet(src / "manifest.parquet").query("kind == 'person'")
-top = persons["elevation_index"].max()
-assert np.isclose(persons.loc[persons["elevation_index"] == top, "elevation"], np.pi / 4).all()
-zero = persons[persons["elevation_index"] == 0].set_index(
-    ["person_id", "scene_id", "instance"])["path"]
+twin = source_view_twins(src)
 
 
 def replace(r):
-    if r.kind != "person" or r.elevation_index != top:
+    z = twin(r)
+    if z is None:
         return None
-    img = cv2.imread(str(src / zero[(r.person_id, r.scene_id, r.instance)]),
-                     cv2.IMREAD_UNCHANGED)
+    img = cv2.imread(str(src / z["path"]), cv2.IMREAD_UNCHANGED)
     if not flat:
         return scale_vertically(img, k)
     img[:flat] = img[flat]
