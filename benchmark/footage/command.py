@@ -16,7 +16,7 @@ from benchmark.frames.phases import frame_shifts, grid_phases
 from benchmark.frames.spec import expand_adapted, method_arg
 from viewadapt.commands.detect import (
     DEFAULT_LENS, LENS_CHOICES, add_box_voting_option, add_cache_options,
-    add_ground_stride_option,
+    add_ground_stride_option, add_upsample_below_option,
     check_frame_selection, person_heights,
 )
 from viewadapt.detect.evaluation import BOOTSTRAP_BLOCK
@@ -57,7 +57,8 @@ def cmd_bench_footage(args) -> int:
     t0 = time.perf_counter()
     run_kw = dict(heights=args.heights, cache_dir=args.cache or (args.out / "cache"),
                   cache_limit_gb=args.cache_limit, tolerance=args.tolerance,
-                  ground_stride=args.ground_stride, box_voting=args.box_voting)
+                  ground_stride=args.ground_stride, box_voting=args.box_voting,
+                  upsample_below=args.upsample_below)
     total = None if clip.stream.n_frames is None else clip.stream.n_frames * len(phases)
     with tqdm(total=total, desc="footage" if len(phases) == 1 else "footage x grid phases",
               unit="frame", dynamic_ncols=True, disable=args.quiet) as bar:
@@ -128,7 +129,7 @@ def cmd_bench_footage(args) -> int:
             lens_correction=clip.correction, heights=list(args.heights),
             ground_stride=None if args.ground_stride is None else list(args.ground_stride),
             grid_phases=[list(p) for p in phases], frame_shifts=[list(p) for p in shifts],
-            box_voting=args.box_voting,
+            box_voting=args.box_voting, upsample_below=args.upsample_below,
             model=str(model_path) if needs else None,
             model_training=models.training if needs else None,
             methods=[m.name for m in methods], n_frames=run.n_frames, windows=run.n_windows,
@@ -190,6 +191,7 @@ def register_footage(bsub, common) -> None:
                         "ground-plane filter keeps boxes within 20%% of one of them")
     add_ground_stride_option(p)
     add_box_voting_option(p)
+    add_upsample_below_option(p)
     p.add_argument("--phases", type=int, default=1, metavar="N",
                    help="also run every method with its window grid at N x N phases: "
                         "the methods that score the candidate windows (adapted, warp) with "

@@ -152,7 +152,7 @@ class FootageRun:
 
 def run_footage(clip: Clip, methods, models, *, heights, cache_dir=None, cache_limit_gb=None,
                 tolerance=None, ground_stride=None, grid_phase=(0.0, 0.0), frame_shift=(0, 0),
-                box_voting=DEFAULT_BOX_VOTING,
+                box_voting=DEFAULT_BOX_VOTING, upsample_below=None,
                 progress=None) -> FootageRun:
     """Every method on every frame of the clip, in one process, each timed on one core
     (OpenCV and BLAS limited to one thread, :func:`benchmark.frames.runtime.single_thread`).
@@ -168,10 +168,11 @@ def run_footage(clip: Clip, methods, models, *, heights, cache_dir=None, cache_l
         Our source detectors (None when no method needs them).
     heights : sequence of float
         Assumed person heights, metres.
-    cache_dir, cache_limit_gb, tolerance, ground_stride, grid_phase, box_voting
+    cache_dir, cache_limit_gb, tolerance, ground_stride, grid_phase, box_voting, upsample_below
         :class:`viewadapt.detect.FrameDetector`'s (tolerance, ground_stride None: its
         defaults; grid_phase: where the candidate windows' ground grid stands;
-        box_voting: applied to every method's boxes, the pyramids' too).
+        box_voting: applied to every method's boxes, the pyramids' too; upsample_below
+        None: each detector's own).
     frame_shift : (int, int)
         Whole pixels the frame is moved under the pyramids
         (:class:`benchmark.frames.methods.FrameMethods`); the window-grid methods move with
@@ -181,7 +182,8 @@ def run_footage(clip: Clip, methods, models, *, heights, cache_dir=None, cache_l
     """
     cam = clip.camera
     kw = dict(person_heights=heights, cache_dir=cache_dir, cache_limit_gb=cache_limit_gb,
-              grid_phase=tuple(grid_phase), box_voting=box_voting)
+              grid_phase=tuple(grid_phase), box_voting=box_voting,
+              upsample_below=upsample_below)
     if tolerance is not None:
         kw["tolerance"] = tolerance
     if ground_stride is not None:

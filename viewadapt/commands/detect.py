@@ -130,7 +130,7 @@ def upsample_below(text):
 
 
 def add_upsample_below_option(p) -> None:
-    """``--upsample-below``, shared by ``detect`` and ``bench frames``."""
+    """``--upsample-below``, shared by ``detect``, ``bench frames`` and ``bench footage``."""
     p.add_argument("--upsample-below", type=upsample_below, default=None, metavar="S",
                    help="windows of persons smaller than 96 x S px read the frame "
                         "upsampled 2x; 0 = never (default: each detector's own, "

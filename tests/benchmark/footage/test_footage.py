@@ -190,6 +190,30 @@ def test_a_denser_ground_grid(toy, tmp_path):
     assert 1.5 * runs["paper"]["windows"] < runs["dense"]["windows"]
 
 
+def test_the_upsampling_threshold_reaches_the_adapted_detector(toy, tmp_path, capfd):
+    """``--upsample-below S`` (as detect and bench frames take it): 0 reads every window on
+    the frame as it is, 10 every one on the 2x upsampled frame -- other scores; recorded in
+    run.json (None: each detector's own); a bad value is a one-line error."""
+    runs = {}
+    for name, argv in (("own", ()), ("never", ("--upsample-below", "0")),
+                       ("always", ("--upsample-below", "10"))):
+        out = tmp_path / name
+        assert _footage(toy, out, "--methods", "hog_adapted", "--max-frames", "2", *argv) == 0
+        assert json.loads((out / "run.json").read_text())["upsample_below"] == (
+            float(argv[1]) if argv else None)
+        dets = json.loads((out / "detections.json").read_text())["hog_adapted"]
+        runs[name] = np.concatenate([np.reshape(v, (-1, 5)) for v in dets.values()])
+    assert len(runs["never"]) and len(runs["always"])
+    assert not (runs["never"].shape == runs["always"].shape
+                and np.allclose(runs["never"], runs["always"]))
+    capfd.readouterr()
+    with pytest.raises(SystemExit) as exc:
+        _footage(toy, tmp_path / "bad", "--methods", "hog_adapted", "--upsample-below", "-1")
+    err = capfd.readouterr().err.strip().splitlines()
+    assert exc.value.code == 2 and "cannot read the upsampling threshold '-1'" in err[-1]
+    assert not (tmp_path / "bad").exists()
+
+
 def test_box_voting_reaches_every_method(toy, tmp_path):
     """Box voting (the default; ``--box-voting 0`` none): every method's boxes are voted
     (the adapted detector's and the pyramid's alike), their scores are not; recorded in
