@@ -100,12 +100,12 @@ def add_ground_stride_option(p) -> None:
 
 
 def box_voting(text):
-    """argparse type: box voting's temperature (a number >= 0)."""
+    """argparse type: box voting's temperature (a finite number >= 0)."""
     try:
         return check_box_voting(float(text))
     except ValueError:
         raise argparse.ArgumentTypeError(f"cannot read the box voting temperature {text!r} "
-                                         "(a number >= 0, 0 for none)") from None
+                                         "(a finite number >= 0, 0 for none)") from None
 
 
 def add_box_voting_option(p) -> None:
@@ -121,12 +121,12 @@ def add_box_voting_option(p) -> None:
 
 def upsample_below(text):
     """argparse type: the person scale below which windows read the frame upsampled
-    (a number >= 0)."""
+    (a finite number >= 0)."""
     try:
         return check_upsample_below(text, "the upsampling threshold")
     except ValueError:
         raise argparse.ArgumentTypeError(f"cannot read the upsampling threshold {text!r} (a "
-                                         "number >= 0, 0 for never)") from None
+                                         "finite number >= 0, 0 for never)") from None
 
 
 def add_upsample_below_option(p) -> None:

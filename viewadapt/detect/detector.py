@@ -47,7 +47,8 @@ def check_box_voting(value, name: str = "box_voting") -> float:
     except (TypeError, ValueError):
         v = float("nan")
     if isinstance(value, bool) or not np.isfinite(v) or v < 0:
-        raise ValueError(f"{name} must be a number >= 0 (0: no box voting), got {value!r}")
+        raise ValueError(f"{name} must be a finite number >= 0 (0: no box voting), got "
+                         f"{value!r}")
     return v
 
 

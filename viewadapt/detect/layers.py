@@ -42,7 +42,7 @@ def check_upsample_below(value, name: str = "upsample_below"):
     except (TypeError, ValueError):
         v = float("nan")
     if not np.isfinite(v) or v < 0:
-        raise ValueError(f"{name} must be a number >= 0, got {value!r}")
+        raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
     return v
 
 

@@ -210,7 +210,8 @@ def test_the_upsampling_threshold_reaches_the_adapted_detector(toy, tmp_path, ca
     with pytest.raises(SystemExit) as exc:
         _footage(toy, tmp_path / "bad", "--methods", "hog_adapted", "--upsample-below", "-1")
     err = capfd.readouterr().err.strip().splitlines()
-    assert exc.value.code == 2 and "cannot read the upsampling threshold '-1'" in err[-1]
+    assert exc.value.code == 2 and "cannot read the upsampling threshold '-1' (a finite " \
+        "number >= 0, 0 for never)" in err[-1]
     assert not (tmp_path / "bad").exists()
 
 

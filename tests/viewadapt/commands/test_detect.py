@@ -530,7 +530,7 @@ def test_box_voting_moves_boxes_not_scores(toy, detect, tmp_path, capfd):
     assert not np.allclose(a[["x", "y"]], b[["x", "y"]])
     two = detect("voted_jobs2", "--jobs", 2, toy.folder)
     assert (two / "detections.csv").read_bytes() == (voted / "detections.csv").read_bytes()
-    _refused(toy, tmp_path, capfd, "--box-voting", ("-1", "nan", "hot"),
+    _refused(toy, tmp_path, capfd, "--box-voting", ("-1", "nan", "inf", "hot"),
              "cannot read the box voting temperature")
 
 

@@ -525,8 +525,8 @@ def test_each_kind_upsamples_below_its_own_scale_unless_told(tmp_path, camera):
     assert told.cache_hit["opencv"] is False        # another operator, not the cached one
     assert sum(len(L.index) for L in told.operator("opencv").layers if L.factor == 2) \
         == int((scale < 0.5).sum())
-    for bad in (-1, float("nan"), "half"):
-        with pytest.raises(ValueError, match="upsample_below must be a number >= 0"):
+    for bad in (-1, float("nan"), float("inf"), "half"):
+        with pytest.raises(ValueError, match="upsample_below must be a finite number >= 0"):
             FrameDetector(camera, None, upsample_below=bad)
 
 
