@@ -39,7 +39,7 @@ References
 from __future__ import annotations
 
 import argparse
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 from viewadapt.arrays import is_int
 from viewadapt.camera.effects import SURVEILLANCE_CAMERA, CameraEffects
@@ -184,6 +184,11 @@ def _rotated():
 
 #: ``stretched``'s added positives (across, down); ``widened`` adds their mirror too.
 _TALLER = ((1.0, 1.15), (1.0, 1.3))
+#: ``averaged``, which ``scaled``, ``stretched`` and ``widened`` extend by their positives.
+_AVERAGED = Recipe("averaged", "as regularised, and every ACF model the average of 9 boosted "
+                               "models, each trained with its own seed (docs/training.md point "
+                               "38)",
+                   svm_c=0.001, acf_members=9)
 
 #: The recipes by name. ``elevation0`` is the paper's training (source-view negatives only);
 #: ``rotated`` adds the rotated background windows (docs/angle_rules_and_body_model.md,
@@ -208,25 +213,24 @@ RECIPES = {
                                          "HOG/SVM at C = 0.001 instead of 0.01 (a wider "
                                          "margin; docs/training.md point 24)",
                           svm_c=0.001),
-    "averaged": Recipe("averaged", "as regularised, and every ACF model the average of 9 "
-                                   "boosted models, each trained with its own seed "
-                                   "(docs/training.md point 38)",
-                       svm_c=0.001, acf_members=9),
-    "scaled": Recipe("scaled", "as averaged, and every positive crop also magnified "
-                               "vertically by 0.9 and by 1.1 about its centre (persons 10 % "
-                               "shorter and taller; docs/training.md point 68)",
-                     svm_c=0.001, acf_members=9, positive_scales=((1.0, 0.9), (1.0, 1.1))),
-    "stretched": Recipe("stretched", "as averaged, and every positive crop also magnified "
-                                     "vertically by 1.15 and by 1.3 about its centre (persons "
-                                     "up to 30 % taller, as an adapted detector whose elevation "
-                                     "estimate is too high sees them; docs/training.md point 69)",
-                        svm_c=0.001, acf_members=9, positive_scales=_TALLER),
-    "widened": Recipe("widened", "as stretched, and every positive crop also shrunk "
-                                 "vertically by 1/1.15 and by 1/1.3 about its centre (persons "
-                                 "up to 30 % taller and shorter; docs/training.md point 70)",
-                      svm_c=0.001, acf_members=9,
-                      positive_scales=tuple((sx, 1 / sy) for sx, sy in reversed(_TALLER))
-                      + _TALLER),
+    "averaged": _AVERAGED,
+    "scaled": replace(_AVERAGED, name="scaled",
+                      summary="as averaged, and every positive crop also magnified vertically "
+                              "by 0.9 and by 1.1 about its centre (persons 10 % shorter and "
+                              "taller; docs/training.md point 68)",
+                      positive_scales=((1.0, 0.9), (1.0, 1.1))),
+    "stretched": replace(_AVERAGED, name="stretched",
+                         summary="as averaged, and every positive crop also magnified "
+                                 "vertically by 1.15 and by 1.3 about its centre (persons up "
+                                 "to 30 % taller, as an adapted detector whose elevation "
+                                 "estimate is too high sees them; docs/training.md point 69)",
+                         positive_scales=_TALLER),
+    "widened": replace(_AVERAGED, name="widened",
+                       summary="as stretched, and every positive crop also shrunk vertically "
+                               "by 1/1.15 and by 1/1.3 about its centre (persons up to 30 % "
+                               "taller and shorter; docs/training.md point 70)",
+                       positive_scales=tuple((sx, 1 / sy) for sx, sy in reversed(_TALLER))
+                       + _TALLER),
 }
 #: The recipe a command uses unless ``--recipe`` says otherwise: the recipe of the shipped
 #: source detectors (``viewadapt/data/source_detectors.npz``), so that what a benchmark

@@ -6,8 +6,9 @@ replace the person crops of one view and keep everything else, so that a cross-v
 or sweep on the derived dataset trains the same fold models on the same negatives as on the
 original and only the replaced images differ. :func:`derive_dataset` writes such a dataset
 (every kept image a symbolic link to the original's); :func:`scale_vertically` is the
-resampling the scale studies apply to a crop; :func:`source_view_twins` finds, for each
-replaced crop, the source-view crop the studies build its replacement from.
+resampling the scale studies apply to a crop. :func:`derive_from_source_view` is the
+common case: each top-view person crop replaced by an image made from the source-view crop
+of the same person, scene and instance (its "twin", :func:`source_view_twins`).
 """
 
 from __future__ import annotations
@@ -19,7 +20,8 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["derive_dataset", "source_view_twins", "scale_vertically"]
+__all__ = ["derive_dataset", "derive_from_source_view", "source_view_twins",
+           "scale_vertically"]
 
 
 def derive_dataset(src, out, note: str, replace) -> int:
@@ -82,6 +84,30 @@ def source_view_twins(src, *, top_elevation: float = np.pi / 4):
         return zero.loc[(row.person_id, row.scene_id, row.instance)]
 
     return twin
+
+
+def derive_from_source_view(src, out, note: str, make, *,
+                            top_elevation: float = np.pi / 4) -> int:
+    """:func:`derive_dataset` of ``src`` in which every person crop at the highest elevation
+    (``top_elevation``, checked) is replaced by ``make(image, twin, row)``: ``image`` the
+    elevation-0 crop of the same person, scene and instance as stored (``cv2.imread``,
+    ``IMREAD_UNCHANGED``), ``twin`` its manifest row (:func:`source_view_twins`), ``row``
+    the replaced crop's. Returns how many crops were replaced."""
+    import cv2
+
+    twin_of = source_view_twins(src, top_elevation=top_elevation)
+
+    def replace(row):
+        twin = twin_of(row)
+        if twin is None:
+            return None
+        path = Path(src) / twin["path"]
+        image = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
+        if image is None:
+            raise OSError(f"could not read {path}")
+        return make(image, twin, row)
+
+    return derive_dataset(src, out, note, replace)
 
 
 def scale_vertically(img, k: float, *, centre: float = 63.5, border=None):

@@ -6,7 +6,9 @@ import pandas as pd
 import pytest
 
 from benchmark.data import load_dataset
-from benchmark.studies.derived_data import derive_dataset, scale_vertically, source_view_twins
+from benchmark.studies.derived_data import (
+    derive_dataset, derive_from_source_view, scale_vertically, source_view_twins,
+)
 from benchmark.toydata import make_toy_dataset
 
 
@@ -56,6 +58,32 @@ def test_each_top_view_person_has_its_source_view_twin(toy):
     assert tops == ((m.kind == "person") & (m.elevation_index == 2)).sum() > 0
     with pytest.raises(ValueError, match="highest elevation is 0.7854 rad, not 0.3927"):
         source_view_twins(toy, top_elevation=np.pi / 8)
+
+
+def test_top_view_persons_are_made_from_their_source_view_twins(toy, tmp_path):
+    """Each pi/4 person crop becomes what ``make`` returns for its elevation-0 twin's image
+    (here the twin inverted), with the twin's row and its own; the rest stays linked."""
+    m = pd.read_parquet(toy / "manifest.parquet")
+    seen = []
+
+    def make(img, twin, row):
+        seen.append((twin["path"], row.path))
+        return 255 - img
+
+    n = derive_from_source_view(toy, tmp_path / "out", "inverted twins", make)
+    top = m[(m.kind == "person") & (m.elevation_index == 2)]
+    assert n == len(top) == len(seen) > 0
+    twin = source_view_twins(toy)
+    for r in top.itertuples():
+        z = twin(r)
+        assert (z["path"], r.path) in seen
+        want = 255 - cv2.imread(str(toy / z["path"]), cv2.IMREAD_UNCHANGED)
+        assert np.array_equal(cv2.imread(str(tmp_path / "out" / r.path),
+                                         cv2.IMREAD_UNCHANGED), want)
+    assert (tmp_path / "out" / m[m.kind == "background"].path.iloc[0]).is_symlink()
+    with pytest.raises(ValueError, match="highest elevation"):
+        derive_from_source_view(toy, tmp_path / "no", "x", make, top_elevation=0.1)
+    assert not (tmp_path / "no").exists()
 
 
 def test_scaling_moves_rows_about_the_centre():

@@ -17,24 +17,19 @@ from pathlib import Path
 
 import cv2
 
-from benchmark.studies.derived_data import derive_dataset, source_view_twins
+from benchmark.studies.derived_data import derive_from_source_view
 
 src, out, r = Path(sys.argv[1]), Path(sys.argv[2]), float(sys.argv[3])
 assert len(sys.argv) == 4 and 0 < r <= 1
-twin = source_view_twins(src)
 
 
-def replace(row):
-    z = twin(row)
-    if z is None:
-        return None
-    img = cv2.imread(str(src / z["path"]), cv2.IMREAD_UNCHANGED)
+def make(img, twin, row):
     h, w = img.shape[:2]
     small = cv2.resize(img, (round(w * r), round(h * r)), interpolation=cv2.INTER_AREA)
     return cv2.resize(small, (w, h), interpolation=cv2.INTER_LINEAR)
 
 
-n = derive_dataset(src, out, f"pi/4 person crops replaced by the elevation-0 crops of the same "
-                   f"person, scene and instance at {r} of their resolution (low_resolution.py)",
-                   replace)
+n = derive_from_source_view(src, out, f"pi/4 person crops replaced by the elevation-0 crops of "
+                            f"the same person, scene and instance at {r} of their resolution "
+                            "(low_resolution.py)", make)
 print(n, f"pi/4 person crops replaced by elevation-0 crops at {r} of their resolution")

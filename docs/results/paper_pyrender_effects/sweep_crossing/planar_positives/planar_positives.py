@@ -14,30 +14,21 @@ import json
 import sys
 from pathlib import Path
 
-import cv2
 import numpy as np
 
-from benchmark.studies.derived_data import derive_dataset, source_view_twins
+from benchmark.studies.derived_data import derive_from_source_view
 from viewadapt.geometry import elevation_homography
 from viewadapt.warp import warp_to_source_view
 
 src, out = Path(sys.argv[1]), Path(sys.argv[2])
 cfg = json.loads((src / "dataset.json").read_text())
-twin = source_view_twins(src)
 Hinv = np.linalg.inv(elevation_homography(
     0.0, np.pi / 4, distance=float(cfg.get("distance", 10.0)),
     framing=str(cfg.get("framing", "plane"))))
 
 
-def replace(r):
-    z = twin(r)
-    if z is None:
-        return None
-    img0 = cv2.imread(str(src / z["path"]), cv2.IMREAD_UNCHANGED)
-    return warp_to_source_view(img0, Hinv)
-
-
-n = derive_dataset(src, out, "pi/4 person crops replaced by the elevation-0 crops of the same "
-                   "person, scene and instance warped through the person plane "
-                   "(planar_positives.py)", replace)
+n = derive_from_source_view(src, out, "pi/4 person crops replaced by the elevation-0 crops of "
+                            "the same person, scene and instance warped through the person "
+                            "plane (planar_positives.py)",
+                            lambda img0, twin, row: warp_to_source_view(img0, Hinv))
 print(n, "pi/4 person crops made planar")

@@ -21,20 +21,16 @@ import cv2
 import numpy as np
 import pandas as pd
 
-from benchmark.studies.derived_data import derive_dataset, scale_vertically, source_view_twins
+from benchmark.studies.derived_data import derive_from_source_view, scale_vertically
 
 src, out, k, bg = Path(sys.argv[1]), Path(sys.argv[2]), float(sys.argv[3]), int(sys.argv[4])
 m = pd.read_parquet(src / "manifest.parquet")
-twin = source_view_twins(src)
 bgs = {s: list(p) for s, p in m[(m["kind"] == "background") & (m["elevation_index"] == bg)]
        .groupby("scene_id")["path"]}
 
 
-def replace(r):
-    z = twin(r)
-    if z is None:
-        return None
-    person = cv2.imread(str(src / z["path"]), cv2.IMREAD_UNCHANGED).astype(np.float32)
+def make(img, z, r):
+    person = img.astype(np.float32)
     alpha = np.isfinite(np.load(src / z["depth_path"])["depth"]).astype(np.float32)
     person = scale_vertically(person * alpha[..., None], k, border=cv2.BORDER_CONSTANT)
     alpha = scale_vertically(alpha, k, border=cv2.BORDER_CONSTANT)
@@ -47,8 +43,8 @@ def replace(r):
     return np.clip(np.rint(comp), 0, 255).astype(np.uint8)
 
 
-n = derive_dataset(src, out, f"pi/4 person crops replaced by the elevation-0 persons (depth-map "
-                   f"cut-outs) scaled vertically by {k} on background windows of elevation "
-                   f"index {bg} (composited_positives.py)", replace)
+n = derive_from_source_view(src, out, f"pi/4 person crops replaced by the elevation-0 persons "
+                            f"(depth-map cut-outs) scaled vertically by {k} on background "
+                            f"windows of elevation index {bg} (composited_positives.py)", make)
 print(n, f"pi/4 person crops replaced: elevation-0 persons x {k} on background windows of "
       f"elevation index {bg}")

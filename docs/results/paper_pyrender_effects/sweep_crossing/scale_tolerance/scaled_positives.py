@@ -19,21 +19,14 @@ nearest row kept -- the rows that ``K < 1`` fills from the border (B = 14 for K 
 import sys
 from pathlib import Path
 
-import cv2
-
-from benchmark.studies.derived_data import derive_dataset, scale_vertically, source_view_twins
+from benchmark.studies.derived_data import derive_from_source_view, scale_vertically
 
 src, out, k = Path(sys.argv[1]), Path(sys.argv[2]), float(sys.argv[3])
 flat = int(sys.argv[5]) if len(sys.argv) == 6 and sys.argv[4] == "--flat-rows" else 0
 assert len(sys.argv) in (4, 6) and (flat == 0 or k == 1.0)
-twin = source_view_twins(src)
 
 
-def replace(r):
-    z = twin(r)
-    if z is None:
-        return None
-    img = cv2.imread(str(src / z["path"]), cv2.IMREAD_UNCHANGED)
+def make(img, twin, row):
     if not flat:
         return scale_vertically(img, k)
     img[:flat] = img[flat]
@@ -41,7 +34,7 @@ def replace(r):
     return img
 
 
-n = derive_dataset(src, out, f"pi/4 person crops replaced by the elevation-0 crops of the same "
-                   f"person, scene and instance scaled vertically by {k}, {flat} flat rows at "
-                   "top and bottom (scaled_positives.py)", replace)
+n = derive_from_source_view(src, out, f"pi/4 person crops replaced by the elevation-0 crops of "
+                            f"the same person, scene and instance scaled vertically by {k}, "
+                            f"{flat} flat rows at top and bottom (scaled_positives.py)", make)
 print(n, f"pi/4 person crops replaced by elevation-0 crops scaled by {k}")
